@@ -1,0 +1,8 @@
+//! `lucent medium` (to be written).
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`lucent medium` is not implemented yet")
+}

@@ -1,0 +1,8 @@
+//! `lucent merge` (to be written).
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`lucent merge` is not implemented yet")
+}

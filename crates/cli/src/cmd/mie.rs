@@ -1,0 +1,8 @@
+//! `lucent mie` (to be written).
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`lucent mie` is not implemented yet")
+}

@@ -1,0 +1,10 @@
+//! One file per subcommand.
+pub mod bench;
+pub mod bench_mie;
+pub mod bssrdf;
+pub mod compare;
+pub mod medium;
+pub mod merge;
+pub mod mie;
+pub mod render;
+pub mod slab;

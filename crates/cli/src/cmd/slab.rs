@@ -1,0 +1,8 @@
+//! `lucent slab` (to be written).
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`lucent slab` is not implemented yet")
+}

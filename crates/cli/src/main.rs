@@ -1,0 +1,53 @@
+//! `lucent`: predict how a material looks from what it is made of, render it, check it.
+//! Thin: parses arguments and calls the `optics` and `render` libraries.
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+#[derive(Parser)]
+#[command(name = "lucent", version, about = "Predict, render and validate material appearance")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (the built-in Cornell box when no scene is given).
+    Render(cmd::render::Args),
+    /// Merge checkpoints of independent runs of the same scene.
+    Merge(cmd::merge::Args),
+    /// Benchmarks: rays, path tracing, Mie (`lucent bench mie`).
+    Bench(cmd::bench::Args),
+    /// Lorenz-Mie theory for one sphere.
+    Mie(cmd::mie::Args),
+    /// Bulk optical properties of a medium (milk by content declaration, or a recipe file).
+    Medium(cmd::medium::Args),
+    /// Monte Carlo photon transport in a stack of plane-parallel layers.
+    Slab(cmd::slab::Args),
+    /// Dipole BSSRDF models.
+    Bssrdf(cmd::bssrdf::Args),
+    /// Compare a render with a photograph pixel by pixel.
+    Compare(cmd::compare::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => cmd::render::run(cmd::render::Args::default_scene()),
+        Some(Command::Render(a)) => cmd::render::run(a),
+        Some(Command::Merge(a)) => cmd::merge::run(a),
+        Some(Command::Bench(a)) => cmd::bench::run(a),
+        Some(Command::Mie(a)) => cmd::mie::run(a),
+        Some(Command::Medium(a)) => cmd::medium::run(a),
+        Some(Command::Slab(a)) => cmd::slab::run(a),
+        Some(Command::Bssrdf(a)) => cmd::bssrdf::run(a),
+        Some(Command::Compare(a)) => cmd::compare::run(a),
+    };
+    if let Err(e) = result {
+        // One line: the chain of contexts joined, as scripts and people read it.
+        eprintln!("lucent: error: {e:#}");
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,21 @@
+//! Spectral physically based rendering.
+//!
+//! Geometry is in the scene's length unit converted to metres at load time; radiometric
+//! quantities are spectral (per nanometre of wavelength), accumulated to CIE XYZ on the film.
+
+pub mod geometry;
+pub mod mesh;
+pub mod bvh;
+pub mod sampling;
+pub mod spectral;
+pub mod camera;
+pub mod light;
+pub mod material;
+pub mod medium;
+pub mod integrator;
+pub mod film;
+pub mod checkpoint;
+pub mod scene;
+pub mod image_io;
+pub mod compare;
+pub mod slab;
