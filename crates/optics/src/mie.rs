@@ -218,6 +218,15 @@ impl MieWorkspace {
                 c_abs_m2: eff.qabs * area,
             };
         }
+        self.sphere_keep_coefficients(radius_m, lambda_m, n_particle, n_medium)
+    }
+
+    /// As [`MieWorkspace::sphere`] but always through the ratio formulation, keeping a_n, b_n
+    /// for [`MieWorkspace::last_coefficients`] (phase functions).
+    pub fn sphere_keep_coefficients(&mut self, radius_m: f64, lambda_m: f64, n_particle: Complex64, n_medium: Complex64) -> Sphere {
+        let k0 = 2.0 * PI / lambda_m;
+        let area = PI * radius_m * radius_m;
+        let m = n_particle / n_medium;
         let x = n_medium * (k0 * radius_m);
         let terms = number_of_terms(x.norm());
         self.coefficients(x, m);
@@ -233,11 +242,7 @@ impl MieWorkspace {
         let lambda2 = lambda_m * lambda_m;
         let c_ext = lambda2 / (2.0 * PI) * (ext / (n_medium * n_medium)).re;
         let alpha = 4.0 * PI * radius_m * n_medium.im / lambda_m;
-        let gamma = if alpha < 1e-6 {
-            1.0 + 2.0 * alpha / 3.0 + alpha * alpha / 4.0
-        } else {
-            2.0 * (1.0 + (alpha - 1.0) * alpha.exp()) / (alpha * alpha)
-        };
+        let gamma = absorbing_host_gamma(alpha);
         let c_sca = lambda2 * (-alpha).exp() / (2.0 * PI * gamma * n_medium.norm_sqr()) * sca;
         // Backscattering: 4|S1(π)|²/|x|² in the host (Bohren–Huffman normalisation).
         let qback = back.norm_sqr() / x.norm_sqr();
@@ -254,6 +259,34 @@ impl MieWorkspace {
             c_sca_m2: c_sca,
             c_abs_m2: c_ext - c_sca,
         }
+    }
+}
+
+impl MieWorkspace {
+    /// Coefficients (a_n, b_n at index n−1) of the last [`MieWorkspace::coefficients`] or
+    /// [`MieWorkspace::sphere_keep_coefficients`] call.
+    pub fn last_coefficients(&self) -> (&[Complex64], &[Complex64]) {
+        (&self.a, &self.b)
+    }
+}
+
+/// γ(α) = 2(1 + (α−1)e^α)/α² of Frisvad et al. 2007: the mean incident intensity over the
+/// particle's front surface relative to its centre, α = 4πr n″_med/λ. The closed form cancels
+/// catastrophically for small α (relative error ~10⁻¹⁶/α²), so below α = 0.5 the series
+/// γ = 2 Σ_{j≥2} (j−1) α^{j−2}/j! = 1 + 2α/3 + α²/4 + α³/15 + … is summed instead.
+pub fn absorbing_host_gamma(alpha: f64) -> f64 {
+    if alpha < 0.5 {
+        let mut sum = 0.0;
+        let mut pow = 1.0; // α^{j−2}
+        let mut fact = 2.0; // j!
+        for j in 2..30 {
+            sum += (j - 1) as f64 * pow / fact;
+            pow *= alpha;
+            fact *= (j + 1) as f64;
+        }
+        2.0 * sum
+    } else {
+        2.0 * (1.0 + (alpha - 1.0) * alpha.exp()) / (alpha * alpha)
     }
 }
 
