@@ -99,3 +99,86 @@ fn matches_frisvad_reference_output() {
     }
     eprintln!("worst relative error: σs {:.2e}, σt {:.2e}, σa {:.2e}; worst |Δg| {:.2e}", worst[0], worst[1], worst[3], worst[2]);
 }
+
+fn lambdas() -> Vec<f64> {
+    (0..17).map(|i| 375.0 + 25.0 * i as f64).collect()
+}
+
+/// Scattering rises with fat content (homogenized and unhomogenized), at every wavelength.
+#[test]
+fn scattering_rises_with_fat() {
+    let l = lambdas();
+    for pressure in [0.0, 20.0] {
+        let mut prev: Option<Vec<f64>> = None;
+        for fat in [0.1, 0.5, 1.0, 2.0, 3.5, 5.0, 10.0] {
+            let p = milk::milk_properties_with(fat, 3.4, pressure, &l, &BulkOptions::default()).unwrap();
+            if let Some(q) = &prev {
+                for i in 0..l.len() {
+                    assert!(p.sigma_s_per_m[i] > q[i], "fat {fat} p {pressure} λ {}", l[i]);
+                }
+            }
+            prev = Some(p.sigma_s_per_m.clone());
+        }
+    }
+}
+
+/// Homogenization (smaller globules) lowers g and raises the reduced scattering σ_s(1−g) per unit fat.
+#[test]
+fn homogenization_lowers_g_and_raises_reduced_scattering() {
+    let l = lambdas();
+    for fat in [1.5, 3.5] {
+        let raw = milk::milk_properties_with(fat, 3.4, 0.0, &l, &BulkOptions::default()).unwrap();
+        let hom = milk::milk_properties_with(fat, 3.4, 20.0, &l, &BulkOptions::default()).unwrap();
+        for i in 0..l.len() {
+            assert!(hom.g[i] < raw.g[i], "fat {fat} λ {}: g {} vs {}", l[i], hom.g[i], raw.g[i]);
+            let red = |p: &optics::media::BulkProperties| p.components[0].sigma_s_per_m[i] * (1.0 - p.components[0].g[i]) / fat;
+            assert!(red(&hom) > red(&raw), "fat {fat} λ {}", l[i]);
+        }
+    }
+}
+
+/// Skim milk: σ_s(1−g) within 30 % of Jensen et al. 2001's measured skim milk
+/// (H. W. Jensen, S. R. Marschner, M. Levoy, P. Hanrahan, "A practical model for subsurface light
+/// transport", SIGGRAPH 2001, Table: skim milk σ_s′ = 0.70, 1.22, 1.90 mm⁻¹ for R, G, B).
+#[test]
+fn skim_milk_reduced_scattering_near_jensen_2001() {
+    let l = [450.0, 550.0, 650.0];
+    let measured = [1.90, 1.22, 0.70];
+    let p = milk::milk_properties_with(0.1, 3.4, 20.0, &l, &BulkOptions::default()).unwrap();
+    for i in 0..3 {
+        let red_mm = p.sigma_s_per_m[i] * (1.0 - p.g[i]) * 1e-3;
+        let err = (red_mm - measured[i]).abs() / measured[i];
+        eprintln!("λ {}: σs' {red_mm:.3} mm⁻¹ vs {} ({:.0} %)", l[i], measured[i], err * 100.0);
+        assert!(err < 0.30, "λ {}: σs' {red_mm} vs {}", l[i], measured[i]);
+    }
+}
+
+/// The tabulated bulk phase function is normalised and its mean cosine is the bulk g.
+#[test]
+fn milk_phase_table_normalised_with_mean_cosine_g() {
+    let p = milk::milk_properties(0.1, 3.4, 20.0, &[450.0, 650.0]).unwrap();
+    let t = p.phase.as_ref().unwrap();
+    assert_eq!(t.cos_theta.len(), 181);
+    for (w, row) in t.per_sr.iter().enumerate() {
+        let (mut norm, mut mean) = (0.0, 0.0);
+        for j in 0..row.len() - 1 {
+            // trapezoid in θ of 2π p sin θ
+            let (t0, t1) = (t.theta_deg[j].to_radians(), t.theta_deg[j + 1].to_radians());
+            let f0 = row[j] * t0.sin();
+            let f1 = row[j + 1] * t1.sin();
+            norm += 0.5 * (f0 + f1) * (t1 - t0) * 2.0 * std::f64::consts::PI;
+            mean += 0.5 * (f0 * t0.cos() + f1 * t1.cos()) * (t1 - t0) * 2.0 * std::f64::consts::PI;
+        }
+        assert!((norm - 1.0).abs() < 1e-3, "norm {norm}");
+        assert!((mean - p.g[w]).abs() < 2e-3, "mean {mean} vs g {}", p.g[w]);
+    }
+}
+
+#[test]
+fn bad_content_declaration_is_an_error() {
+    let l = [550.0];
+    for (f, pr, h) in [(101.0, 3.4, 20.0), (-1.0, 3.4, 20.0), (f64::NAN, 3.4, 20.0), (3.5, -1.0, 20.0), (3.5, 3.4, -5.0), (3.5, 3.4, f64::INFINITY), (60.0, 50.0, 0.0)] {
+        let e = milk::milk_properties(f, pr, h, &l);
+        assert!(e.is_err(), "fat {f} protein {pr} pressure {h} accepted");
+    }
+}
