@@ -153,30 +153,83 @@ struct Accum {
     phase: Vec<f64>,
 }
 
+/// Angular functions π_n(μ_j), τ_n(μ_j) for n = 1..=terms, laid out `[n−1][j]`.
+fn angular_table(mu: &[f64], terms: usize) -> (Vec<f64>, Vec<f64>) {
+    let na = mu.len();
+    let mut pi = vec![0.0; terms * na];
+    let mut tau = vec![0.0; terms * na];
+    for (j, &m) in mu.iter().enumerate() {
+        let (mut p0, mut p1) = (0.0, 1.0);
+        for k in 0..terms {
+            let n = (k + 1) as f64;
+            pi[k * na + j] = p1;
+            tau[k * na + j] = n * m * p1 - (n + 1.0) * p0;
+            let p2 = ((2.0 * n + 1.0) * m * p1 - (n + 1.0) * p0) / n;
+            p0 = p1;
+            p1 = p2;
+        }
+    }
+    (pi, tau)
+}
+
 fn component_at(ws: &mut MieWorkspace, comp: &Component, lambda_nm: f64, n_host: Complex64, mu: &[f64]) -> Accum {
     let lambda_m = lambda_nm * 1e-9;
     let n_p = comp.index.eval(lambda_nm);
     let mut acc = Accum { sigma_s: 0.0, sigma_t: 0.0, g_sigma_s: 0.0, phase: vec![0.0; mu.len()] };
+    let mut weights = Vec::with_capacity(comp.bins.radius_m.len());
     for (&r, &n) in comp.bins.radius_m.iter().zip(&comp.bins.number_per_m3) {
-        if mu.is_empty() {
-            let s = ws.sphere(r, lambda_m, n_p, n_host);
-            acc.sigma_s += s.c_sca_m2 * n;
-            acc.sigma_t += s.c_ext_m2 * n;
-            acc.g_sigma_s += s.eff.g * s.c_sca_m2 * n;
-        } else {
-            let s = ws.sphere_keep_coefficients(r, lambda_m, n_p, n_host);
-            acc.sigma_s += s.c_sca_m2 * n;
-            acc.sigma_t += s.c_ext_m2 * n;
-            acc.g_sigma_s += s.eff.g * s.c_sca_m2 * n;
-            let (a, b) = ws.last_coefficients();
-            let den = 4.0 * PI * mie::scattering_sum(a, b);
-            if den > 0.0 {
-                let w = s.c_sca_m2 * n / den;
-                for (p, &m) in acc.phase.iter_mut().zip(mu) {
-                    let (s1, s2) = mie::amplitudes(a, b, m);
-                    *p += w * (s1.norm_sqr() + s2.norm_sqr());
-                }
+        let s = ws.sphere(r, lambda_m, n_p, n_host);
+        acc.sigma_s += s.c_sca_m2 * n;
+        acc.sigma_t += s.c_ext_m2 * n;
+        acc.g_sigma_s += s.eff.g * s.c_sca_m2 * n;
+        weights.push(s.c_sca_m2 * n);
+    }
+    if mu.is_empty() || !(acc.sigma_s > 0.0) {
+        return acc;
+    }
+    // Phase function: σ_s-weighted sum over the bins that carry at least 1e-9 of this component's σ_s.
+    let na = mu.len();
+    let threshold = 1e-9 * acc.sigma_s;
+    let k0 = 2.0 * PI / lambda_m;
+    let max_terms = comp
+        .bins
+        .radius_m
+        .iter()
+        .zip(&weights)
+        .filter(|(_, &w)| w >= threshold)
+        .map(|(&r, _)| mie::number_of_terms((n_host * (k0 * r)).norm()))
+        .max()
+        .unwrap_or(1);
+    let (pi, tau) = angular_table(mu, max_terms);
+    let (mut s1r, mut s1i, mut s2r, mut s2i) = (vec![0.0; na], vec![0.0; na], vec![0.0; na], vec![0.0; na]);
+    for ((&r, _), &w) in comp.bins.radius_m.iter().zip(&comp.bins.number_per_m3).zip(&weights) {
+        if w < threshold {
+            continue;
+        }
+        ws.sphere_keep_coefficients(r, lambda_m, n_p, n_host);
+        let (a, b) = ws.last_coefficients();
+        let den = 4.0 * PI * mie::scattering_sum(a, b);
+        if !(den > 0.0) {
+            continue;
+        }
+        s1r.iter_mut().chain(s1i.iter_mut()).chain(s2r.iter_mut()).chain(s2i.iter_mut()).for_each(|v| *v = 0.0);
+        for (k, (an, bn)) in a.iter().zip(b).enumerate() {
+            let nf = (k + 1) as f64;
+            let c = (2.0 * nf + 1.0) / (nf * (nf + 1.0));
+            let (ar, ai, br, bi) = (c * an.re, c * an.im, c * bn.re, c * bn.im);
+            let pk = &pi[k * na..(k + 1) * na];
+            let tk = &tau[k * na..(k + 1) * na];
+            for j in 0..na {
+                let (p, t) = (pk[j], tk[j]);
+                s1r[j] += ar * p + br * t;
+                s1i[j] += ai * p + bi * t;
+                s2r[j] += ar * t + br * p;
+                s2i[j] += ai * t + bi * p;
             }
+        }
+        let scale = w / den;
+        for j in 0..na {
+            acc.phase[j] += scale * (s1r[j] * s1r[j] + s1i[j] * s1i[j] + s2r[j] * s2r[j] + s2i[j] * s2i[j]);
         }
     }
     acc

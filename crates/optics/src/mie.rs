@@ -16,7 +16,8 @@
 //! The logarithmic derivative D_n(z) is started at zero well above max(M, |z|): at
 //! max(M, |z|) + 16 + 4·max(M,|z|)^{1/3}. Starting it at M only is wrong for large |mx|.
 
-use num_complex::Complex64;
+/// Complex numbers used throughout (re-exported so callers need no direct dependency).
+pub use num_complex::Complex64;
 use std::f64::consts::PI;
 
 /// Number of terms of the series, M = ⌈|x| + 4.3|x|^{1/3} + 1⌉ (at least 1).
@@ -35,25 +36,43 @@ fn downward_start(terms: usize, z_abs: f64) -> usize {
     (top + 16.0 + 4.0 * top.cbrt()).ceil() as usize
 }
 
+/// 1/z with one real division.
+#[inline(always)]
+fn inv(z: Complex64) -> Complex64 {
+    let s = 1.0 / (z.re * z.re + z.im * z.im);
+    Complex64::new(z.re * s, -z.im * s)
+}
+
+/// a/b with one real division (no overflow scaling: Mie quantities stay far from the limits).
+#[inline(always)]
+fn div(a: Complex64, b: Complex64) -> Complex64 {
+    let s = 1.0 / (b.re * b.re + b.im * b.im);
+    Complex64::new((a.re * b.re + a.im * b.im) * s, (a.im * b.re - a.re * b.im) * s)
+}
+
+/// Largest |Im x| of the host size parameter for which ψ_n(x), ξ_n(x) are built by upward
+/// recurrence; above it the ratio formulation is used.
+pub const UPWARD_MAX_IM_X: f64 = 1.0;
+
 /// Fill `out[0..=terms]` with D_n(z) = ψ_n′(z)/ψ_n(z) by downward recurrence.
 fn log_derivative(z: Complex64, terms: usize, out: &mut Vec<Complex64>) {
     let start = downward_start(terms, z.norm());
     out.clear();
     out.resize(terms + 1, Complex64::new(0.0, 0.0));
-    let inv_z = z.inv();
+    let inv_z = inv(z);
     let mut d = Complex64::new(0.0, 0.0);
     // D_{n-1} = n/z − 1/(D_n + n/z)
     let mut n = start;
     while n > terms {
         let nz = inv_z * n as f64;
-        d = nz - (d + nz).inv();
+        d = nz - inv(d + nz);
         n -= 1;
     }
     // now d = D_terms
     out[terms] = d;
     while n > 0 {
         let nz = inv_z * n as f64;
-        d = nz - (d + nz).inv();
+        d = nz - inv(d + nz);
         n -= 1;
         out[n] = d;
     }
@@ -112,7 +131,7 @@ impl MieWorkspace {
         let d = &self.d_p;
         let (s, c) = x.sin_cos();
         let inv_x = 1.0 / x;
-        let inv_m = m.inv();
+        let inv_m = inv(m);
         // ψ_{n-1}, η_{n-1} (η_n = x y_n so that ξ_n = ψ_n + iη_n), starting at n = 0.
         let (mut psi_m1, mut psi_0) = (c, s); // ψ_{-1}, ψ_0
         let (mut eta_m1, mut eta_0) = (s, -c); // η_{-1}, η_0
@@ -134,8 +153,8 @@ impl MieWorkspace {
             let tb = dn * m + nx;
             let xi = Complex64::new(psi, eta);
             let xi_prev = Complex64::new(psi_0, eta_0);
-            let an = (ta * psi - psi_0) / (ta * xi - xi_prev);
-            let bn = (tb * psi - psi_0) / (tb * xi - xi_prev);
+            let an = div(ta * psi - psi_0, ta * xi - xi_prev);
+            let bn = div(tb * psi - psi_0, tb * xi - xi_prev);
             let w = 2.0 * nf + 1.0;
             ext += w * (an.re + bn.re);
             sca += w * (an.norm_sqr() + bn.norm_sqr());
@@ -169,8 +188,51 @@ impl MieWorkspace {
 
     /// Mie coefficients a_n, b_n (n = 1..=M, stored at index n−1) for a host size parameter
     /// `x` (complex when the host absorbs) and relative index `m` = n_p/n_med.
-    /// Uses the ratio formulation that is stable for complex x.
+    /// Upward recurrence of ψ_n(x), ξ_n(x) when |Im x| ≤ [`UPWARD_MAX_IM_X`], else the ratio formulation.
     pub fn coefficients(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        if x.im.abs() <= UPWARD_MAX_IM_X {
+            self.coefficients_upward(x, m)
+        } else {
+            self.coefficients_ratio(x, m)
+        }
+    }
+
+    /// a_n, b_n by the Bohren–Huffman formulas with D_n(mx) downward and ψ_n(x), ξ_n(x) upward
+    /// (complex x allowed; accurate while |Im x| is moderate).
+    pub fn coefficients_upward(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        let terms = number_of_terms(x.norm());
+        log_derivative(m * x, terms, &mut self.d_p);
+        self.a.clear();
+        self.b.clear();
+        let i = Complex64::new(0.0, 1.0);
+        let inv_x = inv(x);
+        let inv_m = inv(m);
+        let e = (i * x).exp();
+        // ψ_{-1} = cos x, ψ_0 = sin x, ξ_{-1} = e^{ix}, ξ_0 = −i e^{ix}
+        let (mut psi_m1, mut psi_0) = (x.cos(), x.sin());
+        let (mut xi_m1, mut xi_0) = (e, -i * e);
+        for n in 1..=terms {
+            let nf = n as f64;
+            let f = inv_x * (2.0 * nf - 1.0);
+            let psi = f * psi_0 - psi_m1;
+            let xi = f * xi_0 - xi_m1;
+            let dn = self.d_p[n];
+            let nx = inv_x * nf;
+            let ta = dn * inv_m + nx;
+            let tb = dn * m + nx;
+            self.a.push(div(ta * psi - psi_0, ta * xi - xi_0));
+            self.b.push(div(tb * psi - psi_0, tb * xi - xi_0));
+            psi_m1 = psi_0;
+            psi_0 = psi;
+            xi_m1 = xi_0;
+            xi_0 = xi;
+        }
+        (&self.a, &self.b)
+    }
+
+    /// a_n, b_n by the ratio formulation (A_n = ψ_n′/ψ_n downward for x and mx; ψ_nξ_n and ψ_n/ξ_n
+    /// upward; B_n = A_n + i/(ψ_nξ_n)), stable for complex x with large imaginary part.
+    pub fn coefficients_ratio(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
         let terms = number_of_terms(x.norm());
         log_derivative(m * x, terms, &mut self.d_p);
         log_derivative(x, terms, &mut self.d_h);
@@ -221,7 +283,7 @@ impl MieWorkspace {
         self.sphere_keep_coefficients(radius_m, lambda_m, n_particle, n_medium)
     }
 
-    /// As [`MieWorkspace::sphere`] but always through the ratio formulation, keeping a_n, b_n
+    /// As [`MieWorkspace::sphere`] but always through stored coefficients, keeping a_n, b_n
     /// for [`MieWorkspace::last_coefficients`] (phase functions).
     pub fn sphere_keep_coefficients(&mut self, radius_m: f64, lambda_m: f64, n_particle: Complex64, n_medium: Complex64) -> Sphere {
         let k0 = 2.0 * PI / lambda_m;
