@@ -280,47 +280,121 @@ impl MieWorkspace {
                 c_abs_m2: eff.qabs * area,
             };
         }
+        let x = n_medium * (k0 * radius_m);
+        if x.im.abs() <= UPWARD_MAX_IM_X {
+            let sums = self.sums_upward(x, m);
+            return cross_sections(&sums, x, radius_m, lambda_m, n_medium);
+        }
         self.sphere_keep_coefficients(radius_m, lambda_m, n_particle, n_medium)
+    }
+
+    /// Fused upward path for complex x: the sums of the series without storing a_n, b_n.
+    fn sums_upward(&mut self, x: Complex64, m: Complex64) -> Sums {
+        let terms = number_of_terms(x.norm());
+        log_derivative(m * x, terms, &mut self.d_p);
+        let i = Complex64::new(0.0, 1.0);
+        let inv_x = inv(x);
+        let inv_m = inv(m);
+        let e = (i * x).exp();
+        let (mut psi_m1, mut psi_0) = (x.cos(), x.sin());
+        let (mut xi_m1, mut xi_0) = (e, -i * e);
+        let mut sums = Sums { terms, ..Default::default() };
+        let mut a_prev = Complex64::new(0.0, 0.0);
+        let mut b_prev = Complex64::new(0.0, 0.0);
+        let mut sign = -1.0;
+        for (n, dn) in self.d_p.iter().enumerate().skip(1) {
+            let nf = n as f64;
+            let f = inv_x * (2.0 * nf - 1.0);
+            let psi = f * psi_0 - psi_m1;
+            let xi = f * xi_0 - xi_m1;
+            let nx = inv_x * nf;
+            let ta = dn * inv_m + nx;
+            let tb = dn * m + nx;
+            let an = div(ta * psi - psi_0, ta * xi - xi_0);
+            let bn = div(tb * psi - psi_0, tb * xi - xi_0);
+            sums.add(n, an, bn, a_prev, b_prev, sign);
+            sign = -sign;
+            a_prev = an;
+            b_prev = bn;
+            psi_m1 = psi_0;
+            psi_0 = psi;
+            xi_m1 = xi_0;
+            xi_0 = xi;
+        }
+        sums
     }
 
     /// As [`MieWorkspace::sphere`] but always through stored coefficients, keeping a_n, b_n
     /// for [`MieWorkspace::last_coefficients`] (phase functions).
     pub fn sphere_keep_coefficients(&mut self, radius_m: f64, lambda_m: f64, n_particle: Complex64, n_medium: Complex64) -> Sphere {
         let k0 = 2.0 * PI / lambda_m;
-        let area = PI * radius_m * radius_m;
         let m = n_particle / n_medium;
         let x = n_medium * (k0 * radius_m);
-        let terms = number_of_terms(x.norm());
         self.coefficients(x, m);
-        let mut ext = Complex64::new(0.0, 0.0);
-        let mut sca = 0.0;
-        for (k, (an, bn)) in self.a.iter().zip(&self.b).enumerate() {
-            let w = (2 * k + 3) as f64;
-            ext += (an + bn) * w;
-            sca += w * (an.norm_sqr() + bn.norm_sqr());
+        let mut sums = Sums { terms: self.a.len(), ..Default::default() };
+        let (mut a_prev, mut b_prev, mut sign) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0), -1.0);
+        for (k, (&an, &bn)) in self.a.iter().zip(&self.b).enumerate() {
+            sums.add(k + 1, an, bn, a_prev, b_prev, sign);
+            sign = -sign;
+            a_prev = an;
+            b_prev = bn;
         }
-        let g = asymmetry(&self.a, &self.b);
-        let back = backscatter_sum(&self.a, &self.b);
-        let lambda2 = lambda_m * lambda_m;
-        let c_ext = lambda2 / (2.0 * PI) * (ext / (n_medium * n_medium)).re;
-        let alpha = 4.0 * PI * radius_m * n_medium.im / lambda_m;
-        let gamma = absorbing_host_gamma(alpha);
-        let c_sca = lambda2 * (-alpha).exp() / (2.0 * PI * gamma * n_medium.norm_sqr()) * sca;
-        // Backscattering: 4|S1(π)|²/|x|² in the host (Bohren–Huffman normalisation).
-        let qback = back.norm_sqr() / x.norm_sqr();
-        Sphere {
-            eff: Efficiencies {
-                terms,
-                qext: c_ext / area,
-                qsca: c_sca / area,
-                qabs: (c_ext - c_sca) / area,
-                qback,
-                g,
-            },
-            c_ext_m2: c_ext,
-            c_sca_m2: c_sca,
-            c_abs_m2: c_ext - c_sca,
+        cross_sections(&sums, x, radius_m, lambda_m, n_medium)
+    }
+}
+
+/// Running sums of the Mie series.
+#[derive(Default, Clone, Copy, Debug)]
+struct Sums {
+    terms: usize,
+    /// Σ(2n+1)(a_n + b_n)
+    ext: Complex64,
+    /// Σ(2n+1)(|a_n|² + |b_n|²)
+    sca: f64,
+    /// Σ n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1}) + Σ (2n+1)/(n(n+1)) Re(a_n b*_n)
+    g_num: f64,
+    /// Σ(2n+1)(−1)^n (a_n − b_n)
+    back: Complex64,
+}
+
+impl Sums {
+    #[inline(always)]
+    fn add(&mut self, n: usize, an: Complex64, bn: Complex64, a_prev: Complex64, b_prev: Complex64, sign: f64) {
+        let nf = n as f64;
+        let w = 2.0 * nf + 1.0;
+        self.ext += (an + bn) * w;
+        self.sca += w * (an.norm_sqr() + bn.norm_sqr());
+        if n > 1 {
+            let k = nf - 1.0;
+            self.g_num += k * (k + 2.0) / (k + 1.0) * (a_prev.re * an.re + a_prev.im * an.im + b_prev.re * bn.re + b_prev.im * bn.im);
         }
+        self.g_num += w / (nf * (nf + 1.0)) * (an.re * bn.re + an.im * bn.im);
+        self.back += (an - bn) * (w * sign);
+    }
+}
+
+/// Cross sections from the sums for a (possibly absorbing) host, Frisvad et al. 2007.
+fn cross_sections(sums: &Sums, x: Complex64, radius_m: f64, lambda_m: f64, n_medium: Complex64) -> Sphere {
+    let area = PI * radius_m * radius_m;
+    let lambda2 = lambda_m * lambda_m;
+    let c_ext = lambda2 / (2.0 * PI) * div(sums.ext, n_medium * n_medium).re;
+    let alpha = 4.0 * PI * radius_m * n_medium.im / lambda_m;
+    let gamma = absorbing_host_gamma(alpha);
+    let c_sca = lambda2 * (-alpha).exp() / (2.0 * PI * gamma * n_medium.norm_sqr()) * sums.sca;
+    // Backscattering: 4|S1(π)|²/|x|² in the host (Bohren–Huffman normalisation).
+    let qback = sums.back.norm_sqr() / x.norm_sqr();
+    Sphere {
+        eff: Efficiencies {
+            terms: sums.terms,
+            qext: c_ext / area,
+            qsca: c_sca / area,
+            qabs: (c_ext - c_sca) / area,
+            qback,
+            g: if sums.sca > 0.0 { 2.0 * sums.g_num / sums.sca } else { 0.0 },
+        },
+        c_ext_m2: c_ext,
+        c_sca_m2: c_sca,
+        c_abs_m2: c_ext - c_sca,
     }
 }
 
@@ -369,17 +443,6 @@ pub fn asymmetry(a: &[Complex64], b: &[Complex64]) -> f64 {
     } else {
         0.0
     }
-}
-
-fn backscatter_sum(a: &[Complex64], b: &[Complex64]) -> Complex64 {
-    let mut s = Complex64::new(0.0, 0.0);
-    let mut sign = -1.0;
-    for k in 0..a.len() {
-        let n = (k + 1) as f64;
-        s += (a[k] - b[k]) * ((2.0 * n + 1.0) * sign);
-        sign = -sign;
-    }
-    s
 }
 
 /// Scattering amplitudes (S1, S2) at cos θ = `mu` from coefficients (a[n−1] = a_n),
