@@ -54,6 +54,10 @@ fn div(a: Complex64, b: Complex64) -> Complex64 {
 /// recurrence; above it the ratio formulation is used.
 pub const UPWARD_MAX_IM_X: f64 = 1.0;
 
+/// Largest supported α = 4πr n_med″/λ (host attenuation across the sphere, e^{−α}): beyond it the
+/// absorbing-host cross sections (which grow like e^{α}) lose meaning and soon overflow.
+pub const MAX_HOST_ATTENUATION: f64 = 50.0;
+
 /// Fill `out[0..=terms]` with D_n(z) = ψ_n′(z)/ψ_n(z) by downward recurrence.
 fn log_derivative(z: Complex64, terms: usize, out: &mut Vec<Complex64>) {
     let start = downward_start(terms, z.norm());
