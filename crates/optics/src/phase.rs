@@ -36,6 +36,38 @@ impl HenyeyGreenstein {
     }
 }
 
+/// The direction after scattering `dir` (a unit vector, propagation direction) through the
+/// polar angle θ (given by `cos_theta`) and the azimuth `phi_rad` about `dir`. Unit length
+/// to rounding; the azimuth origin is an arbitrary but fixed function of `dir`.
+#[inline]
+pub fn scatter_direction(dir: [f64; 3], cos_theta: f64, phi_rad: f64) -> [f64; 3] {
+    let [ux, uy, uz] = dir;
+    let sin_t = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let (sin_p, cos_p) = phi_rad.sin_cos();
+    if uz.abs() > 0.99999 {
+        // Near the poles the frame below degenerates: use the fixed x, y axes.
+        return [sin_t * cos_p, sin_t * sin_p, cos_theta * uz.signum()];
+    }
+    // Orthonormal frame (e1, e2, dir) with e1 = (ux uz, uy uz, −(1 − uz²)) / √(1 − uz²) and
+    // e2 = dir × e1 = (−uy, ux, 0) / √(1 − uz²); new = sinθ(cosφ e1 + sinφ e2) + cosθ dir.
+    let tmp = (1.0 - uz * uz).sqrt();
+    let inv = 1.0 / tmp;
+    [
+        sin_t * (ux * uz * cos_p - uy * sin_p) * inv + ux * cos_theta,
+        sin_t * (uy * uz * cos_p + ux * sin_p) * inv + uy * cos_theta,
+        -sin_t * cos_p * tmp + uz * cos_theta,
+    ]
+}
+
+impl HenyeyGreenstein {
+    /// Sample the direction after scattering from the propagation direction `dir` (unit),
+    /// with `u1` choosing cos θ (exact inverse CDF) and `u2` the azimuth; both uniform in [0, 1).
+    #[inline]
+    pub fn sample_direction(&self, dir: [f64; 3], u1: f64, u2: f64) -> [f64; 3] {
+        scatter_direction(dir, self.sample_cos_theta(u1), 2.0 * PI * u2)
+    }
+}
+
 /// A phase function tabulated on a grid of cos θ, piecewise linear in cos θ between the
 /// samples, renormalised so that 2π∫p dμ = 1; importance sampled exactly by inverting its
 /// piecewise-quadratic cumulative distribution.
@@ -149,6 +181,11 @@ impl TabulatedPhase {
             2.0 * target / (a + disc.sqrt())
         };
         (x0 + t.clamp(0.0, 1.0) * h).clamp(-1.0, 1.0)
+    }
+
+    /// Sample the direction after scattering from `dir` (unit); `u1` picks cos θ, `u2` the azimuth.
+    pub fn sample_direction(&self, dir: [f64; 3], u1: f64, u2: f64) -> [f64; 3] {
+        scatter_direction(dir, self.sample_cos_theta(u1), 2.0 * PI * u2)
     }
 
     fn segment(&self, x: f64) -> usize {

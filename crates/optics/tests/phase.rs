@@ -173,3 +173,40 @@ fn tabulated_phase_rejects_bad_tables() {
     assert!(TabulatedPhase::new(vec![-0.9, 1.0], vec![1.0, 1.0]).is_err());
     assert!(TabulatedPhase::new(vec![-1.0, 1.0], vec![1.0, f64::NAN]).is_err());
 }
+
+#[test]
+fn sampled_directions_are_unit_with_mean_cosine_g() {
+    use optics::phase::scatter_direction;
+    let mut rng = Rng(77);
+    for &dir in &[[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.6, 0.0, 0.8], [0.2, -0.3, (1.0f64 - 0.13).sqrt()]] {
+        let g = 0.7;
+        let hg = HenyeyGreenstein { g };
+        let n = 200_000;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        let mut perp = [0.0f64; 3];
+        for _ in 0..n {
+            let d = hg.sample_direction(dir, rng.next(), rng.next());
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            assert!((len - 1.0).abs() < 1e-12);
+            let c = d[0] * dir[0] + d[1] * dir[1] + d[2] * dir[2];
+            s1 += c;
+            s2 += c * c;
+            for k in 0..3 {
+                perp[k] += d[k] - c * dir[k];
+            }
+        }
+        let m = s1 / n as f64;
+        let se = ((s2 / n as f64 - m * m) / n as f64).sqrt();
+        assert!((m - g).abs() < 4.0 * se, "dir {dir:?}: {m} ± {se}");
+        // Azimuthal symmetry: the perpendicular components average to zero (σ < 0.002 each).
+        for p in perp {
+            assert!((p / n as f64).abs() < 0.008, "dir {dir:?}: {perp:?}");
+        }
+    }
+    // Explicit geometry: θ = 90°, φ = 0 and φ = 90° give two orthogonal unit vectors ⟂ dir.
+    let dir = [0.6, 0.0, 0.8];
+    let a = scatter_direction(dir, 0.0, 0.0);
+    let b = scatter_direction(dir, 0.0, PI / 2.0);
+    let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    assert!(dot(a, dir).abs() < 1e-12 && dot(b, dir).abs() < 1e-12 && dot(a, b).abs() < 1e-12);
+}

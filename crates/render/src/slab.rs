@@ -36,6 +36,29 @@ pub struct Layer {
     pub thickness_mm: f64,
 }
 
+impl Layer {
+    /// Check the values of one layer; the error names the field (MUA, MUS, G, N, THICKNESS_MM).
+    pub fn validate(&self) -> Result<()> {
+        let l = self;
+        if !(l.mua_per_mm.is_finite() && l.mua_per_mm >= 0.0) {
+            bail!("absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)", l.mua_per_mm);
+        }
+        if !(l.mus_per_mm.is_finite() && l.mus_per_mm >= 0.0) {
+            bail!("scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)", l.mus_per_mm);
+        }
+        if !(l.g > -1.0 && l.g < 1.0) {
+            bail!("anisotropy G = {} must lie in (-1, 1)", l.g);
+        }
+        if !(l.n.is_finite() && l.n > 0.0) {
+            bail!("refractive index N = {} must be finite and > 0", l.n);
+        }
+        if l.thickness_mm.is_nan() || l.thickness_mm <= 0.0 {
+            bail!("THICKNESS_MM = {} must be > 0 (or inf)", l.thickness_mm);
+        }
+        Ok(())
+    }
+}
+
 /// Histogram of the diffuse reflectance over the distance r from the entry point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RadialGrid {
@@ -126,24 +149,9 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     }
     let last = settings.layers.len() - 1;
     for (i, l) in settings.layers.iter().enumerate() {
-        let k = i + 1;
-        if !(l.mua_per_mm.is_finite() && l.mua_per_mm >= 0.0) {
-            bail!("layer {k}: absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)", l.mua_per_mm);
-        }
-        if !(l.mus_per_mm.is_finite() && l.mus_per_mm >= 0.0) {
-            bail!("layer {k}: scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)", l.mus_per_mm);
-        }
-        if !(l.g > -1.0 && l.g < 1.0) {
-            bail!("layer {k}: anisotropy G = {} must lie in (-1, 1)", l.g);
-        }
-        if !(l.n.is_finite() && l.n > 0.0) {
-            bail!("layer {k}: refractive index N = {} must be finite and > 0", l.n);
-        }
-        if l.thickness_mm.is_nan() || l.thickness_mm <= 0.0 {
-            bail!("layer {k}: THICKNESS_MM = {} must be > 0", l.thickness_mm);
-        }
+        l.validate().map_err(|e| anyhow::anyhow!("layer {}: {e}", i + 1))?;
         if l.thickness_mm.is_infinite() && i != last {
-            bail!("layer {k}: only the last layer may be semi-infinite (THICKNESS_MM = inf)");
+            bail!("layer {}: only the last layer may be semi-infinite (THICKNESS_MM = inf)", i + 1);
         }
     }
     for (name, n) in [("n-above", settings.n_above), ("n-below", settings.n_below)] {
@@ -384,25 +392,8 @@ impl Ctx<'_> {
                 w -= dw;
                 absorbed += dw;
                 t.absorbed_layer[layer] += dw;
-                // Scatter.
-                let cos_t = l.hg.sample_cos_theta(rng.uniform());
-                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                let phi = 2.0 * std::f64::consts::PI * rng.uniform();
-                let (sin_p, cos_p) = phi.sin_cos();
-                if uz.abs() > 0.99999 {
-                    ux = sin_t * cos_p;
-                    uy = sin_t * sin_p;
-                    uz = cos_t * uz.signum();
-                } else {
-                    // Rotate (sin θ cos φ, sin θ sin φ, cos θ) from the frame whose z axis is u.
-                    let tmp = (1.0 - uz * uz).sqrt();
-                    let nx = sin_t * (ux * uz * cos_p - uy * sin_p) / tmp + ux * cos_t;
-                    let ny = sin_t * (uy * uz * cos_p + ux * sin_p) / tmp + uy * cos_t;
-                    let nz = -sin_t * cos_p * tmp + uz * cos_t;
-                    ux = nx;
-                    uy = ny;
-                    uz = nz;
-                }
+                // Scatter (the same sampling code as the renderer's media).
+                [ux, uy, uz] = l.hg.sample_direction([ux, uy, uz], rng.uniform(), rng.uniform());
                 if w < WEIGHT_THRESHOLD {
                     if rng.uniform() * ROULETTE_M < 1.0 {
                         t.roulette_gain += w * (ROULETTE_M - 1.0);

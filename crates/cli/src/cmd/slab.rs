@@ -59,13 +59,20 @@ fn parse_layer(text: &str) -> Result<Layer> {
             x
         };
     }
-    Ok(Layer { mua_per_mm: v[0], mus_per_mm: v[1], g: v[2], n: v[3], thickness_mm: v[4] })
+    let layer = Layer { mua_per_mm: v[0], mus_per_mm: v[1], g: v[2], n: v[3], thickness_mm: v[4] };
+    layer.validate()?;
+    Ok(layer)
 }
 
 pub fn run(args: Args) -> Result<()> {
     let mut layers = Vec::new();
+    let count = args.layer.len();
     for (i, text) in args.layer.iter().enumerate() {
-        layers.push(parse_layer(text).with_context(|| format!("--layer {} ({text:?})", i + 1))?);
+        let l = parse_layer(text).with_context(|| format!("--layer {} ({text:?})", i + 1))?;
+        if l.thickness_mm.is_infinite() && i + 1 != count {
+            bail!("--layer {} ({text:?}): only the last layer may be semi-infinite (THICKNESS_MM = inf)", i + 1);
+        }
+        layers.push(l);
     }
     let radial = match (args.radial_bins, args.radial_max_mm) {
         (None, None) => None,
