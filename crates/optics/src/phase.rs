@@ -97,7 +97,7 @@ impl TabulatedPhase {
             bail!("tabulated phase function: cos_theta must run from -1 to 1");
         }
         for (i, w) in cos_theta.windows(2).enumerate() {
-            if !(w[1] > w[0]) {
+            if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
                 bail!("tabulated phase function: cos_theta not strictly increasing at entry {}", i + 1);
             }
         }
@@ -120,7 +120,7 @@ impl TabulatedPhase {
             first_moment += h * (y0 * (2.0 * x0 + x1) + y1 * (x0 + 2.0 * x1)) / 6.0;
             cdf.push(total);
         }
-        if !(total > 0.0) {
+        if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             bail!("tabulated phase function: integrates to zero");
         }
         for c in cdf.iter_mut() {

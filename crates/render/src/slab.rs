@@ -509,6 +509,22 @@ impl Rng {
     }
 }
 
+/// Benchmark for `lucent bench`: single-thread throughput in photon steps per second on
+/// Giovanelli's semi-infinite medium (n = 1.5, albedo 0.9, isotropic; ≈ 46 steps per photon).
+pub fn benchmark_steps_per_s(photons: u64) -> Result<f64> {
+    let settings = SlabSettings {
+        layers: vec![Layer { mua_per_mm: 0.1, mus_per_mm: 0.9, g: 0.0, n: 1.5, thickness_mm: f64::INFINITY }],
+        n_above: 1.0,
+        n_below: 1.0,
+        photons: photons.max(1),
+        seed: 1,
+        radial: None,
+    };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let r = pool.install(|| simulate(&settings))?;
+    Ok(r.photon_steps_per_s())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
