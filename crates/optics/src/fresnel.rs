@@ -130,6 +130,160 @@ pub fn fresnel_diffuse_reflectance(eta: f64) -> f64 {
     2.0 * fresnel_moment(1, eta)
 }
 
+/// Measured optical constants n = η + i·k of a material (conductor) versus vacuum wavelength,
+/// linearly interpolated; constant beyond the ends of the table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ComplexIor {
+    lambda_nm: Vec<f64>,
+    eta: Vec<f64>,
+    k: Vec<f64>,
+}
+
+/// Tables bundled from `data/ior/` (see its README for their sources): name, CSV text.
+const BUNDLED_IOR: [(&str, &str); 6] = [
+    ("Au", include_str!("../data/ior/Au.csv")),
+    ("Ag", include_str!("../data/ior/Ag.csv")),
+    ("Cu", include_str!("../data/ior/Cu.csv")),
+    ("Al", include_str!("../data/ior/Al.csv")),
+    ("Cr", include_str!("../data/ior/Cr.csv")),
+    ("Cu_palik", include_str!("../data/ior/Cu_palik.csv")),
+];
+
+impl ComplexIor {
+    /// Build from a strictly increasing wavelength grid (nm) and the real (η) and imaginary (k)
+    /// parts of the index, all finite, k ≥ 0, η > 0.
+    pub fn new(lambda_nm: Vec<f64>, eta: Vec<f64>, k: Vec<f64>) -> anyhow::Result<Self> {
+        if lambda_nm.is_empty() || lambda_nm.len() != eta.len() || eta.len() != k.len() {
+            anyhow::bail!(
+                "optical constants: {} wavelengths, {} eta and {} k values (need equal, non-zero counts)",
+                lambda_nm.len(),
+                eta.len(),
+                k.len()
+            );
+        }
+        for i in 0..lambda_nm.len() {
+            if !(lambda_nm[i].is_finite() && eta[i].is_finite() && k[i].is_finite() && eta[i] > 0.0 && k[i] >= 0.0) {
+                anyhow::bail!("optical constants: row {} (wavelength {} nm): need finite eta > 0 and k >= 0", i + 1, lambda_nm[i]);
+            }
+            if i > 0 && lambda_nm[i] <= lambda_nm[i - 1] {
+                anyhow::bail!("optical constants: wavelengths not increasing at row {}", i + 1);
+            }
+        }
+        Ok(Self { lambda_nm, eta, k })
+    }
+
+    /// Parse CSV text with columns `wavelength_nm, eta, k` ('#' comment lines, one header row).
+    /// `source` names the file in error messages.
+    pub fn parse_csv(text: &str, source: &str) -> anyhow::Result<Self> {
+        let (mut l, mut e, mut k) = (Vec::new(), Vec::new(), Vec::new());
+        let mut header_seen = false;
+        for (no, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            if !header_seen {
+                header_seen = true;
+                if line.starts_with(|c: char| c.is_ascii_alphabetic()) {
+                    continue;
+                }
+            }
+            let v: Vec<&str> = line.split(',').map(str::trim).collect();
+            if v.len() < 3 {
+                anyhow::bail!("{source}: line {}: expected 3 columns wavelength_nm,eta,k", no + 1);
+            }
+            let num = |s: &str, what: &str| -> anyhow::Result<f64> {
+                s.parse::<f64>().map_err(|_| anyhow::anyhow!("{source}: line {}: {what} {s:?} is not a number", no + 1))
+            };
+            l.push(num(v[0], "wavelength_nm")?);
+            e.push(num(v[1], "eta")?);
+            k.push(num(v[2], "k")?);
+        }
+        Self::new(l, e, k).map_err(|err| anyhow::anyhow!("{source}: {err}"))
+    }
+
+    /// A bundled table by name: `Au`, `Ag`, `Cu`, `Al`, `Cr`, `Cu_palik` (case-insensitive;
+    /// also `gold`, `silver`, `copper`, `aluminium`/`aluminum`, `chromium`).
+    pub fn named(name: &str) -> anyhow::Result<Self> {
+        let key = match name.to_ascii_lowercase().as_str() {
+            "gold" => "au".to_string(),
+            "silver" => "ag".to_string(),
+            "copper" => "cu".to_string(),
+            "aluminium" | "aluminum" => "al".to_string(),
+            "chromium" => "cr".to_string(),
+            other => other.to_string(),
+        };
+        let (file, text) = BUNDLED_IOR
+            .iter()
+            .find(|(n, _)| n.to_ascii_lowercase() == key)
+            .ok_or_else(|| anyhow::anyhow!("unknown conductor {name:?} (known: Au, Ag, Cu, Al, Cr, Cu_palik)"))?;
+        Self::parse_csv(text, &format!("data/ior/{file}.csv"))
+    }
+
+    /// Wavelength range of the table in nm.
+    pub fn range_nm(&self) -> (f64, f64) {
+        (self.lambda_nm[0], self.lambda_nm[self.lambda_nm.len() - 1])
+    }
+
+    /// Complex index η + i·k at `lambda_nm` (linear interpolation; clamped beyond the table).
+    pub fn eval(&self, lambda_nm: f64) -> Complex64 {
+        let n = self.lambda_nm.len();
+        if n == 1 || lambda_nm <= self.lambda_nm[0] {
+            return Complex64::new(self.eta[0], self.k[0]);
+        }
+        if lambda_nm >= self.lambda_nm[n - 1] {
+            return Complex64::new(self.eta[n - 1], self.k[n - 1]);
+        }
+        let i = self.lambda_nm.partition_point(|&x| x <= lambda_nm) - 1;
+        let t = (lambda_nm - self.lambda_nm[i]) / (self.lambda_nm[i + 1] - self.lambda_nm[i]);
+        Complex64::new(
+            self.eta[i] + t * (self.eta[i + 1] - self.eta[i]),
+            self.k[i] + t * (self.k[i + 1] - self.k[i]),
+        )
+    }
+}
+
+/// Sellmeier dispersion of a transparent glass: n²(λ) = 1 + Σᵢ Bᵢ λ² / (λ² − Cᵢ), λ in µm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sellmeier {
+    /// Dimensionless coefficients B₁, B₂, B₃.
+    pub b: [f64; 3],
+    /// Resonance coefficients C₁, C₂, C₃ in µm².
+    pub c_um2: [f64; 3],
+}
+
+impl Sellmeier {
+    /// SCHOTT N-BK7 (data sheet coefficients; n_d = 1.5168, V_d = 64.17).
+    pub const N_BK7: Sellmeier = Sellmeier {
+        b: [1.039_612_12, 0.231_792_344, 1.010_469_45],
+        c_um2: [0.006_000_698_67, 0.020_017_914_4, 103.560_653],
+    };
+    /// Fused silica (Malitson 1965, J. Opt. Soc. Am. 55:1205; n_d = 1.45846).
+    pub const FUSED_SILICA: Sellmeier = Sellmeier {
+        b: [0.696_166_3, 0.407_942_6, 0.897_479_4],
+        c_um2: [0.068_404_3 * 0.068_404_3, 0.116_241_4 * 0.116_241_4, 9.896_161 * 9.896_161],
+    };
+
+    /// A bundled glass by name: `N-BK7`/`BK7`, `fused-silica`/`SiO2` (case-insensitive).
+    pub fn named(name: &str) -> anyhow::Result<Self> {
+        match name.to_ascii_lowercase().replace(['_', ' '], "-").as_str() {
+            "n-bk7" | "bk7" => Ok(Self::N_BK7),
+            "fused-silica" | "sio2" | "silica" => Ok(Self::FUSED_SILICA),
+            _ => anyhow::bail!("unknown glass {name:?} (known: N-BK7, fused-silica)"),
+        }
+    }
+
+    /// Refractive index (dimensionless) at the vacuum wavelength `lambda_nm`.
+    pub fn index(&self, lambda_nm: f64) -> f64 {
+        let l2 = (lambda_nm * 1e-3).powi(2);
+        let mut n2 = 1.0;
+        for i in 0..3 {
+            n2 += self.b[i] * l2 / (l2 - self.c_um2[i]);
+        }
+        n2.sqrt()
+    }
+}
+
 /// Composite 8-point Gauss–Legendre quadrature of `f` over [a, b] with `panels` panels.
 fn gauss_legendre(a: f64, b: f64, panels: usize, f: impl Fn(f64) -> f64) -> f64 {
     // Nodes and weights of the 8-point rule on [−1, 1] (Abramowitz & Stegun 25.4.30).

@@ -220,3 +220,48 @@ fn diffuse_reflectance_matches_egan_hilgeman() {
     // External: diffuse light from air onto glass reflects ≈ 9.2 %.
     assert!(close(fresnel_diffuse_reflectance(1.5), 0.092, 0.001));
 }
+
+#[test]
+fn bundled_conductor_tables_interpolate_the_data() {
+    // Exact table rows come back unchanged (data/ior/Au.csv: 551.040771 nm → 0.3455 + 2.730625 i).
+    let au = ComplexIor::named("gold").unwrap();
+    let v = au.eval(551.040771);
+    assert!(close(v.re, 0.3455, 1e-12) && close(v.im, 2.730625, 1e-12));
+    // Midway between two rows: the mean (linear interpolation).
+    let rows = ior_table("Au");
+    let (a, b) = (rows[20], rows[21]);
+    let m = au.eval(0.5 * (a.0 + b.0));
+    assert!(close(m.re, 0.5 * (a.1 + b.1), 1e-12) && close(m.im, 0.5 * (a.2 + b.2), 1e-12));
+    // Every bundled table covers the visible range 360–830 nm (Palik's copper stops at 826.5 nm).
+    for name in ["Au", "Ag", "Cu", "Al", "Cr"] {
+        let t = ComplexIor::named(name).unwrap();
+        let (lo, hi) = t.range_nm();
+        assert!(lo <= 360.0 && hi >= 830.0, "{name}: {lo}–{hi}");
+    }
+    // Two independent copper measurements (LuxPop vs Palik) agree on R to a few percent.
+    let (cu, cu_p) = (ComplexIor::named("Cu").unwrap(), ComplexIor::named("Cu_palik").unwrap());
+    for l in [450.0, 550.0, 650.0, 750.0] {
+        let (r1, r2) = (fresnel_complex(1.0, cu.eval(l)), fresnel_complex(1.0, cu_p.eval(l)));
+        assert!(close(r1, r2, 0.04), "Cu at {l} nm: {r1} vs {r2}");
+    }
+    assert!(ComplexIor::named("unobtainium").unwrap_err().to_string().contains("unobtainium"));
+    let bad = ComplexIor::parse_csv("wavelength_nm,eta,k\n400,1,x\n", "t.csv").unwrap_err().to_string();
+    assert!(bad.contains("t.csv") && bad.contains("line 2"), "{bad}");
+    assert!(ComplexIor::parse_csv("400,1,1\n390,1,1\n", "t.csv").is_err());
+    assert!(ComplexIor::parse_csv("400,1,-1\n", "t.csv").is_err());
+}
+
+#[test]
+fn sellmeier_glasses_match_catalogue() {
+    // SCHOTT catalogue: N-BK7 n_d(587.56 nm) = 1.51680, Abbe number V_d = 64.17;
+    // Malitson 1965: fused silica n_d = 1.45846, V_d = 67.82.
+    // V_d = (n_d − 1)/(n_F − n_C), F = 486.13 nm, C = 656.27 nm.
+    for (glass, nd, vd) in [("N-BK7", 1.51680, 64.17), ("fused silica", 1.45846, 67.82)] {
+        let s = Sellmeier::named(glass).unwrap();
+        let n_d = s.index(587.56);
+        let v_d = (n_d - 1.0) / (s.index(486.13) - s.index(656.27));
+        assert!(close(n_d, nd, 2e-5), "{glass}: n_d {n_d}");
+        assert!(close(v_d, vd, 0.05), "{glass}: V_d {v_d}");
+    }
+    assert!(Sellmeier::named("flint").is_err());
+}
