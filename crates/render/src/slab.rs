@@ -68,6 +68,16 @@ pub struct RadialGrid {
     pub max_mm: f64,
 }
 
+/// Reflectance along the x axis (the plane of incidence) in a strip |y| < Δx/2, for oblique
+/// incidence reflectometry: bins of width Δx = 2·`max_mm`/`bins` over [−`max_mm`, `max_mm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineGrid {
+    /// Number of bins along x.
+    pub bins: usize,
+    /// Half length of the line in mm.
+    pub max_mm: f64,
+}
+
 /// Everything a slab simulation needs.
 #[derive(Clone, Debug)]
 pub struct SlabSettings {
@@ -84,6 +94,28 @@ pub struct SlabSettings {
     pub seed: u64,
     /// Radially resolved diffuse reflectance, if wanted.
     pub radial: Option<RadialGrid>,
+    /// Angle of the incident beam from the normal in the ambient medium above, in degrees
+    /// (0 = normal incidence; the beam travels towards +x), in [0, 90).
+    pub incidence_deg: f64,
+    /// Diffuse reflectance along the x axis, if wanted.
+    pub line: Option<LineGrid>,
+}
+
+impl SlabSettings {
+    /// Settings for a normally incident beam in air above and below, 10⁶ photons, seed 1,
+    /// no resolved tallies.
+    pub fn new(layers: Vec<Layer>) -> Self {
+        SlabSettings {
+            layers,
+            n_above: 1.0,
+            n_below: 1.0,
+            photons: 1_000_000,
+            seed: 1,
+            radial: None,
+            incidence_deg: 0.0,
+            line: None,
+        }
+    }
 }
 
 /// Radially resolved diffuse reflectance R(r).
@@ -99,6 +131,19 @@ pub struct RadialReflectance {
     pub rd_per_mm2_stderr: Vec<f64>,
     /// Fraction of incident photons escaping on top beyond the last bin (dimensionless).
     pub rd_beyond_max: f64,
+}
+
+/// Diffuse reflectance along the x axis, R(x, y ≈ 0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineReflectance {
+    /// Bin centres in mm.
+    pub x_mm: Vec<f64>,
+    /// Bin width (and strip width) Δx in mm.
+    pub dx_mm: f64,
+    /// Escaping weight per unit area per incident photon in the bin's Δx × Δx cell, mm⁻².
+    pub rd_per_mm2: Vec<f64>,
+    /// Standard error of each bin in mm⁻².
+    pub rd_per_mm2_stderr: Vec<f64>,
 }
 
 /// Result of a slab simulation: fractions of the incident power (dimensionless).
@@ -125,6 +170,11 @@ pub struct SlabResult {
     pub roulette_gain: f64,
     /// R(r) when a radial grid was requested.
     pub radial: Option<RadialReflectance>,
+    /// R(x, 0) when a line grid was requested.
+    pub line: Option<LineReflectance>,
+    /// Mean x of the diffusely reflected weight in mm (the "diffuse centre" shifts towards +x
+    /// under oblique incidence).
+    pub rd_centroid_x_mm: f64,
     /// Photon packets launched.
     pub photons: u64,
     /// Free-flight steps taken (to an interaction or to an interface).
@@ -162,6 +212,17 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     if settings.photons == 0 {
         bail!("photons must be at least 1");
     }
+    if !(settings.incidence_deg >= 0.0 && settings.incidence_deg < 90.0) {
+        bail!("incidence-deg = {} must lie in [0, 90)", settings.incidence_deg);
+    }
+    if let Some(g) = settings.line {
+        if g.bins == 0 {
+            bail!("line-bins must be at least 1");
+        }
+        if !(g.max_mm.is_finite() && g.max_mm > 0.0) {
+            bail!("line-max-mm = {} must be finite and > 0", g.max_mm);
+        }
+    }
     if let Some(g) = settings.radial {
         if g.bins == 0 {
             bail!("radial-bins must be at least 1");
@@ -185,14 +246,25 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
     let layers = prepare(settings);
     let n0 = settings.n_above;
     let n1 = settings.layers[0].n;
-    let specular = ((n0 - n1) / (n0 + n1)).powi(2);
+    let theta_i = settings.incidence_deg.to_radians();
+    let specular = fresnel_dielectric(theta_i.cos(), n1 / n0);
+    // Refracted launch direction in the top layer (Snell), travelling towards +x.
+    let sin_t = n0 / n1 * theta_i.sin();
+    let launch = [sin_t, 0.0, (1.0 - sin_t * sin_t).sqrt()];
+    let line_bins = settings.line.map(|g| g.bins).unwrap_or(0);
+    let line_max_mm = settings.line.map(|g| g.max_mm).unwrap_or(1.0);
+    let dx_mm = 2.0 * line_max_mm / line_bins.max(1) as f64;
     let bins = settings.radial.map(|g| g.bins).unwrap_or(0);
     let dr_mm = settings.radial.map(|g| g.max_mm / g.bins as f64).unwrap_or(1.0);
     let ctx = Ctx {
         layers: &layers,
         w0: 1.0 - specular,
+        launch,
         bins,
         inv_dr: 1.0 / dr_mm,
+        line_bins,
+        line_max_mm,
+        inv_dx: 1.0 / dx_mm,
     };
     let chunks = settings.photons.div_ceil(CHUNK);
     let start = Instant::now();
@@ -201,7 +273,7 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         .map(|c| {
             let n = CHUNK.min(settings.photons - c * CHUNK);
             let mut rng = Rng::new(settings.seed, c);
-            let mut t = Tally::new(layers.len(), bins);
+            let mut t = Tally::new(layers.len(), bins, line_bins);
             for _ in 0..n {
                 ctx.trace(&mut rng, &mut t);
             }
@@ -210,7 +282,7 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         .collect();
     let seconds = start.elapsed().as_secs_f64();
     // Sum in chunk order: deterministic whatever the scheduling.
-    let mut total = Tally::new(layers.len(), bins);
+    let mut total = Tally::new(layers.len(), bins, line_bins);
     for p in &parts {
         total.add(p);
     }
@@ -235,7 +307,18 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         }
         RadialReflectance { r_mm, dr_mm, rd_per_mm2: rd, rd_per_mm2_stderr: se, rd_beyond_max: total.rd_beyond / n }
     });
+    let line = settings.line.map(|g| {
+        let area = dx_mm * dx_mm;
+        LineReflectance {
+            x_mm: (0..g.bins).map(|k| -g.max_mm + (k as f64 + 0.5) * dx_mm).collect(),
+            dx_mm,
+            rd_per_mm2: total.line.iter().map(|v| v / n / area).collect(),
+            rd_per_mm2_stderr: total.line.iter().zip(&total.line_sq).map(|(v, v2)| stderr(*v, *v2) / area).collect(),
+        }
+    });
     Ok(SlabResult {
+        line,
+        rd_centroid_x_mm: if total.rd > 0.0 { total.rd_x / total.rd } else { 0.0 },
         specular,
         rd: total.rd / n,
         rd_stderr: stderr(total.rd, total.rd_sq),
@@ -307,11 +390,14 @@ struct Tally {
     radial: Vec<f64>,
     radial_sq: Vec<f64>,
     rd_beyond: f64,
+    line: Vec<f64>,
+    line_sq: Vec<f64>,
+    rd_x: f64,
     steps: u64,
 }
 
 impl Tally {
-    fn new(layers: usize, bins: usize) -> Self {
+    fn new(layers: usize, bins: usize, line_bins: usize) -> Self {
         Tally {
             rd: 0.0,
             rd_sq: 0.0,
@@ -324,6 +410,9 @@ impl Tally {
             radial: vec![0.0; bins],
             radial_sq: vec![0.0; bins],
             rd_beyond: 0.0,
+            line: vec![0.0; line_bins],
+            line_sq: vec![0.0; line_bins],
+            rd_x: 0.0,
             steps: 0,
         }
     }
@@ -346,6 +435,13 @@ impl Tally {
             *a += b;
         }
         self.rd_beyond += o.rd_beyond;
+        for (a, b) in self.line.iter_mut().zip(&o.line) {
+            *a += b;
+        }
+        for (a, b) in self.line_sq.iter_mut().zip(&o.line_sq) {
+            *a += b;
+        }
+        self.rd_x += o.rd_x;
         self.steps += o.steps;
     }
 }
@@ -353,8 +449,12 @@ impl Tally {
 struct Ctx<'a> {
     layers: &'a [LayerData],
     w0: f64,
+    launch: [f64; 3],
     bins: usize,
     inv_dr: f64,
+    line_bins: usize,
+    line_max_mm: f64,
+    inv_dx: f64,
 }
 
 impl Ctx<'_> {
@@ -362,7 +462,7 @@ impl Ctx<'_> {
     #[inline]
     fn trace(&self, rng: &mut Rng, t: &mut Tally) {
         let (mut x, mut y, mut z) = (0.0f64, 0.0f64, 0.0f64);
-        let (mut ux, mut uy, mut uz) = (0.0f64, 0.0f64, 1.0f64);
+        let [mut ux, mut uy, mut uz] = self.launch;
         let mut w = self.w0;
         let mut layer = 0usize;
         let mut tau = 0.0f64; // remaining dimensionless optical depth of the current free path
@@ -435,6 +535,14 @@ impl Ctx<'_> {
                 // Escapes into the ambient medium above: diffuse reflectance.
                 t.rd += w;
                 t.rd_sq += w * w;
+                t.rd_x += w * x;
+                if self.line_bins > 0 && (y * self.inv_dx).abs() < 0.5 {
+                    let k = (x + self.line_max_mm) * self.inv_dx;
+                    if k >= 0.0 && (k as usize) < self.line_bins {
+                        t.line[k as usize] += w;
+                        t.line_sq[k as usize] += w * w;
+                    }
+                }
                 if self.bins > 0 {
                     let k = ((x * x + y * y).sqrt() * self.inv_dr) as usize;
                     if k < self.bins {
@@ -513,12 +621,8 @@ impl Rng {
 /// Giovanelli's semi-infinite medium (n = 1.5, albedo 0.9, isotropic; ≈ 46 steps per photon).
 pub fn benchmark_steps_per_s(photons: u64) -> Result<f64> {
     let settings = SlabSettings {
-        layers: vec![Layer { mua_per_mm: 0.1, mus_per_mm: 0.9, g: 0.0, n: 1.5, thickness_mm: f64::INFINITY }],
-        n_above: 1.0,
-        n_below: 1.0,
         photons: photons.max(1),
-        seed: 1,
-        radial: None,
+        ..SlabSettings::new(vec![Layer { mua_per_mm: 0.1, mus_per_mm: 0.9, g: 0.0, n: 1.5, thickness_mm: f64::INFINITY }])
     };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let r = pool.install(|| simulate(&settings))?;

@@ -2,14 +2,14 @@
 //! radiative-transfer solution. Tolerances are three standard errors of the estimator
 //! (plus the rounding of the published value).
 
-use render::slab::{simulate, validate, Layer, RadialGrid, SlabResult, SlabSettings};
+use render::slab::{simulate, validate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 
 fn layer(mua: f64, mus: f64, g: f64, n: f64, d: f64) -> Layer {
     Layer { mua_per_mm: mua, mus_per_mm: mus, g, n, thickness_mm: d }
 }
 
 fn run(layers: Vec<Layer>, n_above: f64, n_below: f64, photons: u64, seed: u64) -> SlabResult {
-    simulate(&SlabSettings { layers, n_above, n_below, photons, seed, radial: None }).unwrap()
+    simulate(&SlabSettings { n_above, n_below, photons, seed, ..SlabSettings::new(layers) }).unwrap()
 }
 
 fn within(value: f64, expect: f64, sigma: f64, extra: f64, what: &str) {
@@ -138,12 +138,10 @@ fn energy_is_conserved_exactly() {
 #[test]
 fn radial_reflectance_integrates_to_rd() {
     let settings = SlabSettings {
-        layers: vec![layer(0.1, 0.9, 0.0, 1.5, f64::INFINITY)],
-        n_above: 1.0,
-        n_below: 1.0,
         photons: 100_000,
         seed: 17,
         radial: Some(RadialGrid { bins: 200, max_mm: 100.0 }),
+        ..SlabSettings::new(vec![layer(0.1, 0.9, 0.0, 1.5, f64::INFINITY)])
     };
     let r = simulate(&settings).unwrap();
     let rad = r.radial.as_ref().unwrap();
@@ -179,7 +177,7 @@ fn splitting_a_layer_in_two_changes_nothing() {
 #[test]
 fn results_are_deterministic_across_thread_counts() {
     let layers = vec![layer(0.2, 8.0, 0.8, 1.4, 0.5)];
-    let s = SlabSettings { layers, n_above: 1.0, n_below: 1.0, photons: 40_000, seed: 19, radial: None };
+    let s = SlabSettings { photons: 40_000, seed: 19, ..SlabSettings::new(layers) };
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| simulate(&s).unwrap());
     let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| simulate(&s).unwrap());
     assert_eq!((one.rd, one.tt, one.absorbed, one.photon_steps), (two.rd, two.tt, two.absorbed, two.photon_steps));
@@ -189,14 +187,7 @@ fn results_are_deterministic_across_thread_counts() {
 
 #[test]
 fn bad_input_is_rejected_naming_the_field() {
-    let base = SlabSettings {
-        layers: vec![layer(0.1, 1.0, 0.0, 1.4, 1.0)],
-        n_above: 1.0,
-        n_below: 1.0,
-        photons: 10,
-        seed: 1,
-        radial: None,
-    };
+    let base = SlabSettings { photons: 10, ..SlabSettings::new(vec![layer(0.1, 1.0, 0.0, 1.4, 1.0)]) };
     let check = |s: SlabSettings, needle: &str| {
         let e = validate(&s).unwrap_err().to_string();
         assert!(e.contains(needle), "{e:?} should mention {needle:?}");
@@ -217,4 +208,65 @@ fn bad_input_is_rejected_naming_the_field() {
     check(SlabSettings { layers: vec![], ..base.clone() }, "layer");
     check(SlabSettings { radial: Some(RadialGrid { bins: 0, max_mm: 1.0 }), ..base.clone() }, "radial-bins");
     check(SlabSettings { radial: Some(RadialGrid { bins: 5, max_mm: -1.0 }), ..base.clone() }, "radial-max-mm");
+    check(SlabSettings { incidence_deg: 90.0, ..base.clone() }, "incidence-deg");
+    check(SlabSettings { incidence_deg: -5.0, ..base.clone() }, "incidence-deg");
+    check(SlabSettings { line: Some(LineGrid { bins: 0, max_mm: 1.0 }), ..base.clone() }, "line-bins");
+    check(SlabSettings { line: Some(LineGrid { bins: 4, max_mm: f64::INFINITY }), ..base.clone() }, "line-max-mm");
+}
+
+#[test]
+fn oblique_incidence_plate_matches_closed_form() {
+    // Non-scattering absorbing plate at 50° incidence: Fresnel R(θ) on entry, path d/cos θ_t
+    // inside, incoherent multiple reflections with the same (unpolarised) R at each bounce,
+    // which is the transport model of the code: T = (1−R)² a / (1 − R² a²), a = e^{−μa d / cos θ_t}.
+    let (n, mua, d, theta_deg): (f64, f64, f64, f64) = (1.5, 0.6, 1.0, 50.0);
+    let ci = theta_deg.to_radians().cos();
+    let rf = optics::fresnel::fresnel_dielectric(ci, n);
+    let ct = optics::fresnel::cos_theta_transmitted(ci, n).unwrap();
+    let a = (-mua * d / ct).exp();
+    let t = (1.0 - rf).powi(2) * a / (1.0 - rf * rf * a * a);
+    let s = SlabSettings {
+        photons: 200_000,
+        seed: 21,
+        incidence_deg: theta_deg,
+        line: Some(LineGrid { bins: 40, max_mm: 4.0 }),
+        ..SlabSettings::new(vec![layer(mua, 0.0, 0.0, n, d)])
+    };
+    let r = simulate(&s).unwrap();
+    assert!((r.specular - rf).abs() < 1e-15);
+    within(r.tt, t, r.tt_stderr, 1e-9, "oblique T");
+    // The internally reflected beam re-emerges displaced by 2 d tan θ_t along +x after one
+    // round trip, 4 d tan θ_t after two (weight × R² a²), …: mean shift 2 d tan θ_t / (1 − R² a²).
+    let shift = 2.0 * d * (1.0 - ct * ct).sqrt() / ct;
+    let mean_shift = shift / (1.0 - rf * rf * a * a);
+    // The number of round trips k is random (geometric, q = R² a²): the centroid's standard
+    // error is shift·√q/(1 − q)/√N over the N ≈ photons·(1 − R)·R·a² internally reflected packets.
+    let q = rf * rf * a * a;
+    let n_refl = 200_000.0 * (1.0 - rf) * rf * a * a;
+    let se = shift * q.sqrt() / (1.0 - q) / n_refl.sqrt();
+    within(r.rd_centroid_x_mm, mean_shift, se, 1e-12, "mean lateral shift");
+    let line = r.line.unwrap();
+    let k = line.x_mm.iter().position(|&x| (x - shift).abs() <= 0.5 * line.dx_mm).unwrap();
+    let in_bin = line.rd_per_mm2[k] * line.dx_mm * line.dx_mm;
+    let rest: f64 = line.rd_per_mm2.iter().map(|v| v * line.dx_mm * line.dx_mm).sum::<f64>() - in_bin;
+    assert!((in_bin - r.rd).abs() < 1e-9 * r.rd.max(1e-12) + r.rd * 0.01 && rest < 0.01 * r.rd, "{line:?}");
+}
+
+#[test]
+fn oblique_incidence_shifts_the_diffuse_centre() {
+    // Wang & Jacques 1995 (oblique incidence reflectometry): in diffusion theory the diffuse
+    // reflectance is centred at Δx ≈ sin θ_t / μ'_t (μ'_t = μa + μs(1 − g)), towards the
+    // direction of the refracted beam; at normal incidence R(x) is symmetric.
+    let medium = vec![layer(0.05, 10.0, 0.8, 1.0, f64::INFINITY)];
+    let normal = simulate(&SlabSettings { photons: 100_000, seed: 22, ..SlabSettings::new(medium.clone()) }).unwrap();
+    let sigma = 4.0 / (100_000f64).sqrt(); // centroid spread is ~ a few transport lengths (0.5 mm each)
+    assert!(normal.rd_centroid_x_mm.abs() < 3.0 * sigma, "{}", normal.rd_centroid_x_mm);
+    let oblique =
+        simulate(&SlabSettings { photons: 100_000, seed: 23, incidence_deg: 45.0, ..SlabSettings::new(medium) }).unwrap();
+    let dx = 45f64.to_radians().sin() / (0.05 + 10.0 * 0.2);
+    assert!(
+        (oblique.rd_centroid_x_mm - dx).abs() < 0.35 * dx,
+        "centroid {} mm vs diffusion-theory shift {dx} mm",
+        oblique.rd_centroid_x_mm
+    );
 }

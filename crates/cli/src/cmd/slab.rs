@@ -1,7 +1,7 @@
 //! `lucent slab`: MCML-style Monte Carlo photon transport in a stack of plane-parallel layers.
 
 use anyhow::{bail, Context, Result};
-use render::slab::{simulate, Layer, RadialGrid, SlabResult, SlabSettings};
+use render::slab::{simulate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -32,6 +32,16 @@ pub struct Args {
     /// Also write R(r) as CSV (`r_mm,rd_per_mm2,rd_per_mm2_stderr`) to this file.
     #[arg(long, value_name = "FILE")]
     radial_csv: Option<PathBuf>,
+    /// Angle of the incident beam from the normal, in degrees, in the medium above (the beam
+    /// travels towards +x). Default 0 (normal incidence).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    incidence_deg: f64,
+    /// Number of bins of the reflectance along the x axis, R(x, y≈0) (oblique incidence reflectometry).
+    #[arg(long)]
+    line_bins: Option<usize>,
+    /// Half length of the x line in mm (default: 10 transport mean free paths of the top layer).
+    #[arg(long, allow_hyphen_values = true)]
+    line_max_mm: Option<f64>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -74,20 +84,20 @@ pub fn run(args: Args) -> Result<()> {
         }
         layers.push(l);
     }
+    let default_max_mm = {
+        let l = &layers[0];
+        let mu_tr = l.mua_per_mm + l.mus_per_mm * (1.0 - l.g);
+        if mu_tr > 0.0 { 10.0 / mu_tr } else { 10.0 }
+    };
     let radial = match (args.radial_bins, args.radial_max_mm) {
         (None, None) => None,
         (None, Some(_)) => bail!("--radial-max-mm needs --radial-bins"),
-        (Some(bins), max) => {
-            let max_mm = match max {
-                Some(m) => m,
-                None => {
-                    let l = &layers[0];
-                    let mu_tr = l.mua_per_mm + l.mus_per_mm * (1.0 - l.g);
-                    if mu_tr > 0.0 { 10.0 / mu_tr } else { 10.0 }
-                }
-            };
-            Some(RadialGrid { bins, max_mm })
-        }
+        (Some(bins), max) => Some(RadialGrid { bins, max_mm: max.unwrap_or(default_max_mm) }),
+    };
+    let line = match (args.line_bins, args.line_max_mm) {
+        (None, None) => None,
+        (None, Some(_)) => bail!("--line-max-mm needs --line-bins"),
+        (Some(bins), max) => Some(LineGrid { bins, max_mm: max.unwrap_or(default_max_mm) }),
     };
     if args.radial_csv.is_some() && radial.is_none() {
         bail!("--radial-csv needs --radial-bins");
@@ -99,6 +109,8 @@ pub fn run(args: Args) -> Result<()> {
         photons: args.photons,
         seed: args.seed,
         radial,
+        incidence_deg: args.incidence_deg,
+        line,
     };
     // Validate before spawning threads so errors come first and name the argument.
     render::slab::validate(&settings).map_err(|e| {
@@ -115,6 +127,12 @@ pub fn run(args: Args) -> Result<()> {
             "--radial-bins"
         } else if msg.starts_with("radial-max-mm") {
             "--radial-max-mm"
+        } else if msg.starts_with("incidence-deg") {
+            "--incidence-deg"
+        } else if msg.starts_with("line-bins") {
+            "--line-bins"
+        } else if msg.starts_with("line-max-mm") {
+            "--line-max-mm"
         } else {
             "--layer"
         };
@@ -163,6 +181,8 @@ fn to_json(s: &SlabSettings, r: &SlabResult) -> serde_json::Value {
         "roulette_gain": r.roulette_gain,
         "photons": r.photons,
         "seed": s.seed,
+        "incidence_deg": s.incidence_deg,
+        "rd_centroid_x_mm": r.rd_centroid_x_mm,
         "n_above": s.n_above,
         "n_below": s.n_below,
         "layers": layers,
@@ -179,6 +199,14 @@ fn to_json(s: &SlabSettings, r: &SlabResult) -> serde_json::Value {
             "rd_per_mm2_stderr": rad.rd_per_mm2_stderr,
             "dr_mm": rad.dr_mm,
             "rd_beyond_max": rad.rd_beyond_max,
+        });
+    }
+    if let Some(line) = &r.line {
+        v["line"] = serde_json::json!({
+            "x_mm": line.x_mm,
+            "rd_per_mm2": line.rd_per_mm2,
+            "rd_per_mm2_stderr": line.rd_per_mm2_stderr,
+            "dx_mm": line.dx_mm,
         });
     }
     v
@@ -198,6 +226,13 @@ fn print_text(r: &SlabResult) {
         r.photon_steps_per_s() / 1e6,
         r.photon_steps_per_s() / 1e6 / r.threads as f64
     );
+    println!("diffuse centre x       {:.6} mm", r.rd_centroid_x_mm);
+    if let Some(line) = &r.line {
+        println!("x_mm,rd_per_mm2,rd_per_mm2_stderr");
+        for k in 0..line.x_mm.len() {
+            println!("{},{},{}", line.x_mm[k], line.rd_per_mm2[k], line.rd_per_mm2_stderr[k]);
+        }
+    }
     if let Some(rad) = &r.radial {
         println!("r_mm,rd_per_mm2,rd_per_mm2_stderr");
         for k in 0..rad.r_mm.len() {
