@@ -256,16 +256,18 @@ fn oblique_incidence_plate_matches_closed_form() {
 fn oblique_incidence_shifts_the_diffuse_centre() {
     // Wang & Jacques 1995 (oblique incidence reflectometry): in diffusion theory the diffuse
     // reflectance is centred at Δx ≈ sin θ_t / μ'_t (μ'_t = μa + μs(1 − g)), towards the
-    // direction of the refracted beam; at normal incidence R(x) is symmetric.
-    let medium = vec![layer(0.05, 10.0, 0.8, 1.0, f64::INFINITY)];
+    // direction of the refracted beam; at normal incidence R(x) is symmetric. Diffusion theory
+    // is approximate this close to the source (MCML-type simulations put the centroid some
+    // 10 % short of it), so the check is to 25 %.
+    let medium = vec![layer(0.2, 5.0, 0.8, 1.0, f64::INFINITY)];
     let normal = simulate(&SlabSettings { photons: 100_000, seed: 22, ..SlabSettings::new(medium.clone()) }).unwrap();
-    let sigma = 4.0 / (100_000f64).sqrt(); // centroid spread is ~ a few transport lengths (0.5 mm each)
-    assert!(normal.rd_centroid_x_mm.abs() < 3.0 * sigma, "{}", normal.rd_centroid_x_mm);
+    // Reflected packets spread laterally by ~1.5 mm rms here; ~7·10⁴ of them: σ ≈ 0.006 mm.
+    assert!(normal.rd_centroid_x_mm.abs() < 0.03, "{}", normal.rd_centroid_x_mm);
     let oblique =
         simulate(&SlabSettings { photons: 100_000, seed: 23, incidence_deg: 45.0, ..SlabSettings::new(medium) }).unwrap();
-    let dx = 45f64.to_radians().sin() / (0.05 + 10.0 * 0.2);
+    let dx = 45f64.to_radians().sin() / (0.2 + 5.0 * 0.2);
     assert!(
-        (oblique.rd_centroid_x_mm - dx).abs() < 0.35 * dx,
+        (oblique.rd_centroid_x_mm - dx).abs() < 0.25 * dx,
         "centroid {} mm vs diffusion-theory shift {dx} mm",
         oblique.rd_centroid_x_mm
     );
