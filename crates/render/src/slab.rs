@@ -181,6 +181,10 @@ pub struct SlabResult {
     pub photon_steps: u64,
     /// Wall-clock time of the transport in seconds.
     pub seconds: f64,
+    /// CPU time spent in transport, summed over threads, in seconds (Linux: from
+    /// /proc/thread-self/schedstat; `None` elsewhere). Unlike `seconds` it does not grow when
+    /// other processes compete for the cores.
+    pub cpu_seconds: Option<f64>,
     /// Threads used.
     pub threads: usize,
 }
@@ -189,6 +193,11 @@ impl SlabResult {
     /// Throughput: photon steps per second of wall-clock time, all threads together.
     pub fn photon_steps_per_s(&self) -> f64 {
         self.photon_steps as f64 / self.seconds.max(1e-12)
+    }
+
+    /// Throughput per core: photon steps per second of CPU time (None if CPU time is unknown).
+    pub fn photon_steps_per_cpu_s(&self) -> Option<f64> {
+        self.cpu_seconds.map(|c| self.photon_steps as f64 / c.max(1e-12))
     }
 }
 
@@ -274,9 +283,14 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
             let n = CHUNK.min(settings.photons - c * CHUNK);
             let mut rng = Rng::new(settings.seed, c);
             let mut t = Tally::new(layers.len(), bins, line_bins);
+            let cpu0 = thread_cpu_ns();
             for _ in 0..n {
                 ctx.trace(&mut rng, &mut t);
             }
+            t.cpu_ns = match (cpu0, thread_cpu_ns()) {
+                (Some(a), Some(b)) => Some(b.saturating_sub(a)),
+                _ => None,
+            };
             t
         })
         .collect();
@@ -332,6 +346,7 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         photons: settings.photons,
         photon_steps: total.steps,
         seconds,
+        cpu_seconds: total.cpu_ns.filter(|&ns| ns > 0).map(|ns| ns as f64 * 1e-9),
         threads: rayon::current_num_threads(),
     })
 }
@@ -394,6 +409,8 @@ struct Tally {
     line_sq: Vec<f64>,
     rd_x: f64,
     steps: u64,
+    /// CPU time of the thread that ran the chunk, when the platform tells it.
+    cpu_ns: Option<u64>,
 }
 
 impl Tally {
@@ -414,6 +431,7 @@ impl Tally {
             line_sq: vec![0.0; line_bins],
             rd_x: 0.0,
             steps: 0,
+            cpu_ns: Some(0),
         }
     }
 
@@ -443,6 +461,10 @@ impl Tally {
         }
         self.rd_x += o.rd_x;
         self.steps += o.steps;
+        self.cpu_ns = match (self.cpu_ns, o.cpu_ns) {
+            (Some(a), Some(b)) => Some(a + b),
+            _ => None,
+        };
     }
 }
 
@@ -617,8 +639,15 @@ impl Rng {
     }
 }
 
+/// CPU time consumed so far by the calling thread in ns (Linux), or `None`.
+fn thread_cpu_ns() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
 /// Benchmark for `lucent bench`: single-thread throughput in photon steps per second on
-/// Giovanelli's semi-infinite medium (n = 1.5, albedo 0.9, isotropic; ≈ 46 steps per photon).
+/// Giovanelli's semi-infinite medium (n = 1.5, albedo 0.9, isotropic; ≈ 46 steps per photon),
+/// per second of CPU time where known (robust to other load), else of wall-clock time.
 pub fn benchmark_steps_per_s(photons: u64) -> Result<f64> {
     let settings = SlabSettings {
         photons: photons.max(1),
@@ -626,7 +655,7 @@ pub fn benchmark_steps_per_s(photons: u64) -> Result<f64> {
     };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let r = pool.install(|| simulate(&settings))?;
-    Ok(r.photon_steps_per_s())
+    Ok(r.photon_steps_per_cpu_s().unwrap_or_else(|| r.photon_steps_per_s()))
 }
 
 #[cfg(test)]

@@ -191,6 +191,8 @@ fn to_json(s: &SlabSettings, r: &SlabResult) -> serde_json::Value {
         "threads": r.threads,
         "photon_steps_per_s": r.photon_steps_per_s(),
         "photon_steps_per_s_per_thread": r.photon_steps_per_s() / r.threads as f64,
+        "cpu_seconds": r.cpu_seconds,
+        "photon_steps_per_cpu_s": r.photon_steps_per_cpu_s(),
     });
     if let Some(rad) = &r.radial {
         v["radial"] = serde_json::json!({
@@ -226,6 +228,9 @@ fn print_text(r: &SlabResult) {
         r.photon_steps_per_s() / 1e6,
         r.photon_steps_per_s() / 1e6 / r.threads as f64
     );
+    if let Some(per_cpu) = r.photon_steps_per_cpu_s() {
+        println!("per core (CPU time): {:.2} M steps/s", per_cpu / 1e6);
+    }
     println!("diffuse centre x       {:.6} mm", r.rd_centroid_x_mm);
     if let Some(line) = &r.line {
         println!("x_mm,rd_per_mm2,rd_per_mm2_stderr");
