@@ -269,3 +269,52 @@ fn write_radial_csv(path: &Path, r: &render::slab::RadialReflectance) -> Result<
     std::fs::rename(&tmp, path)?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layer_strings_parse_and_errors_name_the_field() {
+        let l = parse_layer("1, 9, 0.75, 1.0, 0.2").unwrap();
+        assert_eq!(l, Layer { mua_per_mm: 1.0, mus_per_mm: 9.0, g: 0.75, n: 1.0, thickness_mm: 0.2 });
+        assert!(parse_layer("0.1,0.9,0,1.5,inf").unwrap().thickness_mm.is_infinite());
+        assert!(parse_layer("0.1,0.9,0,1.5,INF").unwrap().thickness_mm.is_infinite());
+        for (text, field) in [
+            ("1,9,0.75,1", "5 comma-separated"),
+            ("1,9,0.75,1,0.2,3", "5 comma-separated"),
+            ("x,9,0.75,1,0.2", "MUA"),
+            ("-1,9,0.75,1,0.2", "MUA"),
+            ("1,-9,0.75,1,0.2", "MUS"),
+            ("1,9,1.0,1,0.2", "G"),
+            ("1,9,-1.5,1,0.2", "G"),
+            ("1,9,0.75,0,0.2", "N"),
+            ("1,9,0.75,1,0", "THICKNESS_MM"),
+            ("1,9,0.75,1,nan", "THICKNESS_MM"),
+            ("1,inf,0.75,1,1", "MUS"),
+        ] {
+            let e = format!("{:#}", parse_layer(text).unwrap_err());
+            assert!(e.contains(field), "{text}: {e}");
+            assert!(!e.contains('\n'), "one line: {e}");
+        }
+    }
+
+    #[test]
+    fn json_has_the_contract_keys() {
+        let settings = SlabSettings {
+            photons: 2000,
+            radial: Some(RadialGrid { bins: 10, max_mm: 2.0 }),
+            ..SlabSettings::new(vec![parse_layer("1,9,0.75,1.4,0.2").unwrap()])
+        };
+        let r = simulate(&settings).unwrap();
+        let v = to_json(&settings, &r);
+        for key in ["specular", "rd", "rd_stderr", "absorbed", "tt", "tt_stderr", "photon_steps_per_s"] {
+            assert!(v[key].is_number(), "{key} missing: {v}");
+        }
+        assert_eq!(v["radial"]["r_mm"].as_array().unwrap().len(), 10);
+        assert_eq!(v["radial"]["rd_per_mm2"].as_array().unwrap().len(), 10);
+        let plain = SlabSettings { radial: None, ..settings };
+        let v = to_json(&plain, &simulate(&plain).unwrap());
+        assert!(v.get("radial").is_none());
+    }
+}
