@@ -85,10 +85,15 @@ pub struct TabulatedPhase {
 
 impl TabulatedPhase {
     /// Build from samples `value` (any positive scale; renormalised) at `cos_theta`, which must
-    /// be strictly increasing, start at −1 and end at 1. Errors name the offending entry.
-    pub fn new(cos_theta: Vec<f64>, value: Vec<f64>) -> Result<Self> {
+    /// be strictly monotonic from −1 to 1 or from 1 to −1 (as a grid uniform in θ from 0° to
+    /// 180°, e.g. `optics::media::PhaseTable`). Errors name the offending entry.
+    pub fn new(mut cos_theta: Vec<f64>, mut value: Vec<f64>) -> Result<Self> {
         if cos_theta.len() != value.len() {
             bail!("tabulated phase function: {} angles but {} values", cos_theta.len(), value.len());
+        }
+        if cos_theta.len() >= 2 && cos_theta[0] > cos_theta[cos_theta.len() - 1] {
+            cos_theta.reverse();
+            value.reverse();
         }
         if cos_theta.len() < 2 {
             bail!("tabulated phase function: needs at least 2 samples");
@@ -191,5 +196,46 @@ impl TabulatedPhase {
     fn segment(&self, x: f64) -> usize {
         let k = self.cos_theta.partition_point(|&c| c <= x);
         k.saturating_sub(1).min(self.cos_theta.len() - 2)
+    }
+}
+
+/// Either phase function, for media that may carry a Henyey–Greenstein `g` or a Mie table.
+#[derive(Clone, Debug)]
+pub enum PhaseFunction {
+    /// Henyey–Greenstein with asymmetry g.
+    HenyeyGreenstein(HenyeyGreenstein),
+    /// Tabulated over cos θ (e.g. from Lorenz–Mie theory).
+    Tabulated(TabulatedPhase),
+}
+
+impl PhaseFunction {
+    /// Phase function value in sr⁻¹.
+    pub fn eval(&self, cos_theta: f64) -> f64 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(p) => p.eval(cos_theta),
+            PhaseFunction::Tabulated(p) => p.eval(cos_theta),
+        }
+    }
+
+    /// Exact inverse-CDF sample of cos θ from `u` uniform in [0, 1].
+    pub fn sample_cos_theta(&self, u: f64) -> f64 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(p) => p.sample_cos_theta(u),
+            PhaseFunction::Tabulated(p) => p.sample_cos_theta(u),
+        }
+    }
+
+    /// Sample the direction after scattering from `dir` (unit); `u1` picks cos θ, `u2` the azimuth.
+    /// Its density over directions is `eval` of the cosine to `dir`.
+    pub fn sample_direction(&self, dir: [f64; 3], u1: f64, u2: f64) -> [f64; 3] {
+        scatter_direction(dir, self.sample_cos_theta(u1), 2.0 * PI * u2)
+    }
+
+    /// Mean cosine of the scattering angle (dimensionless).
+    pub fn g(&self) -> f64 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(p) => p.g,
+            PhaseFunction::Tabulated(p) => p.g(),
+        }
     }
 }

@@ -210,3 +210,35 @@ fn sampled_directions_are_unit_with_mean_cosine_g() {
     let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
     assert!(dot(a, dir).abs() < 1e-12 && dot(b, dir).abs() < 1e-12 && dot(a, b).abs() < 1e-12);
 }
+
+#[test]
+fn tabulated_phase_accepts_a_grid_uniform_in_theta_from_forward_to_back() {
+    // The layout of Mie tables (θ uniform over 0°…180°, cos θ decreasing from 1 to −1),
+    // for a strongly forward-peaked HG (g = 0.9): mean cosine and normalisation are kept.
+    let hg = HenyeyGreenstein { g: 0.9 };
+    let n = 1801;
+    let mu: Vec<f64> = (0..n).map(|i| (PI * i as f64 / (n - 1) as f64).cos()).collect();
+    let v: Vec<f64> = mu.iter().map(|&m| hg.eval(m)).collect();
+    let tab = TabulatedPhase::new(mu, v).unwrap();
+    assert!((tab.g() - 0.9).abs() < 2e-3, "g {}", tab.g());
+    assert!((sphere_moment(|m| tab.eval(m), 0) - 1.0).abs() < 1e-4);
+    assert!((tab.eval(1.0) - hg.eval(1.0)).abs() / hg.eval(1.0) < 2e-3);
+    histogram_matches(|u| tab.sample_cos_theta(u), |m| tab.eval(m), 101);
+}
+
+#[test]
+fn phase_function_enum_dispatches_to_both_kinds() {
+    use optics::phase::PhaseFunction;
+    let hg = HenyeyGreenstein { g: 0.4 };
+    let a = PhaseFunction::HenyeyGreenstein(hg);
+    let b = PhaseFunction::Tabulated(TabulatedPhase::from_fn(4001, |m| hg.eval(m)).unwrap());
+    assert!((a.g() - b.g()).abs() < 1e-4);
+    for k in 0..=10 {
+        let mu = -1.0 + 0.2 * k as f64;
+        assert!((a.eval(mu) - b.eval(mu)).abs() < 1e-4 * a.eval(mu));
+        let u = k as f64 / 10.0;
+        assert!((a.sample_cos_theta(u) - b.sample_cos_theta(u)).abs() < 1e-3, "u {u}");
+    }
+    let d = b.sample_direction([0.0, 1.0, 0.0], 0.3, 0.7);
+    assert!(((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - 1.0).abs() < 1e-12);
+}
