@@ -77,7 +77,10 @@ pub fn fresnel_complex_sp(cos_theta_i: f64, eta: Complex64) -> (f64, f64) {
     let rs = r_s.norm_sqr();
     let rp = r_p.norm_sqr();
     // At grazing incidence on an index-matched interface both numerator and denominator vanish.
-    (if rs.is_finite() { rs } else { 1.0 }, if rp.is_finite() { rp } else { 1.0 })
+    (
+        if rs.is_finite() { rs } else { 1.0 },
+        if rp.is_finite() { rp } else { 1.0 },
+    )
 }
 
 /// Unpolarised Fresnel reflectance for a complex relative index η = n' + i·n''

@@ -89,7 +89,11 @@ impl TabulatedPhase {
     /// 180°, e.g. `optics::media::PhaseTable`). Errors name the offending entry.
     pub fn new(mut cos_theta: Vec<f64>, mut value: Vec<f64>) -> Result<Self> {
         if cos_theta.len() != value.len() {
-            bail!("tabulated phase function: {} angles but {} values", cos_theta.len(), value.len());
+            bail!(
+                "tabulated phase function: {} angles but {} values",
+                cos_theta.len(),
+                value.len()
+            );
         }
         if cos_theta.len() >= 2 && cos_theta[0] > cos_theta[cos_theta.len() - 1] {
             cos_theta.reverse();
@@ -98,17 +102,24 @@ impl TabulatedPhase {
         if cos_theta.len() < 2 {
             bail!("tabulated phase function: needs at least 2 samples");
         }
-        if (cos_theta[0] + 1.0).abs() > 1e-9 || (cos_theta[cos_theta.len() - 1] - 1.0).abs() > 1e-9 {
+        if (cos_theta[0] + 1.0).abs() > 1e-9 || (cos_theta[cos_theta.len() - 1] - 1.0).abs() > 1e-9
+        {
             bail!("tabulated phase function: cos_theta must run from -1 to 1");
         }
         for (i, w) in cos_theta.windows(2).enumerate() {
             if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
-                bail!("tabulated phase function: cos_theta not strictly increasing at entry {}", i + 1);
+                bail!(
+                    "tabulated phase function: cos_theta not strictly increasing at entry {}",
+                    i + 1
+                );
             }
         }
         for (i, v) in value.iter().enumerate() {
             if !v.is_finite() || *v < 0.0 {
-                bail!("tabulated phase function: value {} at entry {i} is negative or not finite", v);
+                bail!(
+                    "tabulated phase function: value {} at entry {i} is negative or not finite",
+                    v
+                );
             }
         }
         // Trapezoid integral of the piecewise-linear function (exact for it).
@@ -143,7 +154,9 @@ impl TabulatedPhase {
     /// Tabulate any phase function `p(cos θ)` on `n` points uniformly spaced in cos θ.
     pub fn from_fn(n: usize, p: impl Fn(f64) -> f64) -> Result<Self> {
         let n = n.max(2);
-        let mu: Vec<f64> = (0..n).map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64).collect();
+        let mu: Vec<f64> = (0..n)
+            .map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64)
+            .collect();
         let v = mu.iter().map(|&m| p(m)).collect();
         Self::new(mu, v)
     }
@@ -178,7 +191,11 @@ impl TabulatedPhase {
         let b = self.value_per_sr[i + 1] * norm * h;
         let target = u - self.cdf[i]; // = a t + (b − a) t²/2
         let t = if (b - a).abs() < 1e-12 * (a + b).max(1e-300) {
-            if a > 0.0 { target / a } else { 0.5 }
+            if a > 0.0 {
+                target / a
+            } else {
+                0.5
+            }
         } else {
             // Solve (b−a)/2 t² + a t − target = 0, numerically stable root.
             let qa = 0.5 * (b - a);

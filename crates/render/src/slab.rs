@@ -41,10 +41,16 @@ impl Layer {
     pub fn validate(&self) -> Result<()> {
         let l = self;
         if !(l.mua_per_mm.is_finite() && l.mua_per_mm >= 0.0) {
-            bail!("absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)", l.mua_per_mm);
+            bail!(
+                "absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)",
+                l.mua_per_mm
+            );
         }
         if !(l.mus_per_mm.is_finite() && l.mus_per_mm >= 0.0) {
-            bail!("scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)", l.mus_per_mm);
+            bail!(
+                "scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)",
+                l.mus_per_mm
+            );
         }
         if !(l.g > -1.0 && l.g < 1.0) {
             bail!("anisotropy G = {} must lie in (-1, 1)", l.g);
@@ -197,7 +203,8 @@ impl SlabResult {
 
     /// Throughput per core: photon steps per second of CPU time (None if CPU time is unknown).
     pub fn photon_steps_per_cpu_s(&self) -> Option<f64> {
-        self.cpu_seconds.map(|c| self.photon_steps as f64 / c.max(1e-12))
+        self.cpu_seconds
+            .map(|c| self.photon_steps as f64 / c.max(1e-12))
     }
 }
 
@@ -208,9 +215,13 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     }
     let last = settings.layers.len() - 1;
     for (i, l) in settings.layers.iter().enumerate() {
-        l.validate().map_err(|e| anyhow::anyhow!("layer {}: {e}", i + 1))?;
+        l.validate()
+            .map_err(|e| anyhow::anyhow!("layer {}: {e}", i + 1))?;
         if l.thickness_mm.is_infinite() && i != last {
-            bail!("layer {}: only the last layer may be semi-infinite (THICKNESS_MM = inf)", i + 1);
+            bail!(
+                "layer {}: only the last layer may be semi-infinite (THICKNESS_MM = inf)",
+                i + 1
+            );
         }
     }
     for (name, n) in [("n-above", settings.n_above), ("n-below", settings.n_below)] {
@@ -222,19 +233,22 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
         bail!("photons must be at least 1");
     }
     if !(settings.incidence_deg >= 0.0 && settings.incidence_deg < 90.0) {
-        bail!("incidence-deg = {} must lie in [0, 90)", settings.incidence_deg);
+        bail!(
+            "incidence-deg = {} must lie in [0, 90)",
+            settings.incidence_deg
+        );
     }
     if let Some(g) = settings.line {
-        if g.bins == 0 {
-            bail!("line-bins must be at least 1");
+        if g.bins == 0 || g.bins > MAX_BINS {
+            bail!("line-bins = {} must be between 1 and {MAX_BINS}", g.bins);
         }
         if !(g.max_mm.is_finite() && g.max_mm > 0.0) {
             bail!("line-max-mm = {} must be finite and > 0", g.max_mm);
         }
     }
     if let Some(g) = settings.radial {
-        if g.bins == 0 {
-            bail!("radial-bins must be at least 1");
+        if g.bins == 0 || g.bins > MAX_BINS {
+            bail!("radial-bins = {} must be between 1 and {MAX_BINS}", g.bins);
         }
         if !(g.max_mm.is_finite() && g.max_mm > 0.0) {
             bail!("radial-max-mm = {} must be finite and > 0", g.max_mm);
@@ -245,6 +259,10 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
 
 /// Photons per independently seeded chunk (the unit of parallel work).
 const CHUNK: u64 = 1 << 13;
+/// Chunks run in parallel before their tallies are summed.
+const GROUP: u64 = 64;
+/// Most bins a histogram may have.
+pub const MAX_BINS: usize = 100_000;
 /// Russian roulette: packets below this weight survive with probability 1/ROULETTE_M.
 const WEIGHT_THRESHOLD: f64 = 1e-4;
 const ROULETTE_M: f64 = 10.0;
@@ -264,7 +282,10 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
     let line_max_mm = settings.line.map(|g| g.max_mm).unwrap_or(1.0);
     let dx_mm = 2.0 * line_max_mm / line_bins.max(1) as f64;
     let bins = settings.radial.map(|g| g.bins).unwrap_or(0);
-    let dr_mm = settings.radial.map(|g| g.max_mm / g.bins as f64).unwrap_or(1.0);
+    let dr_mm = settings
+        .radial
+        .map(|g| g.max_mm / g.bins as f64)
+        .unwrap_or(1.0);
     let ctx = Ctx {
         layers: &layers,
         w0: 1.0 - specular,
@@ -277,29 +298,33 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
     };
     let chunks = settings.photons.div_ceil(CHUNK);
     let start = Instant::now();
-    let parts: Vec<Tally> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let n = CHUNK.min(settings.photons - c * CHUNK);
-            let mut rng = Rng::new(settings.seed, c);
-            let mut t = Tally::new(layers.len(), bins, line_bins);
-            let cpu0 = thread_cpu_ns();
-            for _ in 0..n {
-                ctx.trace(&mut rng, &mut t);
-            }
-            t.cpu_ns = match (cpu0, thread_cpu_ns()) {
-                (Some(a), Some(b)) => Some(b.saturating_sub(a)),
-                _ => None,
-            };
-            t
-        })
-        .collect();
-    let seconds = start.elapsed().as_secs_f64();
-    // Sum in chunk order: deterministic whatever the scheduling.
+    let run_chunk = |c: u64| {
+        let n = CHUNK.min(settings.photons - c * CHUNK);
+        let mut rng = Rng::new(settings.seed, c);
+        let mut t = Tally::new(layers.len(), bins, line_bins);
+        let cpu0 = thread_cpu_ns();
+        for _ in 0..n {
+            ctx.trace(&mut rng, &mut t);
+        }
+        t.cpu_ns = match (cpu0, thread_cpu_ns()) {
+            (Some(a), Some(b)) => Some(b.saturating_sub(a)),
+            _ => None,
+        };
+        t
+    };
+    // Chunks run in parallel in groups (bounded memory for the histograms) and are summed in
+    // chunk order: the result is deterministic whatever the scheduling and thread count.
     let mut total = Tally::new(layers.len(), bins, line_bins);
-    for p in &parts {
-        total.add(p);
+    let mut first = 0;
+    while first < chunks {
+        let last = (first + GROUP).min(chunks);
+        let parts: Vec<Tally> = (first..last).into_par_iter().map(run_chunk).collect();
+        for p in &parts {
+            total.add(p);
+        }
+        first = last;
     }
+    let seconds = start.elapsed().as_secs_f64();
     let n = settings.photons as f64;
     let stderr = |s: f64, s2: f64| {
         if settings.photons < 2 {
@@ -319,20 +344,37 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
             rd.push(total.radial[k] / n / area);
             se.push(stderr(total.radial[k], total.radial_sq[k]) / area);
         }
-        RadialReflectance { r_mm, dr_mm, rd_per_mm2: rd, rd_per_mm2_stderr: se, rd_beyond_max: total.rd_beyond / n }
+        RadialReflectance {
+            r_mm,
+            dr_mm,
+            rd_per_mm2: rd,
+            rd_per_mm2_stderr: se,
+            rd_beyond_max: total.rd_beyond / n,
+        }
     });
     let line = settings.line.map(|g| {
         let area = dx_mm * dx_mm;
         LineReflectance {
-            x_mm: (0..g.bins).map(|k| -g.max_mm + (k as f64 + 0.5) * dx_mm).collect(),
+            x_mm: (0..g.bins)
+                .map(|k| -g.max_mm + (k as f64 + 0.5) * dx_mm)
+                .collect(),
             dx_mm,
             rd_per_mm2: total.line.iter().map(|v| v / n / area).collect(),
-            rd_per_mm2_stderr: total.line.iter().zip(&total.line_sq).map(|(v, v2)| stderr(*v, *v2) / area).collect(),
+            rd_per_mm2_stderr: total
+                .line
+                .iter()
+                .zip(&total.line_sq)
+                .map(|(v, v2)| stderr(*v, *v2) / area)
+                .collect(),
         }
     });
     Ok(SlabResult {
         line,
-        rd_centroid_x_mm: if total.rd > 0.0 { total.rd_x / total.rd } else { 0.0 },
+        rd_centroid_x_mm: if total.rd > 0.0 {
+            total.rd_x / total.rd
+        } else {
+            0.0
+        },
         specular,
         rd: total.rd / n,
         rd_stderr: stderr(total.rd, total.rd_sq),
@@ -378,12 +420,20 @@ fn prepare(s: &SlabSettings) -> Vec<LayerData> {
                 z0_mm: z,
                 z1_mm: z + l.thickness_mm,
                 mut_per_mm: mu_t,
-                inv_mut_mm: if mu_t > 0.0 { 1.0 / mu_t } else { f64::INFINITY },
+                inv_mut_mm: if mu_t > 0.0 {
+                    1.0 / mu_t
+                } else {
+                    f64::INFINITY
+                },
                 absorb_fraction: if mu_t > 0.0 { l.mua_per_mm / mu_t } else { 0.0 },
                 hg: HenyeyGreenstein { g: l.g },
                 n: l.n,
                 n_up: if i == 0 { s.n_above } else { s.layers[i - 1].n },
-                n_down: if i + 1 == count { s.n_below } else { s.layers[i + 1].n },
+                n_down: if i + 1 == count {
+                    s.n_below
+                } else {
+                    s.layers[i + 1].n
+                },
             };
             z += l.thickness_mm;
             d
@@ -515,7 +565,8 @@ impl Ctx<'_> {
                 absorbed += dw;
                 t.absorbed_layer[layer] += dw;
                 // Scatter (the same sampling code as the renderer's media).
-                [ux, uy, uz] = l.hg.sample_direction([ux, uy, uz], rng.uniform(), rng.uniform());
+                [ux, uy, uz] =
+                    l.hg.sample_direction([ux, uy, uz], rng.uniform(), rng.uniform());
                 if w < WEIGHT_THRESHOLD {
                     if rng.uniform() * ROULETTE_M < 1.0 {
                         t.roulette_gain += w * (ROULETTE_M - 1.0);
@@ -535,7 +586,11 @@ impl Ctx<'_> {
             // Move to the interface, keeping the unspent optical depth.
             x += db * ux;
             y += db * uy;
-            tau = if l.mut_per_mm > 0.0 { (tau - db * l.mut_per_mm).max(0.0) } else { tau };
+            tau = if l.mut_per_mm > 0.0 {
+                (tau - db * l.mut_per_mm).max(0.0)
+            } else {
+                tau
+            };
             let up = uz < 0.0;
             z = if up { l.z0_mm } else { l.z1_mm };
             let n_t = if up { l.n_up } else { l.n_down };
@@ -615,7 +670,9 @@ impl Rng {
             z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             z ^ (z >> 31)
         };
-        Rng { s: [next(), next(), next(), next()] }
+        Rng {
+            s: [next(), next(), next(), next()],
+        }
     }
 
     #[inline(always)]
@@ -651,11 +708,18 @@ fn thread_cpu_ns() -> Option<u64> {
 pub fn benchmark_steps_per_s(photons: u64) -> Result<f64> {
     let settings = SlabSettings {
         photons: photons.max(1),
-        ..SlabSettings::new(vec![Layer { mua_per_mm: 0.1, mus_per_mm: 0.9, g: 0.0, n: 1.5, thickness_mm: f64::INFINITY }])
+        ..SlabSettings::new(vec![Layer {
+            mua_per_mm: 0.1,
+            mus_per_mm: 0.9,
+            g: 0.0,
+            n: 1.5,
+            thickness_mm: f64::INFINITY,
+        }])
     };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let r = pool.install(|| simulate(&settings))?;
-    Ok(r.photon_steps_per_cpu_s().unwrap_or_else(|| r.photon_steps_per_s()))
+    Ok(r.photon_steps_per_cpu_s()
+        .unwrap_or_else(|| r.photon_steps_per_s()))
 }
 
 #[cfg(test)]
