@@ -12,6 +12,15 @@
 //! Units: lengths in millimetres and coefficients in mm⁻¹ (the conventional units of tissue
 //! optics, and those of the `lucent slab` command); every field names its unit.
 //!
+//! Validation (seed 1; see `tests/slab.rs` for the fast versions with 3σ tolerances):
+//!
+//! | case | published | lucent slab |
+//! |---|---|---|
+//! | n = 1, μa = 1, μs = 9 mm⁻¹, g = 0.75, d = 0.2 mm: R_d (van de Hulst, via MCML) | 0.09739 | 0.09748 ± 0.00007 (10⁷ photons) |
+//! | same: T_t | 0.66096 | 0.66088 ± 0.00010 |
+//! | semi-infinite, n = 1.5, albedo 0.9, g = 0: R_sp + R_d (Giovanelli 1955) | 0.2600 | 0.25995 ± 0.00013 (5·10⁶) |
+//! | semi-infinite, n = 1, albedo 0.9, g = 0: 1 − H(1)√(1−a) (Chandrasekhar) | 0.41495 | 0.41488 ± 0.00035 (10⁶) |
+//!
 //! Geometry: z points down into the stack; layer 0 is on top, between the ambient medium
 //! above (index `n_above`) and layer 1; the last layer may be semi-infinite.
 
