@@ -566,3 +566,27 @@ fn radial_reflectance_far_from_the_source_matches_the_dipole() {
         var.sqrt()
     );
 }
+
+#[test]
+fn clear_index_matched_cover_changes_nothing() {
+    // A non-scattering, non-absorbing cover of the same index as the medium below only
+    // shifts the paths laterally: no optical depth is spent in it and no random number is
+    // drawn at the matched interface, so R_d is the same (to rounding) as without it.
+    let medium = layer(0.1, 0.9, 0.0, 1.5, f64::INFINITY);
+    let bare = run(vec![medium], 1.0, 1.0, 30_000, 25);
+    let covered = run(
+        vec![layer(0.0, 0.0, 0.0, 1.5, 1.0), medium],
+        1.0,
+        1.0,
+        30_000,
+        25,
+    );
+    assert_eq!(bare.specular, covered.specular);
+    assert!(
+        (bare.rd - covered.rd).abs() < 1e-9,
+        "{} vs {}",
+        bare.rd,
+        covered.rd
+    );
+    assert!(covered.absorbed_per_layer[0] == 0.0);
+}
