@@ -104,7 +104,7 @@ pub fn fresnel_complex_transmittance(cos_theta_i: f64, eta: Complex64) -> f64 {
 /// medium of index n_i at cos θ_i = μ and η = n_t / n_i. Computed by numerical quadrature
 /// (composite Gauss–Legendre, with the total-internal-reflection part integrated exactly
 /// and the square-root kink at the critical angle removed by a change of variable),
-/// accurate to about 1e-12.
+/// accurate to about 1e-12. Returns NaN unless `eta` is finite and positive.
 ///
 /// Consequences: the diffuse (cosine-weighted hemispherical) Fresnel reflectance is
 /// F_dr(η) = 2·C_1(η); the boundary terms of the dipole models are C_φ = (1 − 2C_1)/4 and
@@ -112,7 +112,9 @@ pub fn fresnel_complex_transmittance(cos_theta_i: f64, eta: Complex64) -> f64 {
 /// hitting the boundary has η = 1/n (e.g. Jensen et al. 2001's F_dr(n) ≈ 2·C_1(1/n), the
 /// Egan–Hilgeman fit), and light arriving from outside has η = n.
 pub fn fresnel_moment(order: u32, eta: f64) -> f64 {
-    assert!(eta > 0.0, "fresnel_moment: eta must be positive");
+    if !(eta.is_finite() && eta > 0.0) {
+        return f64::NAN; // callers validate user input; never panic here
+    }
     let p = order as i32;
     let f = |mu: f64| fresnel_dielectric(mu, eta) * mu.powi(p);
     if eta < 1.0 {

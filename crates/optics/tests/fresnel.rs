@@ -248,3 +248,10 @@ fn diffuse_reflectance_matches_egan_hilgeman() {
     // External: diffuse light from air onto glass reflects ≈ 9.2 %.
     assert!(close(fresnel_diffuse_reflectance(1.5), 0.092, 0.001));
 }
+
+#[test]
+fn invalid_relative_index_gives_nan_not_a_panic() {
+    assert!(fresnel_moment(1, 0.0).is_nan());
+    assert!(fresnel_moment(1, -1.5).is_nan());
+    assert!(fresnel_moment(2, f64::NAN).is_nan());
+}
