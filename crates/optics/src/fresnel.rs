@@ -104,7 +104,8 @@ pub fn fresnel_complex_transmittance(cos_theta_i: f64, eta: Complex64) -> f64 {
 /// medium of index n_i at cos θ_i = μ and η = n_t / n_i. Computed by numerical quadrature
 /// (composite Gauss–Legendre, with the total-internal-reflection part integrated exactly
 /// and the square-root kink at the critical angle removed by a change of variable),
-/// accurate to about 1e-12. Returns NaN unless `eta` is finite and positive.
+/// accurate to better than 1e-8 (checked against a 2-million-point midpoint rule in the tests).
+/// Returns NaN unless `eta` is finite and positive.
 ///
 /// Consequences: the diffuse (cosine-weighted hemispherical) Fresnel reflectance is
 /// F_dr(η) = 2·C_1(η); the boundary terms of the dipole models are C_φ = (1 − 2C_1)/4 and
