@@ -6,8 +6,9 @@
 //! q = min(max throughput, 0.95) and its throughput is divided by q.
 //!
 //! - `ao`: at the first hit, one cosine-weighted direction about the shading normal; the value is
-//!   spectral radiance 1 when that direction is not blocked within the scene's `ao_distance`
-//!   (so an unoccluded point shows Y = 1), else 0. Rays that miss everything give 0.
+//!   1 when that direction is not blocked within the scene's `ao_distance`, else 0, written as
+//!   equal-energy white with Y = value (an unoccluded point shows Y = 1 exactly). Rays that miss
+//!   everything give 0.
 //! - `direct`: emission seen by the camera ray plus one light sample (lights chosen in proportion
 //!   to power, a point chosen on the light, visibility tested) at the first hit — light sampling
 //!   only, the tutorial's soft-shadow estimator.
@@ -78,14 +79,21 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
 /// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
 #[inline]
 pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
-    let wl = SampledWavelengths::sample(rng.next_f32());
+    let u_lambda = rng.next_f32();
     let ray = scene.camera.generate_ray(i, j, rng.next_2d());
-    let l = match settings.kind {
-        IntegratorKind::Path => li_path(scene, settings, ray, &wl, rng),
-        IntegratorKind::Direct => li_direct(scene, ray, &wl, rng),
-        IntegratorKind::Ao => li_ao(scene, ray, rng),
+    let xyz = match settings.kind {
+        IntegratorKind::Ao => {
+            // Visibility is wavelength-independent: report it as equal-energy white with Y = v.
+            let v = ao_visibility(scene, ray, rng);
+            let w = equal_energy_white();
+            [w[0] * v, w[1] * v, w[2] * v]
+        }
+        kind => {
+            let wl = SampledWavelengths::sample(u_lambda);
+            let l = if kind == IntegratorKind::Path { li_path(scene, settings, ray, &wl, rng) } else { li_direct(scene, ray, &wl, rng) };
+            wl.to_xyz(l)
+        }
     };
-    let xyz = wl.to_xyz(l);
     if xyz.iter().all(|c| c.is_finite()) {
         xyz
     } else {
@@ -258,21 +266,30 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
 }
 
 /// Ambient occlusion: 1 if a cosine-distributed direction at the first hit escapes within the
-/// scene's AO distance, else 0.
-pub fn li_ao(scene: &Scene, ray: Ray, rng: &mut Pcg32) -> SampledSpectrum {
-    let Some(hit) = scene.accel.intersect(&ray) else { return Vec4::ZERO };
+/// scene's AO distance, else 0 (0 also when the camera ray misses everything).
+pub fn ao_visibility(scene: &Scene, ray: Ray, rng: &mut Pcg32) -> f32 {
+    let Some(hit) = scene.accel.intersect(&ray) else { return 0.0 };
     let s = shade(scene, &ray, &hit);
     let d = s.frame.to_world(cosine_hemisphere(rng.next_2d()));
     if d.dot(s.ng) <= 0.0 {
-        return Vec4::ZERO;
+        return 0.0;
     }
     let mut r = spawn(scene, &s, d);
     r.t_max = scene.ao_distance_m;
     if scene.accel.occluded(&r) {
-        Vec4::ZERO
+        0.0
     } else {
-        Vec4::ONE
+        1.0
     }
+}
+
+/// CIE XYZ of the equal-energy spectrum normalised to Y = 1 (the colour `ao` reports).
+pub fn equal_energy_white() -> [f32; 3] {
+    static W: std::sync::OnceLock<[f32; 3]> = std::sync::OnceLock::new();
+    *W.get_or_init(|| {
+        let x = crate::spectral::xyz_of(|_| 1.0);
+        [(x[0] / x[1]) as f32, 1.0, (x[2] / x[1]) as f32]
+    })
 }
 
 /// Samples per second (millions) of `path` on the built-in Cornell box at `width`×`height`,

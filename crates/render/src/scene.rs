@@ -476,12 +476,12 @@ impl SpectrumCx<'_> {
 
 /// Reflectance spectrum (≤ 1 everywhere) for a linear-sRGB albedo.
 fn rgb_albedo(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
-    Ok(optics::spectrum::Spectrum::RgbAlbedo(optics::spectrum::RgbAlbedo::new(rgb)?))
+    Ok(optics::spectrum::Spectrum::RgbAlbedo(optics::spectrum::RgbAlbedo::new(rgb)))
 }
 
 /// Emission spectrum for a linear-sRGB radiance (D65 white for equal components).
 fn rgb_illuminant(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
-    Ok(optics::spectrum::Spectrum::RgbIlluminant(optics::spectrum::RgbIlluminant::new(rgb)?))
+    Ok(optics::spectrum::Spectrum::RgbIlluminant(optics::spectrum::RgbIlluminant::new(rgb)))
 }
 
 // ---------------------------------------------------------------------------------------------
