@@ -39,18 +39,52 @@ pub enum Emitter {
 /// A light source.
 #[derive(Clone, Debug)]
 pub enum Light {
-    /// Isotropic point source of spectral intensity `intensity` (W·sr⁻¹·nm⁻¹).
-    Point { position: Vec3, intensity: DenseSpectrum },
+    /// Isotropic point source.
+    Point {
+        /// Position (m).
+        position: Vec3,
+        /// Spectral intensity (W·sr⁻¹·nm⁻¹).
+        intensity: DenseSpectrum,
+    },
     /// Spot light: intensity along the axis, smooth (smoothstep in cos θ) falloff from
     /// `cos_falloff_start` to zero at `cos_total`.
-    Spot { position: Vec3, frame: Frame, cos_total: f32, cos_falloff_start: f32, intensity: DenseSpectrum },
-    /// Distant source: light travels along `direction` (unit) with spectral irradiance `irradiance`.
-    Directional { direction: Vec3, irradiance: DenseSpectrum },
-    /// Diffuse emitter on the surface of scene object `object`, spectral radiance `radiance`,
-    /// emitting on the side of the geometric normal only unless `two_sided`.
-    Area { object: u32, emitter: Emitter, area_m2: f32, radiance: DenseSpectrum, two_sided: bool },
-    /// Radiance `radiance` arriving from every direction not blocked by the scene.
-    Environment { radiance: DenseSpectrum },
+    Spot {
+        /// Position (m).
+        position: Vec3,
+        /// Frame whose normal is the spot's axis.
+        frame: Frame,
+        /// Cosine of the total cone half-angle.
+        cos_total: f32,
+        /// Cosine of the half-angle where the falloff starts.
+        cos_falloff_start: f32,
+        /// Spectral intensity on the axis (W·sr⁻¹·nm⁻¹).
+        intensity: DenseSpectrum,
+    },
+    /// Distant source.
+    Directional {
+        /// Unit direction in which the light travels.
+        direction: Vec3,
+        /// Spectral irradiance on a surface perpendicular to it (W·m⁻²·nm⁻¹).
+        irradiance: DenseSpectrum,
+    },
+    /// Diffuse emitter on the surface of a scene object.
+    Area {
+        /// Index of the emitting object in the scene.
+        object: u32,
+        /// Its surface.
+        emitter: Emitter,
+        /// Emitting area (m²).
+        area_m2: f32,
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
+        radiance: DenseSpectrum,
+        /// Whether it emits on both sides (else only on the side of the geometric normal).
+        two_sided: bool,
+    },
+    /// Radiance arriving from every direction not blocked by the scene.
+    Environment {
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
+        radiance: DenseSpectrum,
+    },
 }
 
 /// A sample of incident light at a shading point.
