@@ -15,6 +15,9 @@
 //! - `path`: unidirectional path tracing; at every vertex one light sample and one BSDF sample,
 //!   combined by multiple importance sampling with the power heuristic (Veach 1997).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::bvh::Hit;
 use crate::geometry::Ray;
 use crate::material::Bsdf;

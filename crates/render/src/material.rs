@@ -8,6 +8,9 @@
 //! reports whether it is a delta lobe (no light sampling, no MIS), whether it transmits (the path
 //! changes side and medium) and the relative index of refraction it crossed.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec2, Vec3, Vec4};
