@@ -57,6 +57,9 @@ pub struct BsdfSample {
     pub transmission: bool,
     /// Relative index of refraction η_t/η_i crossed by a transmission (1 for reflection).
     pub eta: f32,
+    /// The lobe depends on wavelength in direction (dispersion): the path keeps only its hero
+    /// wavelength from here on ([`SampledWavelengths::terminate_secondary`]).
+    pub terminate_secondary: bool,
 }
 
 impl Material {
@@ -137,7 +140,7 @@ impl Bsdf {
                 if pdf <= 0.0 {
                     return None;
                 }
-                Some(BsdfSample { wi, f: *r * FRAC_1_PI, pdf, delta: false, transmission: false, eta: 1.0 })
+                Some(BsdfSample { wi, f: *r * FRAC_1_PI, pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
             }
             Bsdf::Black => None,
         }
