@@ -217,3 +217,25 @@ fn missing_scene_file_is_an_error_naming_it() {
     let e = format!("{:#}", Scene::load(Path::new("/no/such/scene.toml")).err().unwrap());
     assert!(e.contains("/no/such/scene.toml") && !e.contains('\n'), "{e}");
 }
+
+#[test]
+fn obj_groups_are_selected_by_name() {
+    let obj = "../crates/render/data/cornell-box/cbox.obj";
+    let t = MINIMAL.replace(
+        "sphere = { center = [0, 0, 0], radius = 1 }",
+        &format!("mesh = \"{obj}\"\ngroup = \"tallblock\"\ntransform = {{ translate = [0, 10, 0] }}"),
+    );
+    let s = parse(&t).unwrap_or_else(|e| panic!("{e:#}"));
+    let Shape::Mesh(m) = s.accel.shape(0) else { panic!() };
+    assert_eq!(m.indices.len(), 10); // 5 quads
+    let ymax = m.positions.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    assert!((ymax - 0.340).abs() < 1e-6, "{ymax}"); // 330 mm + 10 mm
+    // Without a group, all 16 quads of the file form one object.
+    let t = MINIMAL.replace("sphere = { center = [0, 0, 0], radius = 1 }", &format!("mesh = \"{obj}\""));
+    let Shape::Mesh(m) = parse(&t).unwrap().accel.shape(0).clone() else { panic!() };
+    assert_eq!(m.indices.len(), 32);
+    fails_with(
+        &MINIMAL.replace("sphere = { center = [0, 0, 0], radius = 1 }", &format!("mesh = \"{obj}\"\ngroup = \"teapot\"")),
+        &["objects[0] (ball).group", "teapot", "tallblock"],
+    );
+}
