@@ -239,3 +239,21 @@ fn obj_groups_are_selected_by_name() {
         &["objects[0] (ball).group", "teapot", "tallblock"],
     );
 }
+
+#[test]
+fn content_hash_covers_the_files_a_scene_reads_and_the_resolution() {
+    let dir = std::env::temp_dir().join(format!("lucent-scene-hash-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = MINIMAL.replace("radiance = 1", "radiance = { csv = \"lamp.csv\" }");
+    std::fs::write(dir.join("s.toml"), &scene).unwrap();
+    std::fs::write(dir.join("lamp.csv"), "wavelength_nm,value\n400,1\n700,2\n").unwrap();
+    let mut a = Scene::load(&dir.join("s.toml")).unwrap();
+    let h1 = a.content_hash();
+    assert_eq!(h1, Scene::load(&dir.join("s.toml")).unwrap().content_hash());
+    std::fs::write(dir.join("lamp.csv"), "wavelength_nm,value\n400,1\n700,2.5\n").unwrap();
+    let h2 = Scene::load(&dir.join("s.toml")).unwrap().content_hash();
+    a.set_resolution(9, 8);
+    let h3 = a.content_hash();
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(h1 != h2 && h1 != h3 && h2 != h3);
+}
