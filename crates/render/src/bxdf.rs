@@ -15,8 +15,8 @@
 //!   `TerminateSecondary`), see [`crate::material::Bsdf::terminates_secondary`].
 //! * Transmission values are for *radiance* transport (camera paths): f_t carries the factor
 //!   1/η'² with η' = n_(wi side)/n_(wo side) (Veach 1997 §5.2; pbrt-v4 `TransportMode::Radiance`).
-//!   The generalised reciprocity is then f(wo, wi)/n_(wo side)²… = f(wi, wo)/n_(wi side)²: i.e.
-//!   f(wo→wi)·n_(wi side)² = f(wi→wo)·n_(wo side)².
+//!   The generalised reciprocity (Veach 1997 eq. 5.14) is then
+//!   f(wo, wi)/n_(wo side)² = f(wi, wo)/n_(wi side)².
 //! * Rough transmission is Walter et al. 2007 ("Microfacet models for refraction through rough
 //!   surfaces") with the generalised half vector m ∝ η_i wi + η_o wo, height-correlated Smith G2.
 //! * Conductors use the complex index η + i k per wavelength (relative to the outside medium)

@@ -196,6 +196,35 @@ mod tests {
         }
     }
 
+    /// Smith's Λ is consistent with D: the projected area of the visible microsurface equals that
+    /// of the macrosurface, ∫ G1(w) max(0, w·m) D(m) dm = cos θ_w (Heitz 2014 eq. 18), by quadrature.
+    #[test]
+    fn visible_projected_area_is_cos_theta() {
+        for (ax, ay) in [(0.2f32, 0.2f32), (0.6, 0.6), (0.15, 0.5), (1.0, 1.0)] {
+            let d = TrowbridgeReitz { alpha_x: ax, alpha_y: ay };
+            for w in [Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.3, 0.8, 0.3), Vec3::new(-0.9, 0.3, 0.15)] {
+                let w = w.normalize();
+                let (nt, np) = (3000, 512);
+                let tmax = 1000.0f64;
+                let mut sum = 0.0f64;
+                for i in 0..nt {
+                    let s = (i as f64 + 0.5) / nt as f64;
+                    let t = tmax * s * s;
+                    let dth = tmax * 2.0 * s / nt as f64 / (1.0 + t * t);
+                    let th = t.atan();
+                    for j in 0..np {
+                        let ph = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
+                        let m = Vec3::new((th.sin() * ph.cos()) as f32, (th.sin() * ph.sin()) as f32, th.cos() as f32);
+                        let wm = w.dot(m).max(0.0) as f64;
+                        sum += d.d(m) as f64 * wm * th.sin() * dth * 2.0 * std::f64::consts::PI / np as f64;
+                    }
+                }
+                let v = sum * d.g1(w) as f64;
+                assert!((v - w.z as f64).abs() < 3e-3, "({ax},{ay}) w {w}: {v} vs {}", w.z);
+            }
+        }
+    }
+
     /// Sampled visible normals are unit, on the upper side and never back-facing to w.
     #[test]
     fn visible_normals_face_the_viewer() {
