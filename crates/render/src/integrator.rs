@@ -27,18 +27,22 @@ use rayon::prelude::*;
 /// Which light-transport estimator to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum IntegratorKind {
+    /// Unidirectional path tracing with next-event estimation, MIS and Russian roulette.
     Path,
+    /// Emission plus one light sample at the first hit (soft shadows, no indirect light).
     Direct,
+    /// Ambient occlusion by cosine-weighted hemisphere sampling.
     Ao,
 }
 
 /// Settings of an integrator (Mitsuba's defaults for `path`: 8 bounces, Russian roulette from the 5th).
 #[derive(Clone, Debug)]
 pub struct IntegratorSettings {
+    /// The estimator.
     pub kind: IntegratorKind,
-    /// Longest path in bounces.
+    /// Longest path in segments (1: emitters seen directly, 2: direct lighting; Mitsuba's `max_depth`).
     pub max_depth: u32,
-    /// Russian roulette starts at this depth.
+    /// Russian roulette starts once a path has this many segments (Mitsuba's `rr_depth`).
     pub rr_depth: u32,
 }
 

@@ -157,8 +157,10 @@ impl Scene {
     /// Index of the light chosen for next-event estimation with uniform `u`, and its probability.
     #[inline]
     pub fn pick_light(&self, u: f32) -> Option<(usize, f32)> {
-        if self.lights.is_empty() {
-            return None;
+        match self.lights.len() {
+            0 => return None,
+            1 => return Some((0, 1.0)),
+            _ => {}
         }
         let (i, _) = crate::sampling::sample_cdf(&self.light_cdf, u);
         Some((i, self.light_pmf[i]))
