@@ -131,6 +131,25 @@ impl Material {
         Material::Plastic { albedo, ior, alpha, table: CoatingTable::get(alpha, ior) }
     }
 
+    /// The BSDF for a hit on the front (`front_face`, the side the geometric normal points to) or
+    /// back face, with the wavelength bookkeeping the integrators need: a dispersive dielectric
+    /// terminates the secondary wavelengths of `wl` (their pdf becomes 0, the hero's is divided by
+    /// 4) before its η is taken at the hero wavelength. Equivalent to [`Material::bsdf`] followed
+    /// by [`Bsdf::from_inside`] for back faces and `wl.terminate_secondary()` when
+    /// [`Bsdf::terminates_secondary`].
+    #[inline]
+    pub fn bsdf_at(&self, wl: &mut SampledWavelengths, front_face: bool) -> Bsdf {
+        let b = self.bsdf(wl);
+        if b.terminates_secondary() {
+            wl.terminate_secondary();
+        }
+        if front_face {
+            b
+        } else {
+            b.from_inside()
+        }
+    }
+
     /// The BSDF of this material at the wavelengths `wl`, for a hit on the FRONT (outside) face;
     /// for a hit from inside use [`Bsdf::from_inside`] on the result.
     #[inline]

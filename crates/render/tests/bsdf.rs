@@ -586,3 +586,71 @@ fn gold_normal_incidence_reflectance() {
     acc /= n as f32;
     assert!((acc - r).abs().max_element() < 5e-3, "{acc} vs {r}");
 }
+
+/// Follows a path through a unit sphere of `material` (centred at the origin) under a uniform
+/// environment of radiance 1, using `Material::bsdf_at` with the front/back-face convention the
+/// integrators use (shading z on the side of wo). Returns (throughput at escape, wavelengths).
+fn trace_sphere(material: &Material, mut o: Vec3, mut d: Vec3, rng: &mut Pcg32) -> (Vec4, SampledWavelengths) {
+    let mut wl = SampledWavelengths::sample(rng.next_f32());
+    let mut beta = Vec4::ONE;
+    for _ in 0..1000 {
+        // Ray–sphere: |o + t d|² = 1, nearest t > ε.
+        let b = o.dot(d);
+        let c = o.length_squared() - 1.0;
+        let disc = b * b - c;
+        if disc <= 0.0 {
+            return (beta, wl);
+        }
+        let sq = disc.sqrt();
+        let t = if -b - sq > 1e-4 { -b - sq } else { -b + sq };
+        if t <= 1e-4 {
+            return (beta, wl);
+        }
+        let p = o + t * d;
+        let ng = p.normalize();
+        let front = d.dot(ng) < 0.0;
+        let n = if front { ng } else { -ng };
+        let frame = render::sampling::Frame::from_normal(n);
+        let bsdf = material.bsdf_at(&mut wl, front);
+        let wo = frame.to_local(-d);
+        let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else { return (Vec4::ZERO, wl) };
+        beta *= s.f * s.wi.z.abs() / s.pdf;
+        d = frame.to_world(s.wi).normalize();
+        o = p;
+    }
+    (Vec4::ZERO, wl)
+}
+
+#[test]
+fn glass_sphere_furnace_through_material_interface() {
+    // A non-absorbing smooth glass sphere under a uniform environment of radiance 1 is invisible:
+    // every path that escapes carries weight exactly 1 (the 1/η² radiance compression on the way
+    // in is undone on the way out; TIR reflections have weight 1). Without the back-face η → 1/η
+    // (`from_inside`) the weight would be 1/η⁴ after two crossings. For dispersive BK7 the
+    // secondary wavelengths are terminated and the hero keeps weight 1.
+    let mut rng = Pcg32::new(31, 7);
+    for (name, ior) in [("1.5", None), ("bk7", Some(optics::ior::glass("bk7").unwrap()))] {
+        let spectrum = match ior {
+            None => optics::spectrum::DenseSpectrum::from_fn(|_| 1.5),
+            Some(g) => optics::spectrum::DenseSpectrum::from_fn(move |l| g.n(l)),
+        };
+        let m = Material::dielectric(spectrum, TrowbridgeReitz::isotropic(0.0));
+        let mut crossed = 0;
+        for k in 0..5000 {
+            // Rays from z = −3 towards random points of the unit disk's cross-section.
+            let r = (k as f32 + 0.5) / 5000.0;
+            let target = Vec3::new(r.sqrt() * 0.999, 0.0, 0.0);
+            let o = Vec3::new(0.0, 0.0, -3.0);
+            let (beta, wl) = trace_sphere(&m, o, (target - o).normalize(), &mut rng);
+            assert!((beta.x - 1.0).abs() < 1e-3, "{name}: hero weight {}", beta.x);
+            if name == "1.5" {
+                assert!((beta - Vec4::ONE).abs().max_element() < 1e-3, "{name}: {beta}");
+                assert!(!wl.secondary_terminated());
+            } else {
+                assert!(wl.secondary_terminated(), "a BK7 hit must terminate the secondary wavelengths");
+                crossed += 1;
+            }
+        }
+        assert!(name == "1.5" || crossed == 5000);
+    }
+}
