@@ -6,7 +6,7 @@
 
 use crate::spectrum::{read_csv_columns, Tabulated};
 use anyhow::{bail, Context, Result};
-use num_complex::Complex64;
+pub use num_complex::Complex64;
 
 const GLASS_CSV: &str = include_str!("../data/ior/glass_sellmeier.csv");
 const METALS: &[(&str, &str, &str)] = &[

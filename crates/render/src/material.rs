@@ -161,7 +161,8 @@ impl Material {
                 // One real η per lobe: the hero wavelength's (pbrt-v4's convention for dispersion).
                 let eta = ior.eval(wl.lambda_nm[0]);
                 let dispersive = *dispersive && !wl.secondary_terminated();
-                if distrib.effectively_smooth() {
+                // An index-matched rough interface does not bend light: it is the smooth pass-through.
+                if distrib.effectively_smooth() || eta == 1.0 {
                     Bsdf::SmoothDielectric { lobe: SmoothDielectric { eta }, dispersive }
                 } else {
                     Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: *distrib, eta }, dispersive }

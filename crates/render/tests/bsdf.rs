@@ -654,3 +654,35 @@ fn glass_sphere_furnace_through_material_interface() {
         assert!(name == "1.5" || crossed == 5000);
     }
 }
+
+#[test]
+fn conductor_fresnel_real_form_matches_complex_arithmetic() {
+    // Two independent implementations: the renderer's 4-lane real formula and optics' complex one.
+    for metal in optics::ior::METAL_NAMES {
+        let t = optics::ior::metal(metal).unwrap();
+        let l = [380.0f32, 500.0, 620.0, 800.0];
+        let eta = Vec4::from_array(l.map(|x| t.eta_k(x as f64).0 as f32));
+        let k = Vec4::from_array(l.map(|x| t.eta_k(x as f64).1 as f32));
+        for i in 0..=50 {
+            let c = i as f32 / 50.0;
+            let r = render::bxdf::fresnel_conductor(c, eta, k);
+            for j in 0..4 {
+                let z = complex_index(eta[j] as f64, k[j] as f64);
+                let e = optics::fresnel::fresnel_complex(c as f64, z);
+                assert!((r[j] as f64 - e).abs() < 2e-5, "{metal} λ {} cos {c}: {} vs {e}", l[j], r[j]);
+            }
+        }
+    }
+    // A dielectric is the k = 0 limit: equals the dielectric Fresnel formula.
+    for i in 0..=20 {
+        let c = i as f32 / 20.0;
+        let r = render::bxdf::fresnel_conductor(c, Vec4::splat(1.5), Vec4::ZERO).x as f64;
+        let e = optics::fresnel::fresnel_dielectric(c as f64, 1.5);
+        assert!((r - e).abs() < 2e-5, "cos {c}: {r} vs {e}");
+    }
+}
+
+/// η + ik as the complex type `optics::fresnel` takes (re-exported through `optics::ior`).
+fn complex_index(eta: f64, k: f64) -> optics::ior::Complex64 {
+    optics::ior::Complex64::new(eta, k)
+}
