@@ -11,8 +11,9 @@
 //! Conventions:
 //! * `eta` of a dielectric is the relative index n_inside/n_outside at the wavelength(s) carried.
 //!   A lobe has ONE real η: for a dispersive glass the material evaluates η at the hero
-//!   wavelength and the integrator must terminate the secondary wavelengths (pbrt-v4's
-//!   `TerminateSecondary`), see [`crate::material::Bsdf::terminates_secondary`].
+//!   wavelength and the secondary wavelengths must be terminated (pbrt-v4's
+//!   `TerminateSecondary`): [`crate::material::Material::bsdf_at`] does it when the BSDF is made,
+//!   and every sample of such a lobe has `terminate_secondary` set.
 //! * Transmission values are for *radiance* transport (camera paths): f_t carries the factor
 //!   1/η'² with η' = n_(wi side)/n_(wo side) (Veach 1997 §5.2; pbrt-v4 `TransportMode::Radiance`).
 //!   The generalised reciprocity (Veach 1997 eq. 5.14) is then
@@ -129,14 +130,14 @@ impl SmoothDielectric {
         if uc < r / (r + t) {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             let f = r / wi.z.abs();
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf: r / (r + t), delta: true, transmission: false, eta: 1.0 })
+            Some(BsdfSample { wi, f: Vec4::splat(f), pdf: r / (r + t), delta: true, transmission: false, eta: 1.0, terminate_secondary: false })
         } else {
             let (wi, etap) = refract(wo, Vec3::Z, self.eta)?;
             if wi.z == 0.0 || same_hemisphere(wo, wi) {
                 return None;
             }
             let f = t / wi.z.abs() / (etap * etap);
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf: t / (r + t), delta: true, transmission: true, eta: etap })
+            Some(BsdfSample { wi, f: Vec4::splat(f), pdf: t / (r + t), delta: true, transmission: true, eta: etap, terminate_secondary: false })
         }
     }
 }
@@ -231,7 +232,7 @@ impl RoughDielectric {
             if !(pdf > 0.0) {
                 return None;
             }
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf, delta: false, transmission: false, eta: 1.0 })
+            Some(BsdfSample { wi, f: Vec4::splat(f), pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
         } else {
             let (wi, etap) = refract(wo, wm, self.eta)?;
             if same_hemisphere(wo, wi) || wi.z == 0.0 {
@@ -244,7 +245,7 @@ impl RoughDielectric {
             if !(pdf > 0.0) || !f.is_finite() {
                 return None;
             }
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf, delta: false, transmission: true, eta: etap })
+            Some(BsdfSample { wi, f: Vec4::splat(f), pdf, delta: false, transmission: true, eta: etap, terminate_secondary: false })
         }
     }
 }
@@ -278,7 +279,7 @@ impl SmoothConductor {
         }
         let wi = Vec3::new(-wo.x, -wo.y, wo.z);
         let f = fresnel_conductor(wi.z, self.eta, self.k) / wi.z.abs();
-        Some(BsdfSample { wi, f, pdf: 1.0, delta: true, transmission: false, eta: 1.0 })
+        Some(BsdfSample { wi, f, pdf: 1.0, delta: true, transmission: false, eta: 1.0, terminate_secondary: false })
     }
 }
 
@@ -342,7 +343,7 @@ impl RoughConductor {
             return None;
         }
         let f = fresnel_conductor(wou.dot(wm), self.eta, self.k) * (self.distrib.d(wm) * self.distrib.g(wou, wiu) / (4.0 * wou.z * wiu.z));
-        Some(BsdfSample { wi: flip_z(wiu, flip), f, pdf, delta: false, transmission: false, eta: 1.0 })
+        Some(BsdfSample { wi: flip_z(wiu, flip), f, pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
     }
 }
 
@@ -527,7 +528,7 @@ impl CoatedDiffuse {
             if self.smooth() {
                 let wi = Vec3::new(-wou.x, -wou.y, wou.z);
                 let f = fresnel_dielectric(wou.z, self.eta) / wi.z;
-                return Some(BsdfSample { wi: flip_z(wi, flip), f: Vec4::splat(f), pdf: ps, delta: true, transmission: false, eta: 1.0 });
+                return Some(BsdfSample { wi: flip_z(wi, flip), f: Vec4::splat(f), pdf: ps, delta: true, transmission: false, eta: 1.0, terminate_secondary: false });
             }
             let wm = self.distrib.sample_visible_normal(wou, u);
             reflect(wou, wm)
@@ -541,6 +542,6 @@ impl CoatedDiffuse {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample { wi: flip_z(wiu, flip), f: self.eval(wou, wiu), pdf, delta: false, transmission: false, eta: 1.0 })
+        Some(BsdfSample { wi: flip_z(wiu, flip), f: self.eval(wou, wiu), pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
     }
 }

@@ -15,6 +15,9 @@
 //! - `path`: unidirectional path tracing; at every vertex one light sample and one BSDF sample,
 //!   combined by multiple importance sampling with the power heuristic (Veach 1997).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::bvh::Hit;
 use crate::geometry::Ray;
 use crate::material::Bsdf;
@@ -93,8 +96,8 @@ pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32
             [w[0] * v, w[1] * v, w[2] * v]
         }
         kind => {
-            let wl = SampledWavelengths::sample(u_lambda);
-            let l = if kind == IntegratorKind::Path { li_path(scene, settings, ray, &wl, rng) } else { li_direct(scene, ray, &wl, rng) };
+            let mut wl = SampledWavelengths::sample(u_lambda);
+            let l = if kind == IntegratorKind::Path { li_path(scene, settings, ray, &mut wl, rng) } else { li_direct(scene, ray, &wl, rng) };
             wl.to_xyz(l)
         }
     };
@@ -174,7 +177,9 @@ fn sample_one_light(scene: &Scene, s: &Shading, wo: Vec3, bsdf: &Bsdf, wl: &Samp
 }
 
 /// Radiance along `ray` by path tracing with NEE, MIS and Russian roulette.
-pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+/// `wl` may lose its secondary wavelengths on the way (dispersion): convert the result with the
+/// `wl` as it is on return.
+pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
     let mut l = Vec4::ZERO;
     let mut beta = Vec4::ONE;
     let mut depth = 0u32; // segments traced so far
@@ -232,6 +237,9 @@ pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &
             break;
         }
         beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if bs.terminate_secondary {
+            wl.terminate_secondary();
+        }
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         prev_p = s.p;

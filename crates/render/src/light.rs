@@ -11,6 +11,9 @@
 //! the cone they subtend). `pdf_li` gives the same density for a direction found by BSDF sampling,
 //! for multiple importance sampling.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
 use crate::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec2, Vec3, Vec4};

@@ -8,6 +8,9 @@
 //! reports whether it is a delta lobe (no light sampling, no MIS), whether it transmits (the path
 //! changes side and medium) and the relative index of refraction it crossed.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::bxdf::{CoatedDiffuse, CoatingTable, RoughConductor, RoughDielectric, SmoothConductor, SmoothDielectric};
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -105,6 +108,9 @@ pub struct BsdfSample {
     pub transmission: bool,
     /// Relative index of refraction η_t/η_i crossed by a transmission (1 for reflection).
     pub eta: f32,
+    /// The lobe depends on wavelength in direction (dispersion): the path keeps only its hero
+    /// wavelength from here on ([`SampledWavelengths::terminate_secondary`]).
+    pub terminate_secondary: bool,
 }
 
 impl Material {
@@ -215,7 +221,8 @@ impl Bsdf {
     }
 
     /// True when the BSDF was evaluated at the hero wavelength only (dispersive dielectric): the
-    /// integrator must call `SampledWavelengths::terminate_secondary` before using it.
+    /// secondary wavelengths must be terminated before it is used for light sampling (see
+    /// [`Material::bsdf_at`]); its samples also carry `terminate_secondary`.
     #[inline]
     pub fn terminates_secondary(&self) -> bool {
         match self {
@@ -287,11 +294,18 @@ impl Bsdf {
                 if pdf <= 0.0 {
                     return None;
                 }
-                Some(BsdfSample { wi, f: *r * FRAC_1_PI, pdf, delta: false, transmission: false, eta: 1.0 })
+                Some(BsdfSample { wi, f: *r * FRAC_1_PI, pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
             }
             Bsdf::Black => None,
-            Bsdf::SmoothDielectric { lobe, .. } => lobe.sample(wo, uc, u),
-            Bsdf::RoughDielectric { lobe, .. } => lobe.sample(wo, uc, u),
+            // A dispersive dielectric was evaluated at the hero wavelength only.
+            Bsdf::SmoothDielectric { lobe, dispersive } => lobe.sample(wo, uc, u).map(|mut s| {
+                s.terminate_secondary = *dispersive;
+                s
+            }),
+            Bsdf::RoughDielectric { lobe, dispersive } => lobe.sample(wo, uc, u).map(|mut s| {
+                s.terminate_secondary = *dispersive;
+                s
+            }),
             Bsdf::SmoothConductor(lobe) => lobe.sample(wo, uc, u),
             Bsdf::RoughConductor(lobe) => lobe.sample(wo, uc, u),
             Bsdf::Coated(lobe) => lobe.sample(wo, uc, u),

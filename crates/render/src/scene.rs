@@ -8,6 +8,9 @@
 //! range. Materials and objects refer to each other by name. Errors name the file, the line and
 //! column, and the field; unknown keys are rejected.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
+
 use crate::bvh::{Accel, Shape};
 use crate::camera::Camera;
 use crate::geometry::Sphere;

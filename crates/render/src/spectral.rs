@@ -7,6 +7,9 @@
 //! tristimulus value (pbrt-v4/Mitsuba 3 convention, XYZ = ∫S·(x̄,ȳ,z̄)dλ / ∫ȳdλ) is
 //! (1/4) Σᵢ L(λᵢ)·(x̄,ȳ,z̄)(λᵢ) / (p(λᵢ)·∫ȳdλ), so spectral radiance 1 everywhere gives Y = 1.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 use glam::Vec4;
 use optics::spectrum::DenseSpectrum;
 use std::sync::OnceLock;

@@ -549,6 +549,9 @@ fn dispersive_glass_terminates_secondary_wavelengths() {
     let wo = Vec3::new(0.6, 0.0, 0.8);
     let s = b.sample(wo, 0.999, Vec2::ZERO).unwrap();
     assert!((s.eta as f64 - bk7.n(450.0)).abs() < 2e-3 && (s.eta - 1.5253).abs() < 1e-3, "{}", s.eta);
+    assert!(s.terminate_secondary, "the sample must tell the integrator to drop the secondary wavelengths");
+    let plain = Material::dielectric(optics::spectrum::DenseSpectrum::from_fn(|_| 1.5), TrowbridgeReitz::isotropic(0.2));
+    assert!(!plain.bsdf(&wl).sample(wo, 0.999, Vec2::new(0.3, 0.3)).unwrap().terminate_secondary);
     // After termination the material no longer asks for it.
     let mut wl2 = wl;
     wl2.terminate_secondary();

@@ -86,7 +86,7 @@ fn furnace_convex_lambertian_sphere_under_uniform_environment() {
         "#
     ));
     let centre = |i: u32, j: u32| (4..12).contains(&i) && (4..12).contains(&j);
-    let corner = |i: u32, j: u32| (i < 2 || i >= 14) && (j < 2 || j >= 14);
+    let corner = |i: u32, j: u32| !(2..14).contains(&i) && !(2..14).contains(&j);
     for kind in [IntegratorKind::Path, IntegratorKind::Direct] {
         let st = settings(kind, 8, 5);
         let (m, se) = region_stats(&s, &st, 11, 64, 1, centre);

@@ -217,3 +217,43 @@ fn missing_scene_file_is_an_error_naming_it() {
     let e = format!("{:#}", Scene::load(Path::new("/no/such/scene.toml")).err().unwrap());
     assert!(e.contains("/no/such/scene.toml") && !e.contains('\n'), "{e}");
 }
+
+#[test]
+fn obj_groups_are_selected_by_name() {
+    let obj = "../crates/render/data/cornell-box/cbox.obj";
+    let t = MINIMAL.replace(
+        "sphere = { center = [0, 0, 0], radius = 1 }",
+        &format!("mesh = \"{obj}\"\ngroup = \"tallblock\"\ntransform = {{ translate = [0, 10, 0] }}"),
+    );
+    let s = parse(&t).unwrap_or_else(|e| panic!("{e:#}"));
+    let Shape::Mesh(m) = s.accel.shape(0) else { panic!() };
+    assert_eq!(m.indices.len(), 10); // 5 quads
+    let ymax = m.positions.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    assert!((ymax - 0.340).abs() < 1e-6, "{ymax}"); // 330 mm + 10 mm
+    // Without a group, all 16 quads of the file form one object.
+    let t = MINIMAL.replace("sphere = { center = [0, 0, 0], radius = 1 }", &format!("mesh = \"{obj}\""));
+    let Shape::Mesh(m) = parse(&t).unwrap().accel.shape(0).clone() else { panic!() };
+    assert_eq!(m.indices.len(), 32);
+    fails_with(
+        &MINIMAL.replace("sphere = { center = [0, 0, 0], radius = 1 }", &format!("mesh = \"{obj}\"\ngroup = \"teapot\"")),
+        &["objects[0] (ball).group", "teapot", "tallblock"],
+    );
+}
+
+#[test]
+fn content_hash_covers_the_files_a_scene_reads_and_the_resolution() {
+    let dir = std::env::temp_dir().join(format!("lucent-scene-hash-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = MINIMAL.replace("radiance = 1", "radiance = { csv = \"lamp.csv\" }");
+    std::fs::write(dir.join("s.toml"), &scene).unwrap();
+    std::fs::write(dir.join("lamp.csv"), "wavelength_nm,value\n400,1\n700,2\n").unwrap();
+    let mut a = Scene::load(&dir.join("s.toml")).unwrap();
+    let h1 = a.content_hash();
+    assert_eq!(h1, Scene::load(&dir.join("s.toml")).unwrap().content_hash());
+    std::fs::write(dir.join("lamp.csv"), "wavelength_nm,value\n400,1\n700,2.5\n").unwrap();
+    let h2 = Scene::load(&dir.join("s.toml")).unwrap().content_hash();
+    a.set_resolution(9, 8);
+    let h3 = a.content_hash();
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(h1 != h2 && h1 != h3 && h2 != h3);
+}
