@@ -36,6 +36,9 @@
 //! reciprocal and energy conserving: ∫(f_s + f_d) cos θi dωi = E(μo) + (1 − E(μo)) ρ_eff ≤ 1, with
 //! equality for a white base (ρ = 1). (Kelemen & Szirmay-Kalos 2001's albedo coupling.)
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::material::BsdfSample;
 use crate::microfacet::{reflect, refract, TrowbridgeReitz};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
