@@ -14,7 +14,7 @@ use std::f64::consts::PI;
 // Chi-square machinery
 
 /// Number of chi-square runs in this file, for the Šidák correction of the 1 % significance level.
-const N_CHI2_RUNS: u32 = 39;
+const N_CHI2_RUNS: u32 = 42;
 const THETA_RES: usize = 10;
 const PHI_RES: usize = 20;
 const N_SAMPLES: usize = 400_000;
@@ -256,11 +256,14 @@ fn chi2_rough_conductor() {
 
 #[test]
 fn chi2_rough_dielectric() {
-    // 18 runs: from outside (η = 1.5) and from inside (η = 1/1.5), two roughnesses, three angles.
+    // 18 + 3 runs: from outside (η = 1.5) and from inside (η = 1/1.5), two roughnesses, three angles.
     for (i, (alpha, eta)) in [(0.5f32, 1.5f32), (0.2, 1.5), (0.5, 1.0 / 1.5), (0.2, 1.0 / 1.5), (0.3, 1.33), (0.3, 1.0 / 1.33)].into_iter().enumerate() {
         let b = Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: gtr(alpha, alpha), eta }, dispersive: false };
         check_chi2(&format!("rough dielectric α={alpha} η={eta}"), &b, &wos_upper(), 200 + 10 * i as u64);
     }
+    // 3 runs: anisotropic.
+    let b = Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: gtr(0.1, 0.5), eta: 1.5 }, dispersive: false };
+    check_chi2("rough dielectric α=(0.1, 0.5) η=1.5", &b, &wos_upper(), 290);
 }
 
 #[test]

@@ -82,6 +82,16 @@ fn materials_parse_to_the_right_bsdfs() {
         }
         b => panic!("{b:?}"),
     }
+    // A named spectrum as the index (water-like, dispersive).
+    let named = parse(&format!(
+        "{}\n[spectra.water]\nlambda_nm = [400, 700]\nvalues = [1.343, 1.331]\n",
+        scene_with("type = \"dielectric\"\nior = \"water\"", 1.0)
+    ))
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    match named.materials[0].bsdf(&wl) {
+        Bsdf::SmoothDielectric { lobe, dispersive } => assert!((lobe.eta - (1.343 - 0.012 * 50.0 / 300.0)).abs() < 1e-4 && dispersive, "{lobe:?}"),
+        b => panic!("{b:?}"),
+    }
     match material("type = \"rough_conductor\"\neta = 0.2\nk = 3.0\nalpha = 0.3").bsdf(&wl) {
         Bsdf::RoughConductor(c) => assert!(c.eta.x == 0.2 && c.k.x == 3.0 && c.distrib.alpha_x == 0.3),
         b => panic!("{b:?}"),
