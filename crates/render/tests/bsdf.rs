@@ -210,6 +210,7 @@ fn check_chi2(name: &str, bsdf: &Bsdf, wos: &[Vec3], seed: u64) {
     let alpha = 1.0 - (1.0 - 0.01f64).powf(1.0 / N_CHI2_RUNS as f64);
     for (k, &wo) in wos.iter().enumerate() {
         let p = chi2_pvalue(name, bsdf, wo.normalize(), seed + k as u64);
+        eprintln!("chi2 {name}, wo = {wo}: p = {p:.3e}");
         assert!(p > alpha, "{name}, wo = {wo}: chi-square p-value {p:.3e} below the Šidák-corrected level {alpha:.3e}");
     }
 }
@@ -403,6 +404,7 @@ fn furnace_white_rough_conductor_never_exceeds_one() {
         for mu in [1.0f32, 0.7, 0.4, 0.15, 0.03] {
             let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
             let (m, se) = albedo(&b, wo, 50_000, 7, 1.0);
+            eprintln!("white rough conductor α {alpha} μ {mu}: albedo {m:.4} ± {se:.4}");
             // Every sample weight is G2/G1 ≤ 1, so the estimate is bounded by 1 sample by sample.
             assert!(m <= 1.0 + 1e-5, "α {alpha} μ {mu}: albedo {m} ± {se}");
             // Single scattering loses energy with roughness and grazing angle, but not much for smooth ones.
@@ -506,6 +508,7 @@ fn smooth_dielectric_slab_conserves_energy() {
             }
         }
         let (rm, tm) = (wr / photons as f64, wt / photons as f64);
+        eprintln!("slab n {n} μ {mu}: R {rm:.5} (analytic {r_slab:.5}), R + T = {}", rm + tm);
         // Each escaping photon carries weight exactly 1 (the 1/η'² factors cancel in and out).
         assert!((rm + tm - 1.0).abs() < 1e-4, "n {n} μ {mu}: R + T = {}", rm + tm);
         let se = (r_slab * (1.0 - r_slab) / photons as f64).sqrt();
@@ -692,3 +695,4 @@ fn conductor_fresnel_real_form_matches_complex_arithmetic() {
 fn complex_index(eta: f64, k: f64) -> optics::ior::Complex64 {
     optics::ior::Complex64::new(eta, k)
 }
+
