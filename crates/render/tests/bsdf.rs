@@ -886,3 +886,30 @@ fn conductor_fresnel_real_form_matches_complex_arithmetic() {
 fn complex_index(eta: f64, k: f64) -> optics::ior::Complex64 {
     optics::ior::Complex64::new(eta, k)
 }
+
+#[test]
+fn rough_dielectric_tends_to_the_smooth_fresnel_split() {
+    // As α → 0 the reflected power fraction of the rough interface tends to the Fresnel reflectance
+    // of the smooth one (an independent formula), and transmitted power (× η'² to undo the radiance
+    // compression) to 1 − R; beyond the critical angle from inside everything reflects.
+    for (eta, mu) in [(1.5f32, 0.8f32), (1.5, 0.3), (1.0 / 1.5, 0.9), (1.0 / 1.5, 0.5)] {
+        let b = Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: gtr(0.005, 0.005), eta }, dispersive: false };
+        let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let mut rng = Pcg32::new(4, 4);
+        let n = 20_000;
+        let (mut r, mut t) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            if let Some(s) = b.sample(wo, rng.next_f32(), rng.next_2d()) {
+                let w = (s.f.x * s.wi.z.abs() / s.pdf) as f64;
+                if s.transmission {
+                    t += w * (s.eta as f64).powi(2);
+                } else {
+                    r += w;
+                }
+            }
+        }
+        let (r, t) = (r / n as f64, t / n as f64);
+        let f = optics::fresnel::fresnel_dielectric(mu as f64, eta as f64);
+        assert!((r - f).abs() < 0.01 && (t - (1.0 - f)).abs() < 0.01, "η {eta} μ {mu}: R {r} T {t} vs Fresnel {f}");
+    }
+}
