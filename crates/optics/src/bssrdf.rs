@@ -126,10 +126,8 @@ impl OpticalProperties {
         }
         let sps = self.sigma_s_per_m * (1.0 - self.g);
         let spt = sps + self.sigma_a_per_m;
-        if !(spt > 0.0) {
-            bail!(
-                "reduced extinction sigma_s(1-g) + sigma_a must be > 0 (got {spt} m^-1), alpha' is undefined"
-            );
+        if spt == 0.0 {
+            bail!("reduced albedo alpha' is undefined: sigma_s(1-g) + sigma_a = 0");
         }
         let ap = sps / spt;
         if !(0.0..=1.0).contains(&ap) {

@@ -66,6 +66,40 @@ pub fn run(args: Args) -> Result<()> {
         }
         return Ok(());
     }
+    let o = compute(&args)?;
+    if args.json {
+        println!("{}", serde_json::Value::Object(o));
+    } else {
+        let num = |k: &str| o.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        println!(
+            "{} dipole: eta {}, sigma_s {} /mm, sigma_a {} /mm, g {}; alpha' {:.6}, sigma_tr {:.6} /mm, D {:.6} mm, A {:.6}",
+            args.model,
+            num("eta"),
+            num("sigma_s_per_mm"),
+            num("sigma_a_per_mm"),
+            num("g"),
+            num("alpha_prime"),
+            num("sigma_tr_per_mm"),
+            num("d_mm"),
+            num("a")
+        );
+        if o.contains_key("rd") {
+            println!("rd (numerical, pi * integral of S_d over the plane) = {:.6}", num("rd"));
+            println!("rd_closed_form (standard dipole)                   = {:.6}", num("rd_closed_form"));
+        }
+        if let (Some(rs), Some(p)) = (o.get("profile_mm"), o.get("profile")) {
+            println!("r_mm,rd_per_mm2");
+            for (r, v) in rs.as_array().into_iter().flatten().zip(p.as_array().into_iter().flatten()) {
+                println!("{},{:.9e}", r, v.as_f64().unwrap_or(f64::NAN));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Evaluates the model; returns the JSON object (keys: model, eta, sigma_s_per_mm, sigma_a_per_mm,
+/// g, alpha_prime, sigma_tr_per_mm, d_mm, a, rd, rd_closed_form, profile_mm, profile).
+fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
     let model: DipoleModel = args.model.parse().context("--model")?;
     let (mut eta, mut sigma_s, mut sigma_a, mut g) = (None, None, None, None);
     if let Some(name) = &args.preset {
@@ -106,9 +140,13 @@ pub fn run(args: Args) -> Result<()> {
         }
     };
     let rd_closed = standard.rd_closed_form();
-    let rd = match model {
-        DipoleModel::Standard => standard.rd_numerical(),
-        DipoleModel::Directional => directional.rd_numerical(),
+    let rd = if want_rd {
+        match model {
+            DipoleModel::Standard => standard.rd_numerical(),
+            DipoleModel::Directional => directional.rd_numerical(),
+        }
+    } else {
+        f64::NAN
     };
     let profile: Option<Vec<f64>> = profile_mm.as_ref().map(|rs| rs.iter().map(|&r| profile_fn(r)).collect());
     let a = match model {
@@ -116,45 +154,96 @@ pub fn run(args: Args) -> Result<()> {
         DipoleModel::Directional => directional.a,
     };
 
-    if args.json {
-        let mut o = serde_json::Map::new();
-        o.insert("model".into(), args.model.clone().into());
-        o.insert("eta".into(), eta.into());
-        o.insert("sigma_s_per_mm".into(), sigma_s.into());
-        o.insert("sigma_a_per_mm".into(), sigma_a.into());
-        o.insert("g".into(), g.into());
-        o.insert("alpha_prime".into(), derived.alpha_prime.into());
-        o.insert("sigma_tr_per_mm".into(), (derived.sigma_tr_per_m * 1e-3).into());
-        o.insert("d_mm".into(), (derived.d_m * 1e3).into());
-        o.insert("a".into(), a.into());
-        if want_rd {
-            o.insert("rd".into(), rd.into());
-            o.insert("rd_closed_form".into(), rd_closed.into());
-        }
-        if let (Some(rs), Some(p)) = (&profile_mm, &profile) {
-            o.insert("profile_mm".into(), serde_json::json!(rs));
-            o.insert("profile".into(), serde_json::json!(p));
-        }
-        println!("{}", serde_json::Value::Object(o));
-    } else {
-        println!(
-            "{} dipole: eta {eta}, sigma_s {sigma_s} /mm, sigma_a {sigma_a} /mm, g {g}; alpha' {:.6}, sigma_tr {:.6} /mm, D {:.6} mm, A {:.6}",
-            args.model,
-            derived.alpha_prime,
-            derived.sigma_tr_per_m * 1e-3,
-            derived.d_m * 1e3,
-            a
-        );
-        if want_rd {
-            println!("rd (numerical, pi * integral of S_d over the plane) = {rd:.6}");
-            println!("rd_closed_form (standard dipole)                   = {rd_closed:.6}");
-        }
-        if let (Some(rs), Some(p)) = (&profile_mm, &profile) {
-            println!("r_mm,rd_per_mm2");
-            for (r, v) in rs.iter().zip(p) {
-                println!("{r},{v:.9e}");
-            }
+    let mut o = serde_json::Map::new();
+    o.insert("model".into(), args.model.clone().into());
+    o.insert("eta".into(), eta.into());
+    o.insert("sigma_s_per_mm".into(), sigma_s.into());
+    o.insert("sigma_a_per_mm".into(), sigma_a.into());
+    o.insert("g".into(), g.into());
+    o.insert("alpha_prime".into(), derived.alpha_prime.into());
+    o.insert("sigma_tr_per_mm".into(), (derived.sigma_tr_per_m * 1e-3).into());
+    o.insert("d_mm".into(), (derived.d_m * 1e3).into());
+    o.insert("a".into(), a.into());
+    if want_rd {
+        o.insert("rd".into(), rd.into());
+        o.insert("rd_closed_form".into(), rd_closed.into());
+    }
+    if let (Some(rs), Some(p)) = (&profile_mm, &profile) {
+        o.insert("profile_mm".into(), serde_json::json!(rs));
+        o.insert("profile".into(), serde_json::json!(p));
+    }
+    Ok(o)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn eval(argv: &[&str]) -> Result<serde_json::Map<String, serde_json::Value>> {
+        let mut v = vec!["bssrdf"];
+        v.extend_from_slice(argv);
+        compute(&Cli::try_parse_from(v)?.args)
+    }
+
+    /// Contract keys of issue 5; for the standard dipole `rd` equals the closed form to 1e-4
+    /// (Jensen 2001's apple, red channel: 0.85 published).
+    #[test]
+    fn json_contract_standard() {
+        let o = eval(&["--model", "standard", "--eta", "1.3", "--sigma-s-per-mm", "2.29", "--sigma-a-per-mm", "0.003", "--rd", "--json"])
+            .unwrap();
+        let rd = o["rd"].as_f64().unwrap();
+        let cf = o["rd_closed_form"].as_f64().unwrap();
+        assert!((rd - cf).abs() < 1e-4 && (cf - 0.85).abs() < 0.005, "{rd} {cf}");
+        assert!(!o.contains_key("profile"));
+    }
+
+    /// `--profile-mm` gives R_d(r) in mm⁻²: the standard dipole at r = 0 equals
+    /// α'/(4π)[(1 + σ_tr z_r)e^{−σ_tr z_r}/z_r² + (1 + σ_tr z_v)e^{−σ_tr z_v}/z_v²] evaluated here by hand.
+    #[test]
+    fn json_contract_profile() {
+        let o = eval(&["--model", "standard", "--eta", "1.0", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0", "--profile-mm", "0,1", "--json"])
+            .unwrap();
+        let p: Vec<f64> = o["profile"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert_eq!(p.len(), 2);
+        // σ_a = 0: σ_tr = 0, z_r = 1 mm, A(1) = (1 + F)/(1 − F) with F = Egan–Hilgeman(1) = 0.0016,
+        // z_v = 1 + 4A/3 mm; R_d(0) = (1/4π)(1/z_r² + 1/z_v²).
+        let f = -1.440 + 0.710 + 0.668 + 0.0636;
+        let a = (1.0 + f) / (1.0 - f);
+        let zv: f64 = 1.0 + 4.0 * a / 3.0;
+        let expect = (1.0 + 1.0 / (zv * zv)) / (4.0 * std::f64::consts::PI);
+        assert!((p[0] / expect - 1.0).abs() < 1e-12, "{} vs {expect}", p[0]);
+        assert!(p[1] < p[0] && p[1] > 0.0);
+        let o = eval(&["--model", "directional", "--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.01", "--rd", "--profile-mm", "0.5", "--json"])
+            .unwrap();
+        assert!(o["rd"].as_f64().unwrap() > 0.0 && o["profile"][0].as_f64().unwrap() > 0.0);
+    }
+
+    #[test]
+    fn bad_input_is_one_clear_error() {
+        let msg = |argv: &[&str]| format!("{:#}", eval(argv).unwrap_err());
+        assert!(msg(&["--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "-2"]).contains("alpha'"));
+        assert!(msg(&["--eta", "0", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("eta"));
+        assert!(msg(&["--eta", "-1", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("eta"));
+        assert!(msg(&["--model", "dipolar", "--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("--model"));
+        assert!(msg(&["--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1", "--profile-mm", "1,-2"]).contains("--profile-mm"));
+        assert!(msg(&["--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("--eta"));
+        assert!(msg(&["--preset", "nothing"]).contains("--preset"));
+        for m in [msg(&["--eta", "NaN", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"])] {
+            assert!(!m.contains('\n'), "{m}");
         }
     }
-    Ok(())
+
+    #[test]
+    fn presets_fill_the_properties() {
+        let o = eval(&["--preset", "Potato", "--channel", "b", "--rd"]).unwrap();
+        assert!((o["rd"].as_f64().unwrap() - 0.21).abs() < 0.005);
+        assert_eq!(o["eta"].as_f64().unwrap(), 1.3);
+    }
 }
