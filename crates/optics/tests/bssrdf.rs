@@ -347,3 +347,41 @@ fn directional_dipole_infinite_medium_term_closed_forms() {
         assert!((virt / virt_cf - 1.0).abs() < 1e-8, "virtual: {virt} vs {virt_cf}");
     }
 }
+
+/// Refraction into the medium obeys Snell's law (sin θ_t = sin θ_i / η), gives a unit vector
+/// pointing inwards, and S_d is finite and ≥ 0 for random front- and back-lit configurations.
+#[test]
+fn directional_dipole_refraction_and_positivity() {
+    let m = DirectionalDipole::new(&props(1.4, 1.5, 0.02, 0.3)).unwrap();
+    let mut rng = Rng(99);
+    let mut unit = |rng: &mut Rng| {
+        let z = 2.0 * rng.next() - 1.0;
+        let phi = 2.0 * std::f64::consts::PI * rng.next();
+        let s = (1.0 - z * z).sqrt();
+        [s * phi.cos(), s * phi.sin(), z]
+    };
+    for _ in 0..2000 {
+        let ni = unit(&mut rng);
+        let mut wi = unit(&mut rng);
+        let c = wi[0] * ni[0] + wi[1] * ni[1] + wi[2] * ni[2];
+        if c < 0.0 {
+            wi = wi.map(|v| -v);
+        }
+        let c = c.abs();
+        let w12 = m.refract_in(wi, ni);
+        let len = (w12[0] * w12[0] + w12[1] * w12[1] + w12[2] * w12[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-12);
+        let ct = -(w12[0] * ni[0] + w12[1] * ni[1] + w12[2] * ni[2]);
+        assert!(ct > 0.0);
+        let (si, st) = ((1.0 - c * c).max(0.0).sqrt(), (1.0 - ct * ct).max(0.0).sqrt());
+        assert!((st - si / 1.4).abs() < 1e-12, "{st} vs {}", si / 1.4);
+        let xo = unit(&mut rng).map(|v| v * 2e-3 * rng.next());
+        let no = unit(&mut rng);
+        let s = m.sd([0.0; 3], ni, wi, xo, no);
+        assert!(s.is_finite() && s >= 0.0, "{s}");
+    }
+    // Coincident points: the modified normal falls back to nᵢ; the value is finite and positive.
+    let n = [0.0, 0.0, 1.0];
+    let s0 = m.sd([0.0; 3], n, n, [0.0; 3], n);
+    assert!(s0.is_finite() && s0 > 0.0);
+}
