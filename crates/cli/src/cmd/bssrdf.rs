@@ -2,8 +2,8 @@
 
 use anyhow::{bail, Context, Result};
 use optics::bssrdf::{
-    find_medium, jensen2001_media, narasimhan2006_media, DipoleModel, DirectionalDipole, OpticalProperties,
-    StandardDipole,
+    find_medium, jensen2001_media, narasimhan2006_media, DipoleModel, DirectionalDipole,
+    OpticalProperties, StandardDipole,
 };
 
 #[derive(clap::Args, Debug)]
@@ -50,7 +50,9 @@ fn parse_list(text: &str, field: &str) -> Result<Vec<f64>> {
         .map(str::trim)
         .filter(|s| !s.is_empty())
         .map(|s| {
-            let v: f64 = s.parse().map_err(|_| anyhow::anyhow!("{field}: '{s}' is not a number"))?;
+            let v: f64 = s
+                .parse()
+                .map_err(|_| anyhow::anyhow!("{field}: '{s}' is not a number"))?;
             if !v.is_finite() || v < 0.0 {
                 bail!("{field}: distance {s} must be finite and >= 0");
             }
@@ -84,12 +86,23 @@ pub fn run(args: Args) -> Result<()> {
             num("a")
         );
         if o.contains_key("rd") {
-            println!("rd (numerical, pi * integral of S_d over the plane) = {:.6}", num("rd"));
-            println!("rd_closed_form (standard dipole)                   = {:.6}", num("rd_closed_form"));
+            println!(
+                "rd (numerical, pi * integral of S_d over the plane) = {:.6}",
+                num("rd")
+            );
+            println!(
+                "rd_closed_form (standard dipole)                   = {:.6}",
+                num("rd_closed_form")
+            );
         }
         if let (Some(rs), Some(p)) = (o.get("profile_mm"), o.get("profile")) {
             println!("r_mm,rd_per_mm2");
-            for (r, v) in rs.as_array().into_iter().flatten().zip(p.as_array().into_iter().flatten()) {
+            for (r, v) in rs
+                .as_array()
+                .into_iter()
+                .flatten()
+                .zip(p.as_array().into_iter().flatten())
+            {
                 println!("{},{:.9e}", r, v.as_f64().unwrap_or(f64::NAN));
             }
         }
@@ -116,11 +129,25 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
         sigma_a = Some(m.sigma_a_per_m[c] * 1e-3);
         g = Some(m.g[c]);
     }
-    let eta = args.eta.or(eta).context("--eta is required (or give --preset)")?;
-    let sigma_s = args.sigma_s_per_mm.or(sigma_s).context("--sigma-s-per-mm is required (or give --preset)")?;
-    let sigma_a = args.sigma_a_per_mm.or(sigma_a).context("--sigma-a-per-mm is required (or give --preset)")?;
+    let eta = args
+        .eta
+        .or(eta)
+        .context("--eta is required (or give --preset)")?;
+    let sigma_s = args
+        .sigma_s_per_mm
+        .or(sigma_s)
+        .context("--sigma-s-per-mm is required (or give --preset)")?;
+    let sigma_a = args
+        .sigma_a_per_mm
+        .or(sigma_a)
+        .context("--sigma-a-per-mm is required (or give --preset)")?;
     let g = args.g.or(g).unwrap_or(0.0);
-    let props = OpticalProperties { eta, sigma_s_per_m: sigma_s * 1e3, sigma_a_per_m: sigma_a * 1e3, g };
+    let props = OpticalProperties {
+        eta,
+        sigma_s_per_m: sigma_s * 1e3,
+        sigma_a_per_m: sigma_a * 1e3,
+        g,
+    };
     let derived = props
         .derive()
         .context("invalid medium (--eta, --sigma-s-per-mm, --sigma-a-per-mm, --g)")?;
@@ -148,7 +175,9 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
     } else {
         f64::NAN
     };
-    let profile: Option<Vec<f64>> = profile_mm.as_ref().map(|rs| rs.iter().map(|&r| profile_fn(r)).collect());
+    let profile: Option<Vec<f64>> = profile_mm
+        .as_ref()
+        .map(|rs| rs.iter().map(|&r| profile_fn(r)).collect());
     let a = match model {
         DipoleModel::Standard => standard.a,
         DipoleModel::Directional => directional.a,
@@ -161,7 +190,10 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
     o.insert("sigma_a_per_mm".into(), sigma_a.into());
     o.insert("g".into(), g.into());
     o.insert("alpha_prime".into(), derived.alpha_prime.into());
-    o.insert("sigma_tr_per_mm".into(), (derived.sigma_tr_per_m * 1e-3).into());
+    o.insert(
+        "sigma_tr_per_mm".into(),
+        (derived.sigma_tr_per_m * 1e-3).into(),
+    );
     o.insert("d_mm".into(), (derived.d_m * 1e3).into());
     o.insert("a".into(), a.into());
     if want_rd {
@@ -196,11 +228,25 @@ mod tests {
     /// (Jensen 2001's apple, red channel: 0.85 published).
     #[test]
     fn json_contract_standard() {
-        let o = eval(&["--model", "standard", "--eta", "1.3", "--sigma-s-per-mm", "2.29", "--sigma-a-per-mm", "0.003", "--rd", "--json"])
-            .unwrap();
+        let o = eval(&[
+            "--model",
+            "standard",
+            "--eta",
+            "1.3",
+            "--sigma-s-per-mm",
+            "2.29",
+            "--sigma-a-per-mm",
+            "0.003",
+            "--rd",
+            "--json",
+        ])
+        .unwrap();
         let rd = o["rd"].as_f64().unwrap();
         let cf = o["rd_closed_form"].as_f64().unwrap();
-        assert!((rd - cf).abs() < 1e-4 && (cf - 0.85).abs() < 0.005, "{rd} {cf}");
+        assert!(
+            (rd - cf).abs() < 1e-4 && (cf - 0.85).abs() < 0.005,
+            "{rd} {cf}"
+        );
         assert!(!o.contains_key("profile"));
     }
 
@@ -208,9 +254,26 @@ mod tests {
     /// α'/(4π)[(1 + σ_tr z_r)e^{−σ_tr z_r}/z_r² + (1 + σ_tr z_v)e^{−σ_tr z_v}/z_v²] evaluated here by hand.
     #[test]
     fn json_contract_profile() {
-        let o = eval(&["--model", "standard", "--eta", "1.0", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0", "--profile-mm", "0,1", "--json"])
-            .unwrap();
-        let p: Vec<f64> = o["profile"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let o = eval(&[
+            "--model",
+            "standard",
+            "--eta",
+            "1.0",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0",
+            "--profile-mm",
+            "0,1",
+            "--json",
+        ])
+        .unwrap();
+        let p: Vec<f64> = o["profile"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
         assert_eq!(p.len(), 2);
         // σ_a = 0: σ_tr = 0, z_r = 1 mm, A(1) = (1 + F)/(1 − F) with F = Egan–Hilgeman(1) = 0.0016,
         // z_v = 1 + 4A/3 mm; R_d(0) = (1/4π)(1/z_r² + 1/z_v²).
@@ -220,24 +283,87 @@ mod tests {
         let expect = (1.0 + 1.0 / (zv * zv)) / (4.0 * std::f64::consts::PI);
         assert!((p[0] / expect - 1.0).abs() < 1e-12, "{} vs {expect}", p[0]);
         assert!(p[1] < p[0] && p[1] > 0.0);
-        let o = eval(&["--model", "directional", "--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.01", "--rd", "--profile-mm", "0.5", "--json"])
-            .unwrap();
+        let o = eval(&[
+            "--model",
+            "directional",
+            "--eta",
+            "1.3",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0.01",
+            "--rd",
+            "--profile-mm",
+            "0.5",
+            "--json",
+        ])
+        .unwrap();
         assert!(o["rd"].as_f64().unwrap() > 0.0 && o["profile"][0].as_f64().unwrap() > 0.0);
     }
 
     #[test]
     fn bad_input_is_one_clear_error() {
         let msg = |argv: &[&str]| format!("{:#}", eval(argv).unwrap_err());
-        assert!(msg(&["--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "-2"]).contains("alpha'"));
-        assert!(msg(&["--eta", "0", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("eta"));
-        assert!(msg(&["--eta", "-1", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("eta"));
-        assert!(msg(&["--model", "dipolar", "--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("--model"));
-        assert!(msg(&["--eta", "1.3", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1", "--profile-mm", "1,-2"]).contains("--profile-mm"));
+        assert!(msg(&[
+            "--eta",
+            "1.3",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "-2"
+        ])
+        .contains("alpha'"));
+        assert!(msg(&[
+            "--eta",
+            "0",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0.1"
+        ])
+        .contains("eta"));
+        assert!(msg(&[
+            "--eta",
+            "-1",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0.1"
+        ])
+        .contains("eta"));
+        assert!(msg(&[
+            "--model",
+            "dipolar",
+            "--eta",
+            "1.3",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0.1"
+        ])
+        .contains("--model"));
+        assert!(msg(&[
+            "--eta",
+            "1.3",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0.1",
+            "--profile-mm",
+            "1,-2"
+        ])
+        .contains("--profile-mm"));
         assert!(msg(&["--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"]).contains("--eta"));
         assert!(msg(&["--preset", "nothing"]).contains("--preset"));
-        for m in [msg(&["--eta", "NaN", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.1"])] {
-            assert!(!m.contains('\n'), "{m}");
-        }
+        let m = msg(&[
+            "--eta",
+            "NaN",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0.1",
+        ]);
+        assert!(m.contains("eta") && !m.contains('\n'), "{m}");
     }
 
     #[test]
