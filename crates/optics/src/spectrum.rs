@@ -464,7 +464,7 @@ fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
         let (mut f, mut j) = eval(c, tgt);
         let mut err = f.iter().map(|v| v * v).sum::<f64>();
         for _ in 0..iters {
-            if err < 1e-20 {
+            if err < if step == STEPS { 1e-24 } else { 1e-10 } {
                 break;
             }
             // Levenberg–Marquardt step: (JᵀJ + λ diag) δ = −Jᵀf.

@@ -238,3 +238,15 @@ fn rgb_illuminant_round_trip() {
     }
     assert_eq!(RgbIlluminant::new([0.0, 0.0, 0.0]).eval(550.0), 0.0);
 }
+
+/// Near-grey, near-white and near-black colours (where the sigmoid must approach 0 or 1 closely)
+/// round-trip to within 1e-3.
+#[test]
+fn uplift_near_degenerate_colours() {
+    for rgb in [[0.5, 0.5, 0.5000001], [1.0, 1.0, 0.999], [1e-9, 0.0, 0.0], [0.0, 1e-4, 1.0], [1.0, 1e-6, 1.0]] {
+        let back = RgbAlbedo::new(rgb).linear_srgb();
+        for k in 0..3 {
+            assert!((back[k] - rgb[k]).abs() < 1e-3, "{rgb:?} -> {back:?}");
+        }
+    }
+}
