@@ -13,3 +13,4 @@ pub mod media;
 pub mod milk;
 pub mod bssrdf;
 pub mod reflectometry;
+pub mod ior;
