@@ -35,7 +35,21 @@ enum Command {
 }
 
 fn main() {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
+                e.exit();
+            }
+            // One line, as for every other error: clap's first line without its own prefix.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            eprintln!("lucent: error: {first} (see `lucent --help`)");
+            std::process::exit(2);
+        }
+    };
     let result = match cli.command {
         None => cmd::render::run(cmd::render::Args::default_scene()),
         Some(Command::Render(a)) => cmd::render::run(a),
