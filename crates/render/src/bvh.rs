@@ -75,7 +75,7 @@ pub struct SurfacePoint {
 /// Wide node: the boxes of four children in SoA layout, `b[side][axis][child]` (side 0 = min,
 /// 1 = max), and the children's references. 128 bytes (two cache lines).
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
+#[repr(C, align(128))]
 struct Node4 {
     b: [[[f32; 4]; 3]; 2],
     child: [u32; 4],
@@ -110,7 +110,8 @@ const NO_PRIM: (u32, u32) = (u32::MAX, u32::MAX);
 const SPHERE_BIT: u32 = 0x8000_0000;
 const MAX_LEAF: usize = 8;
 const MAX_DEPTH: usize = 60;
-const STACK: usize = 320;
+/// Traversal stack size on the machine stack; deeper trees use a heap stack.
+const STACK: usize = 64;
 const BINS: usize = 16;
 
 /// A binned-SAH BVH over all triangles and spheres, flattened for traversal.
@@ -126,6 +127,8 @@ pub struct Accel {
     /// Whether a packet holds a sphere (then it is tested lane by lane).
     has_sphere: Vec<bool>,
     bounds: Aabb,
+    /// Traversal stack entries the tree can need (3 per level below the root, plus one).
+    stack_needed: usize,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -348,6 +351,8 @@ struct Wide<'a> {
     packets: Vec<Packet>,
     ids: Vec<[(u32, u32); 4]>,
     has_sphere: Vec<bool>,
+    depth: usize,
+    max_depth: usize,
 }
 
 impl Wide<'_> {
@@ -421,7 +426,13 @@ impl Wide<'_> {
     fn child(&mut self, c: &BuildNode) -> u32 {
         match c {
             BuildNode::Leaf { start, count, .. } => self.leaf(*start, *count),
-            BuildNode::Inner { children, .. } => self.inner(children),
+            BuildNode::Inner { children, .. } => {
+                self.depth += 1;
+                self.max_depth = self.max_depth.max(self.depth);
+                let r = self.inner(children);
+                self.depth -= 1;
+                r
+            }
         }
     }
 }
@@ -582,7 +593,7 @@ impl Accel {
             }
         }
         let mut bounds = Aabb::EMPTY;
-        let mut wide = Wide { shapes: &shapes, prims: &[], ids_all: &ids_all, nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), has_sphere: Vec::new() };
+        let mut wide = Wide { shapes: &shapes, prims: &[], ids_all: &ids_all, nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), has_sphere: Vec::new(), depth: 0, max_depth: 0 };
         if !prims.is_empty() {
             let root = build_rec(&mut prims, 0, 0);
             let (lo, hi) = root.bounds();
@@ -607,8 +618,8 @@ impl Accel {
                 }
             }
         }
-        let Wide { nodes, packets, ids, has_sphere, .. } = wide;
-        Accel { shapes, nodes, packets, ids, has_sphere, bounds }
+        let Wide { nodes, packets, ids, has_sphere, max_depth, .. } = wide;
+        Accel { shapes, nodes, packets, ids, has_sphere, bounds, stack_needed: 3 * max_depth + 4 }
     }
 
     /// Bounding box of the whole scene.
@@ -636,11 +647,32 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
+        if self.stack_needed <= STACK {
+            self.closest(ray, &mut [(0u32, 0f32); STACK])
+        } else {
+            self.closest(ray, &mut vec![(0u32, 0f32); self.stack_needed])
+        }
+    }
+
+    /// Start loading a node or leaf that will probably be visited soon (a plain load whose value
+    /// is kept opaque to the optimiser, which the CPU overlaps with the work on the near child).
+    #[inline(always)]
+    fn touch(&self, c: u32) {
+        if c & LEAF_BIT == 0 {
+            if let Some(n) = self.nodes.get(c as usize) {
+                std::hint::black_box(n.b[0][0][0]);
+            }
+        } else if let Some(p) = self.packets.get((c & LEAF_OFFSET) as usize) {
+            std::hint::black_box(p.v[0][0][0]);
+        }
+    }
+
+    #[inline(always)]
+    fn closest(&self, ray: &Ray, stack: &mut [(u32, f32)]) -> Option<Hit> {
         let pre = Pre::new(ray);
         let t_min = ray.t_min;
         let mut t_max = ray.t_max;
         let mut best: Option<(usize, usize, f32, f32)> = None;
-        let mut stack = [(0u32, 0f32); STACK];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
@@ -671,6 +703,7 @@ impl Accel {
                         c[j] = x;
                     }
                     for &e in &c[..cnt - 1] {
+                        self.touch(e.0);
                         stack[sp] = e;
                         sp += 1;
                     }
@@ -762,9 +795,17 @@ impl Accel {
         if self.nodes.is_empty() {
             return false;
         }
+        if self.stack_needed <= STACK {
+            self.any_hit(ray, &mut [0u32; STACK])
+        } else {
+            self.any_hit(ray, &mut vec![0u32; self.stack_needed])
+        }
+    }
+
+    #[inline(always)]
+    fn any_hit(&self, ray: &Ray, stack: &mut [u32]) -> bool {
         let pre = Pre::new(ray);
         let (t_min, t_max) = (ray.t_min, ray.t_max);
-        let mut stack = [0u32; STACK];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
