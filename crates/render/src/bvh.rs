@@ -637,6 +637,17 @@ impl Accel {
         &self.shapes
     }
 
+    /// Use the heap traversal stack whatever the depth (for tests of that path).
+    #[doc(hidden)]
+    pub fn force_heap_stack(&mut self) {
+        self.stack_needed = self.stack_needed.max(STACK + 1);
+    }
+
+    /// Depth of the 4-wide tree (levels of inner nodes below the root).
+    pub fn depth(&self) -> usize {
+        (self.stack_needed - 4) / 3
+    }
+
     /// Number of (4-wide) nodes of the flattened tree.
     pub fn node_count(&self) -> usize {
         self.nodes.len()

@@ -321,3 +321,24 @@ fn axis_parallel_rays_in_bounding_planes() {
         assert!(!accel.occluded(&shadow) && accel.intersect(&shadow).is_none());
     }
 }
+
+/// Geometrically spaced slivers make a deep, comb-like tree; the traversal on the heap stack
+/// (used for trees too deep for the machine-stack one) must agree with brute force too.
+#[test]
+fn deep_tree_uses_heap_stack_and_stays_exact() {
+    let mut m = TriangleMesh::default();
+    for k in 0..400 {
+        let x = 1.1f32.powi(k);
+        let b = m.positions.len() as u32;
+        let w = 0.01 * x;
+        m.positions.extend([Vec3::new(x, -1.0, -1.0), Vec3::new(x + w, 1.0, -1.0), Vec3::new(x, 0.0, 1.0)]);
+        m.indices.push([b, b + 1, b + 2]);
+    }
+    let mut accel = Accel::build(vec![Shape::Mesh(m)]);
+    assert!(accel.depth() > 10, "depth {}", accel.depth());
+    check_against_brute_force(&accel, 20_000, 11);
+    accel.force_heap_stack();
+    check_against_brute_force(&accel, 20_000, 12);
+    let r = Ray::new(Vec3::new(0.0, 0.1, 0.0), Vec3::X);
+    assert_eq!(accel.intersect(&r).unwrap().prim, 0);
+}
