@@ -186,6 +186,12 @@ fn check_against_brute_force(accel: &Accel, n: usize, seed: u64) -> usize {
         .map(|ch| {
             let mut hits = 0;
             let mut mask = Vec::new();
+            // The batched traversal gives the single-ray hits exactly.
+            let mut batch = vec![None; ch.len()];
+            accel.intersect_batch(ch, &mut batch);
+            for (r, b) in ch.iter().zip(&batch) {
+                assert_eq!(*b, accel.intersect(r), "intersect_batch differs for {r:?}");
+            }
             for r in ch {
                 let fast = accel.intersect(r);
                 let slow = bf.intersect(r, &mut mask);
