@@ -9,6 +9,8 @@
 //! stacked nodes that lie beyond the closest hit found so far; the any-hit (shadow) query stops
 //! at the first hit.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
+
 use crate::geometry::{Aabb, Ray, RayTri, Sphere};
 use crate::mesh::TriangleMesh;
 use glam::{Vec3, Vec4};
@@ -112,6 +114,8 @@ const MAX_LEAF: usize = 8;
 const MAX_DEPTH: usize = 60;
 /// Traversal stack size on the machine stack; deeper trees use a heap stack.
 const STACK: usize = 64;
+/// Traversal stack size for shallow trees (small scenes).
+const SMALL_STACK: usize = 16;
 const BINS: usize = 16;
 
 /// A binned-SAH BVH over all triangles and spheres, flattened for traversal.
@@ -690,7 +694,10 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
-        if self.stack_needed <= STACK {
+        if self.stack_needed <= SMALL_STACK {
+            // Small scenes: a small stack is cheaper to set up.
+            self.closest::<false>(ray, &mut [(0u32, 0f32); SMALL_STACK], &mut [0; 2])
+        } else if self.stack_needed <= STACK {
             self.closest::<false>(ray, &mut [(0u32, 0f32); STACK], &mut [0; 2])
         } else {
             self.closest::<false>(ray, &mut vec![(0u32, 0f32); self.stack_needed], &mut [0; 2])
@@ -938,7 +945,9 @@ impl Accel {
         if self.nodes.is_empty() {
             return false;
         }
-        if self.stack_needed <= STACK {
+        if self.stack_needed <= SMALL_STACK {
+            self.any_hit(ray, &mut [0u32; SMALL_STACK])
+        } else if self.stack_needed <= STACK {
             self.any_hit(ray, &mut [0u32; STACK])
         } else {
             self.any_hit(ray, &mut vec![0u32; self.stack_needed])

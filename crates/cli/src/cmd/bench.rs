@@ -9,6 +9,8 @@
 //! keys `camera_mrays_per_s` / `incoherent_mrays_per_s` give the faster of the two and
 //! `*_single_mrays_per_s` / `*_batched_mrays_per_s` each one.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
+
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use rayon::prelude::*;
