@@ -232,6 +232,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
 
     let camera_cpu = (size as f64 * size as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
     let mut camera_batched = 0.0f64;
+    let cpu0 = cpu_seconds();
     for _ in 0..args.reps {
         let t0 = Instant::now();
         let h = trace_camera_batched(&accel, size);
@@ -240,6 +241,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             bail!("internal error: batched traversal found {h} hits, single-ray {camera_hits}");
         }
     }
+    let camera_batched_cpu = (size as f64 * size as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
     let n = (args.mrays * 1e6) as usize;
     let rays = incoherent_rays(&accel, n.max(1), 0x5EED);
     trace_all(&accel, &rays[..rays.len().min(65536)]); // warm-up
@@ -255,6 +257,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
 
     let incoherent_cpu = (rays.len() as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
     let mut batched_best = 0.0f64;
+    let cpu0 = cpu_seconds();
     for _ in 0..args.reps {
         let t0 = Instant::now();
         let h = trace_all_batched(&accel, &rays);
@@ -264,6 +267,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             bail!("internal error: batched traversal found {h} hits, single-ray {incoherent_hits}");
         }
     }
+    let batched_cpu = (rays.len() as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
     let cornell = if args.cornell_seconds > 0.0 {
         match render::integrator::benchmark_cornell(256, 256, args.cornell_seconds) {
             Ok(v) => Some(v),
@@ -296,6 +300,8 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             "incoherent_batched_mrays_per_s": batched_best,
             "camera_batched_mrays_per_s": camera_batched,
             "incoherent_mrays_per_cpu_s": incoherent_cpu,
+            "camera_batched_mrays_per_cpu_s": camera_batched_cpu,
+            "incoherent_batched_mrays_per_cpu_s": batched_cpu,
         });
         println!("{v}");
     } else {
@@ -319,7 +325,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
         );
         println!("camera rays     {camera_batched:.2} Mrays/s batched (Accel::intersect_batch, 8 rays interleaved)");
         println!("incoherent rays {batched_best:.2} Mrays/s batched (Accel::intersect_batch, 8 rays interleaved)");
-        println!("per CPU second  camera {camera_cpu:.2}, incoherent {incoherent_cpu:.2} Mrays/s (mean, /proc/self/stat)");
+        println!("per CPU second  camera {camera_cpu:.2}, incoherent {incoherent_cpu:.2} Mrays/s single; {camera_batched_cpu:.2}, {batched_cpu:.2} batched (mean, /proc/self/stat)");
         match cornell {
             Some(v) => println!("Cornell box     {v:.3} Msamples/s (path, 256×256)"),
             None => println!("Cornell box     n/a"),
