@@ -75,6 +75,13 @@ fn benches(c: &mut Criterion) {
     let inc = incoherent(&accel, 65536);
     g.throughput(Throughput::Elements(inc.len() as u64));
     g.bench_function("incoherent_closest_64k", |b| b.iter(|| inc.iter().filter(|r| accel.intersect(r).is_some()).count()));
+    let mut hits = vec![None; inc.len()];
+    g.bench_function("incoherent_closest_batch_64k", |b| {
+        b.iter(|| {
+            accel.intersect_batch(&inc, &mut hits);
+            hits.iter().filter(|h| h.is_some()).count()
+        })
+    });
 
     // Shadow rays: the same rays limited to a quarter of the box diagonal.
     let reach = 0.25 * accel.bounds().extent().length();
