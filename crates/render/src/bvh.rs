@@ -596,7 +596,8 @@ impl Packet {
 const ROUND_UP: f32 = 1.000_000_4;
 
 impl Accel {
-    /// Build the hierarchy over every triangle and sphere of `shapes`.
+    /// Build the hierarchy over every triangle and sphere of `shapes`. Triangles with an
+    /// out-of-range index are left out (meshes from [`TriangleMesh::load`] are validated already).
     pub fn build(shapes: Vec<Shape>) -> Accel {
         let total: usize = shapes.iter().map(Shape::primitive_count).sum();
         let mut prims = Vec::with_capacity(total);
@@ -605,6 +606,10 @@ impl Accel {
             match s {
                 Shape::Mesh(m) => {
                     for (i, t) in m.indices.iter().enumerate() {
+                        let n = m.positions.len();
+                        if t.iter().any(|&k| k as usize >= n) {
+                            continue; // invalid (TriangleMesh::validate reports it); never hit
+                        }
                         let (a, b, c) = (m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]);
                         prims.push(PrimRef { lo: a.min(b).min(c), hi: a.max(b).max(c), index: prims.len() as u32 });
                         ids_all.push((o as u32, i as u32));
@@ -1051,6 +1056,9 @@ impl Accel {
             match s {
                 Shape::Mesh(m) => {
                     for i in 0..m.indices.len() {
+                        if m.indices[i].iter().any(|&k| k as usize >= m.positions.len()) {
+                            continue;
+                        }
                         let [a, b, c] = m.triangle(i);
                         if let Some((t, u, v)) = rt.intersect(a, b, c, ray.t_min, t_max) {
                             t_max = t;
