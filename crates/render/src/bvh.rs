@@ -9,6 +9,8 @@
 //! stacked nodes that lie beyond the closest hit found so far; the any-hit (shadow) query stops
 //! at the first hit.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
+
 use crate::geometry::{Aabb, Ray, RayTri, Sphere};
 use crate::mesh::TriangleMesh;
 use glam::{Vec3, Vec4};
@@ -75,7 +77,7 @@ pub struct SurfacePoint {
 /// Wide node: the boxes of four children in SoA layout, `b[side][axis][child]` (side 0 = min,
 /// 1 = max), and the children's references. 128 bytes (two cache lines).
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
+#[repr(C, align(128))]
 struct Node4 {
     b: [[[f32; 4]; 3]; 2],
     child: [u32; 4],
@@ -110,7 +112,10 @@ const NO_PRIM: (u32, u32) = (u32::MAX, u32::MAX);
 const SPHERE_BIT: u32 = 0x8000_0000;
 const MAX_LEAF: usize = 8;
 const MAX_DEPTH: usize = 60;
-const STACK: usize = 320;
+/// Traversal stack size on the machine stack; deeper trees use a heap stack.
+const STACK: usize = 64;
+/// Traversal stack size for shallow trees (small scenes).
+const SMALL_STACK: usize = 16;
 const BINS: usize = 16;
 
 /// A binned-SAH BVH over all triangles and spheres, flattened for traversal.
@@ -126,6 +131,8 @@ pub struct Accel {
     /// Whether a packet holds a sphere (then it is tested lane by lane).
     has_sphere: Vec<bool>,
     bounds: Aabb,
+    /// Traversal stack entries the tree can need (3 per level below the root, plus one).
+    stack_needed: usize,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -348,6 +355,8 @@ struct Wide<'a> {
     packets: Vec<Packet>,
     ids: Vec<[(u32, u32); 4]>,
     has_sphere: Vec<bool>,
+    depth: usize,
+    max_depth: usize,
 }
 
 impl Wide<'_> {
@@ -421,7 +430,13 @@ impl Wide<'_> {
     fn child(&mut self, c: &BuildNode) -> u32 {
         match c {
             BuildNode::Leaf { start, count, .. } => self.leaf(*start, *count),
-            BuildNode::Inner { children, .. } => self.inner(children),
+            BuildNode::Inner { children, .. } => {
+                self.depth += 1;
+                self.max_depth = self.max_depth.max(self.depth);
+                let r = self.inner(children);
+                self.depth -= 1;
+                r
+            }
         }
     }
 }
@@ -504,6 +519,27 @@ impl Pre {
     }
 }
 
+/// Rays traversed together by [`Accel::intersect_batch`].
+const BATCH: usize = 8;
+
+/// State of one closest-hit traversal of a batch.
+struct Trav {
+    pre: Pre,
+    index: usize,
+    cur: u32,
+    sp: usize,
+    t_max: f32,
+    best: Option<(usize, usize, f32, f32)>,
+    stack: [(u32, f32); STACK],
+}
+
+impl Trav {
+    #[inline(always)]
+    fn new(ray: &Ray, index: usize) -> Trav {
+        Trav { pre: Pre::new(ray), index, cur: 0, sp: 0, t_max: ray.t_max, best: None, stack: [(0, 0.0); STACK] }
+    }
+}
+
 /// Result of a 4-wide triangle test.
 struct Lanes {
     t: [f32; 4],
@@ -560,7 +596,8 @@ impl Packet {
 const ROUND_UP: f32 = 1.000_000_4;
 
 impl Accel {
-    /// Build the hierarchy over every triangle and sphere of `shapes`.
+    /// Build the hierarchy over every triangle and sphere of `shapes`. Triangles with an
+    /// out-of-range index are left out (meshes from [`TriangleMesh::load`] are validated already).
     pub fn build(shapes: Vec<Shape>) -> Accel {
         let total: usize = shapes.iter().map(Shape::primitive_count).sum();
         let mut prims = Vec::with_capacity(total);
@@ -569,6 +606,10 @@ impl Accel {
             match s {
                 Shape::Mesh(m) => {
                     for (i, t) in m.indices.iter().enumerate() {
+                        let n = m.positions.len();
+                        if t.iter().any(|&k| k as usize >= n) {
+                            continue; // invalid (TriangleMesh::validate reports it); never hit
+                        }
                         let (a, b, c) = (m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]);
                         prims.push(PrimRef { lo: a.min(b).min(c), hi: a.max(b).max(c), index: prims.len() as u32 });
                         ids_all.push((o as u32, i as u32));
@@ -582,7 +623,7 @@ impl Accel {
             }
         }
         let mut bounds = Aabb::EMPTY;
-        let mut wide = Wide { shapes: &shapes, prims: &[], ids_all: &ids_all, nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), has_sphere: Vec::new() };
+        let mut wide = Wide { shapes: &shapes, prims: &[], ids_all: &ids_all, nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), has_sphere: Vec::new(), depth: 0, max_depth: 0 };
         if !prims.is_empty() {
             let root = build_rec(&mut prims, 0, 0);
             let (lo, hi) = root.bounds();
@@ -607,8 +648,8 @@ impl Accel {
                 }
             }
         }
-        let Wide { nodes, packets, ids, has_sphere, .. } = wide;
-        Accel { shapes, nodes, packets, ids, has_sphere, bounds }
+        let Wide { nodes, packets, ids, has_sphere, max_depth, .. } = wide;
+        Accel { shapes, nodes, packets, ids, has_sphere, bounds, stack_needed: 3 * max_depth + 4 }
     }
 
     /// Bounding box of the whole scene.
@@ -626,6 +667,28 @@ impl Accel {
         &self.shapes
     }
 
+    /// Closest hit and the work it took: (wide nodes visited, 4-triangle packets tested).
+    /// A machine-independent measure of the tree's quality.
+    pub fn intersect_counting(&self, ray: &Ray) -> (Option<Hit>, [u32; 2]) {
+        let mut count = [0u32; 2];
+        if self.nodes.is_empty() {
+            return (None, count);
+        }
+        let hit = self.closest::<true>(ray, &mut vec![(0u32, 0f32); self.stack_needed.max(STACK)], &mut count);
+        (hit, count)
+    }
+
+    /// Use the heap traversal stack whatever the depth (for tests of that path).
+    #[doc(hidden)]
+    pub fn force_heap_stack(&mut self) {
+        self.stack_needed = self.stack_needed.max(STACK + 1);
+    }
+
+    /// Depth of the 4-wide tree (levels of inner nodes below the root).
+    pub fn depth(&self) -> usize {
+        (self.stack_needed - 4) / 3
+    }
+
     /// Number of (4-wide) nodes of the flattened tree.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
@@ -636,16 +699,43 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
+        if self.stack_needed <= SMALL_STACK {
+            // Small scenes: a small stack is cheaper to set up.
+            self.closest::<false>(ray, &mut [(0u32, 0f32); SMALL_STACK], &mut [0; 2])
+        } else if self.stack_needed <= STACK {
+            self.closest::<false>(ray, &mut [(0u32, 0f32); STACK], &mut [0; 2])
+        } else {
+            self.closest::<false>(ray, &mut vec![(0u32, 0f32); self.stack_needed], &mut [0; 2])
+        }
+    }
+
+    /// Start loading a node or leaf that will probably be visited soon (a plain load whose value
+    /// is kept opaque to the optimiser, which the CPU overlaps with the work on the near child).
+    #[inline(always)]
+    fn touch(&self, c: u32) {
+        if c & LEAF_BIT == 0 {
+            if let Some(n) = self.nodes.get(c as usize) {
+                prefetch(n as *const Node4 as *const i8, 2);
+            }
+        } else if let Some(p) = self.packets.get((c & LEAF_OFFSET) as usize) {
+            prefetch(p as *const Packet as *const i8, 3);
+        }
+    }
+
+    #[inline(always)]
+    fn closest<const COUNT: bool>(&self, ray: &Ray, stack: &mut [(u32, f32)], count: &mut [u32; 2]) -> Option<Hit> {
         let pre = Pre::new(ray);
         let t_min = ray.t_min;
         let mut t_max = ray.t_max;
         let mut best: Option<(usize, usize, f32, f32)> = None;
-        let mut stack = [(0u32, 0f32); STACK];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
+                if COUNT {
+                    count[0] += 1;
+                }
                 let (tn, mut hit) = pre.hit4(node, t_min, t_max);
                 let mut c = [(0u32, 0f32); 4];
                 let mut cnt = 0;
@@ -671,6 +761,7 @@ impl Accel {
                         c[j] = x;
                     }
                     for &e in &c[..cnt - 1] {
+                        self.touch(e.0);
                         stack[sp] = e;
                         sp += 1;
                     }
@@ -681,6 +772,9 @@ impl Accel {
                 let first = (cur & LEAF_OFFSET) as usize;
                 let n = ((cur & !LEAF_BIT) >> LEAF_SHIFT) as usize;
                 for p in first..first + n {
+                    if COUNT {
+                        count[1] += 1;
+                    }
                     self.packet_closest(p, &pre, ray, &mut t_max, &mut best);
                 }
             }
@@ -695,6 +789,100 @@ impl Accel {
                     cur = n;
                     break;
                 }
+            }
+        }
+    }
+
+    /// Closest hits of many rays: `hits[i]` is `intersect(&rays[i])`, the same hit bit for bit.
+    /// Several traversals are interleaved, each advancing one node at a time in turn, and the
+    /// next node of each is loaded early, so their memory accesses overlap: faster than one ray
+    /// at a time when the tree does not fit in cache.
+    pub fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "intersect_batch: rays and hits differ in length");
+        if self.nodes.is_empty() || self.stack_needed > STACK {
+            for (r, h) in rays.iter().zip(hits.iter_mut()) {
+                *h = self.intersect(r);
+            }
+            return;
+        }
+        let mut active: Vec<Trav> = Vec::with_capacity(BATCH);
+        let mut next = 0;
+        while next < rays.len() && active.len() < BATCH {
+            active.push(Trav::new(&rays[next], next));
+            next += 1;
+        }
+        self.touch(0);
+        while !active.is_empty() {
+            let mut i = 0;
+            while i < active.len() {
+                let tr = &mut active[i];
+                let ray = &rays[tr.index];
+                if self.step(tr, ray) {
+                    hits[tr.index] = tr.best.map(|(p, lane, u, v)| self.make_hit(p, lane, u, v, tr.t_max, ray));
+                    if next < rays.len() {
+                        *tr = Trav::new(&rays[next], next);
+                        next += 1;
+                        i += 1;
+                    } else {
+                        active.swap_remove(i);
+                    }
+                } else {
+                    i += 1;
+                }
+            }
+        }
+    }
+
+    /// One node (or leaf) of a traversal; true when the traversal has finished.
+    #[inline(always)]
+    fn step(&self, tr: &mut Trav, ray: &Ray) -> bool {
+        let cur = tr.cur;
+        if cur & LEAF_BIT == 0 {
+            let node = &self.nodes[cur as usize];
+            let (tn, mut hit) = tr.pre.hit4(node, ray.t_min, tr.t_max);
+            let mut c = [(0u32, 0f32); 4];
+            let mut cnt = 0;
+            while hit != 0 {
+                let i = hit.trailing_zeros() as usize;
+                hit &= hit - 1;
+                c[cnt] = (node.child[i], tn[i]);
+                cnt += 1;
+            }
+            if cnt > 0 {
+                for i in 1..cnt {
+                    let x = c[i];
+                    let mut j = i;
+                    while j > 0 && c[j - 1].1 < x.1 {
+                        c[j] = c[j - 1];
+                        j -= 1;
+                    }
+                    c[j] = x;
+                }
+                for &e in &c[..cnt - 1] {
+                    tr.stack[tr.sp] = e;
+                    tr.sp += 1;
+                }
+                tr.cur = c[cnt - 1].0;
+                self.touch(tr.cur);
+                return false;
+            }
+        } else {
+            let first = (cur & LEAF_OFFSET) as usize;
+            let n = ((cur & !LEAF_BIT) >> LEAF_SHIFT) as usize;
+            for p in first..first + n {
+                self.packet_closest(p, &tr.pre, ray, &mut tr.t_max, &mut tr.best);
+            }
+        }
+        loop {
+            if tr.sp == 0 {
+                return true;
+            }
+            tr.sp -= 1;
+            let (n, tn) = tr.stack[tr.sp];
+            if tn <= tr.t_max * ROUND_UP {
+                tr.cur = n;
+                self.touch(n);
+                return false;
             }
         }
     }
@@ -762,9 +950,19 @@ impl Accel {
         if self.nodes.is_empty() {
             return false;
         }
+        if self.stack_needed <= SMALL_STACK {
+            self.any_hit(ray, &mut [0u32; SMALL_STACK])
+        } else if self.stack_needed <= STACK {
+            self.any_hit(ray, &mut [0u32; STACK])
+        } else {
+            self.any_hit(ray, &mut vec![0u32; self.stack_needed])
+        }
+    }
+
+    #[inline(always)]
+    fn any_hit(&self, ray: &Ray, stack: &mut [u32]) -> bool {
         let pre = Pre::new(ray);
         let (t_min, t_max) = (ray.t_min, ray.t_max);
-        let mut stack = [0u32; STACK];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
@@ -858,6 +1056,9 @@ impl Accel {
             match s {
                 Shape::Mesh(m) => {
                     for i in 0..m.indices.len() {
+                        if m.indices[i].iter().any(|&k| k as usize >= m.positions.len()) {
+                            continue;
+                        }
                         let [a, b, c] = m.triangle(i);
                         if let Some((t, u, v)) = rt.intersect(a, b, c, ray.t_min, t_max) {
                             t_max = t;
@@ -890,4 +1091,17 @@ fn sphere_uv(d: Vec3) -> (f32, f32) {
     let phi = d.z.atan2(d.x);
     let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
     (phi / (2.0 * std::f32::consts::PI), d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
+}
+
+/// Ask the CPU to start loading `lines` cache lines from `p`.
+#[inline(always)]
+fn prefetch(p: *const i8, lines: usize) {
+    #[cfg(target_arch = "x86_64")]
+    for k in 0..lines {
+        // SAFETY: a prefetch never faults or changes memory; the pointer is only a hint
+        // (and points into a live Vec element anyway).
+        unsafe { std::arch::x86_64::_mm_prefetch(p.wrapping_add(64 * k), std::arch::x86_64::_MM_HINT_T0) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (p, lines);
 }

@@ -7,6 +7,8 @@
 //! discriminant from the distance of the centre to the ray line (as pbrt-v4 does), which
 //! stays accurate when the sphere is small or far away.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
+
 use glam::Vec3;
 
 /// A ray r(t) = o + t d, valid for t in the open interval (t_min, t_max).

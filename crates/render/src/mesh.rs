@@ -4,6 +4,8 @@
 //! Positions are in the file's length unit; the scene applies its unit and transform with
 //! [`TriangleMesh::transform`].
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
+
 use anyhow::{bail, Context, Result};
 use glam::{Mat3, Mat4, Vec3};
 use std::io::Read;
@@ -124,7 +126,7 @@ fn load_unchecked(path: &Path) -> Result<Vec<(String, TriangleMesh)>> {
 
 /// Parse OBJ text; each group/object becomes one named mesh.
 pub fn parse_obj(bytes: &[u8], default_name: &str) -> Result<Vec<(String, TriangleMesh)>> {
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let mut reader = std::io::BufReader::new(bytes);
     let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
         .map_err(|e| anyhow::anyhow!("OBJ: {e}"))?;

@@ -186,6 +186,12 @@ fn check_against_brute_force(accel: &Accel, n: usize, seed: u64) -> usize {
         .map(|ch| {
             let mut hits = 0;
             let mut mask = Vec::new();
+            // The batched traversal gives the single-ray hits exactly.
+            let mut batch = vec![None; ch.len()];
+            accel.intersect_batch(ch, &mut batch);
+            for (r, b) in ch.iter().zip(&batch) {
+                assert_eq!(*b, accel.intersect(r), "intersect_batch differs for {r:?}");
+            }
             for r in ch {
                 let fast = accel.intersect(r);
                 let slow = bf.intersect(r, &mut mask);
@@ -290,6 +296,13 @@ fn empty_scene_and_degenerate_input() {
     assert!((h.t - 1.0).abs() < 1e-6, "t = {}", h.t);
     assert!((accel.intersect_brute_force(&r).unwrap().t - 1.0).abs() < 1e-6);
     check_against_brute_force(&accel, 2000, 5);
+    // An out-of-range index (a mesh built by hand, not validated) is left out, not a panic.
+    let bad = TriangleMesh { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![[0, 1, 2], [0, 1, 7]] };
+    assert!(bad.validate().is_err());
+    let accel = Accel::build(vec![Shape::Mesh(bad)]);
+    let h = accel.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)).unwrap();
+    assert_eq!(h.prim, 0);
+    assert!(accel.intersect_brute_force(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)).is_some());
 }
 
 /// Axis-parallel rays lying exactly in a bounding plane of the scene and of its nodes (as camera
@@ -320,4 +333,25 @@ fn axis_parallel_rays_in_bounding_planes() {
         let shadow = Ray::with_bounds(o, d, 1e-3, 0.5 * t);
         assert!(!accel.occluded(&shadow) && accel.intersect(&shadow).is_none());
     }
+}
+
+/// Geometrically spaced slivers make a deep, comb-like tree; the traversal on the heap stack
+/// (used for trees too deep for the machine-stack one) must agree with brute force too.
+#[test]
+fn deep_tree_uses_heap_stack_and_stays_exact() {
+    let mut m = TriangleMesh::default();
+    for k in 0..400 {
+        let x = 1.1f32.powi(k);
+        let b = m.positions.len() as u32;
+        let w = 0.01 * x;
+        m.positions.extend([Vec3::new(x, -1.0, -1.0), Vec3::new(x + w, 1.0, -1.0), Vec3::new(x, 0.0, 1.0)]);
+        m.indices.push([b, b + 1, b + 2]);
+    }
+    let mut accel = Accel::build(vec![Shape::Mesh(m)]);
+    assert!(accel.depth() > 10, "depth {}", accel.depth());
+    check_against_brute_force(&accel, 20_000, 11);
+    accel.force_heap_stack();
+    check_against_brute_force(&accel, 20_000, 12);
+    let r = Ray::new(Vec3::new(0.0, 0.1, 0.0), Vec3::X);
+    assert_eq!(accel.intersect(&r).unwrap().prim, 0);
 }
