@@ -30,6 +30,8 @@ enum Command {
     Bssrdf(cmd::bssrdf::Args),
     /// Compare a render with a photograph pixel by pixel.
     Compare(cmd::compare::Args),
+    /// Inverse problems: optical properties from reflectance, particles from spectra, scene parameters from photos.
+    Fit(cmd::fit::Args),
 }
 
 fn main() {
@@ -44,6 +46,7 @@ fn main() {
         Some(Command::Slab(a)) => cmd::slab::run(a),
         Some(Command::Bssrdf(a)) => cmd::bssrdf::run(a),
         Some(Command::Compare(a)) => cmd::compare::run(a),
+        Some(Command::Fit(a)) => cmd::fit::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of contexts joined, as scripts and people read it.

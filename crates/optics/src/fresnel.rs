@@ -77,7 +77,10 @@ pub fn fresnel_complex_sp(cos_theta_i: f64, eta: Complex64) -> (f64, f64) {
     let rs = r_s.norm_sqr();
     let rp = r_p.norm_sqr();
     // At grazing incidence on an index-matched interface both numerator and denominator vanish.
-    (if rs.is_finite() { rs } else { 1.0 }, if rp.is_finite() { rp } else { 1.0 })
+    (
+        if rs.is_finite() { rs } else { 1.0 },
+        if rp.is_finite() { rp } else { 1.0 },
+    )
 }
 
 /// Unpolarised Fresnel reflectance for a complex relative index η = n' + i·n''
@@ -101,7 +104,8 @@ pub fn fresnel_complex_transmittance(cos_theta_i: f64, eta: Complex64) -> f64 {
 /// medium of index n_i at cos θ_i = μ and η = n_t / n_i. Computed by numerical quadrature
 /// (composite Gauss–Legendre, with the total-internal-reflection part integrated exactly
 /// and the square-root kink at the critical angle removed by a change of variable),
-/// accurate to about 1e-12.
+/// accurate to better than 1e-8 (checked against a 2-million-point midpoint rule in the tests).
+/// Returns NaN unless `eta` is finite and positive.
 ///
 /// Consequences: the diffuse (cosine-weighted hemispherical) Fresnel reflectance is
 /// F_dr(η) = 2·C_1(η); the boundary terms of the dipole models are C_φ = (1 − 2C_1)/4 and
@@ -109,7 +113,9 @@ pub fn fresnel_complex_transmittance(cos_theta_i: f64, eta: Complex64) -> f64 {
 /// hitting the boundary has η = 1/n (e.g. Jensen et al. 2001's F_dr(n) ≈ 2·C_1(1/n), the
 /// Egan–Hilgeman fit), and light arriving from outside has η = n.
 pub fn fresnel_moment(order: u32, eta: f64) -> f64 {
-    assert!(eta > 0.0, "fresnel_moment: eta must be positive");
+    if !(eta.is_finite() && eta > 0.0) {
+        return f64::NAN; // callers validate user input; never panic here
+    }
     let p = order as i32;
     let f = |mu: f64| fresnel_dielectric(mu, eta) * mu.powi(p);
     if eta < 1.0 {
@@ -135,12 +141,12 @@ fn gauss_legendre(a: f64, b: f64, panels: usize, f: impl Fn(f64) -> f64) -> f64 
     // Nodes and weights of the 8-point rule on [−1, 1] (Abramowitz & Stegun 25.4.30).
     const X: [f64; 4] = [
         0.183_434_642_495_649_8,
-        0.525_532_409_916_329_0,
+        0.525_532_409_916_329,
         0.796_666_477_413_626_7,
         0.960_289_856_497_536_3,
     ];
     const W: [f64; 4] = [
-        0.362_683_783_378_362_0,
+        0.362_683_783_378_362,
         0.313_706_645_877_887_3,
         0.222_381_034_453_374_5,
         0.101_228_536_290_376_3,

@@ -85,25 +85,41 @@ pub struct TabulatedPhase {
 
 impl TabulatedPhase {
     /// Build from samples `value` (any positive scale; renormalised) at `cos_theta`, which must
-    /// be strictly increasing, start at −1 and end at 1. Errors name the offending entry.
-    pub fn new(cos_theta: Vec<f64>, value: Vec<f64>) -> Result<Self> {
+    /// be strictly monotonic from −1 to 1 or from 1 to −1 (as a grid uniform in θ from 0° to
+    /// 180°, e.g. `optics::media::PhaseTable`). Errors name the offending entry.
+    pub fn new(mut cos_theta: Vec<f64>, mut value: Vec<f64>) -> Result<Self> {
         if cos_theta.len() != value.len() {
-            bail!("tabulated phase function: {} angles but {} values", cos_theta.len(), value.len());
+            bail!(
+                "tabulated phase function: {} angles but {} values",
+                cos_theta.len(),
+                value.len()
+            );
+        }
+        if cos_theta.len() >= 2 && cos_theta[0] > cos_theta[cos_theta.len() - 1] {
+            cos_theta.reverse();
+            value.reverse();
         }
         if cos_theta.len() < 2 {
             bail!("tabulated phase function: needs at least 2 samples");
         }
-        if (cos_theta[0] + 1.0).abs() > 1e-9 || (cos_theta[cos_theta.len() - 1] - 1.0).abs() > 1e-9 {
+        if (cos_theta[0] + 1.0).abs() > 1e-9 || (cos_theta[cos_theta.len() - 1] - 1.0).abs() > 1e-9
+        {
             bail!("tabulated phase function: cos_theta must run from -1 to 1");
         }
         for (i, w) in cos_theta.windows(2).enumerate() {
-            if !(w[1] > w[0]) {
-                bail!("tabulated phase function: cos_theta not strictly increasing at entry {}", i + 1);
+            if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
+                bail!(
+                    "tabulated phase function: cos_theta not strictly increasing at entry {}",
+                    i + 1
+                );
             }
         }
         for (i, v) in value.iter().enumerate() {
             if !v.is_finite() || *v < 0.0 {
-                bail!("tabulated phase function: value {} at entry {i} is negative or not finite", v);
+                bail!(
+                    "tabulated phase function: value {} at entry {i} is negative or not finite",
+                    v
+                );
             }
         }
         // Trapezoid integral of the piecewise-linear function (exact for it).
@@ -120,7 +136,7 @@ impl TabulatedPhase {
             first_moment += h * (y0 * (2.0 * x0 + x1) + y1 * (x0 + 2.0 * x1)) / 6.0;
             cdf.push(total);
         }
-        if !(total > 0.0) {
+        if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             bail!("tabulated phase function: integrates to zero");
         }
         for c in cdf.iter_mut() {
@@ -138,7 +154,9 @@ impl TabulatedPhase {
     /// Tabulate any phase function `p(cos θ)` on `n` points uniformly spaced in cos θ.
     pub fn from_fn(n: usize, p: impl Fn(f64) -> f64) -> Result<Self> {
         let n = n.max(2);
-        let mu: Vec<f64> = (0..n).map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64).collect();
+        let mu: Vec<f64> = (0..n)
+            .map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64)
+            .collect();
         let v = mu.iter().map(|&m| p(m)).collect();
         Self::new(mu, v)
     }
@@ -173,7 +191,11 @@ impl TabulatedPhase {
         let b = self.value_per_sr[i + 1] * norm * h;
         let target = u - self.cdf[i]; // = a t + (b − a) t²/2
         let t = if (b - a).abs() < 1e-12 * (a + b).max(1e-300) {
-            if a > 0.0 { target / a } else { 0.5 }
+            if a > 0.0 {
+                target / a
+            } else {
+                0.5
+            }
         } else {
             // Solve (b−a)/2 t² + a t − target = 0, numerically stable root.
             let qa = 0.5 * (b - a);
@@ -191,5 +213,46 @@ impl TabulatedPhase {
     fn segment(&self, x: f64) -> usize {
         let k = self.cos_theta.partition_point(|&c| c <= x);
         k.saturating_sub(1).min(self.cos_theta.len() - 2)
+    }
+}
+
+/// Either phase function, for media that may carry a Henyey–Greenstein `g` or a Mie table.
+#[derive(Clone, Debug)]
+pub enum PhaseFunction {
+    /// Henyey–Greenstein with asymmetry g.
+    HenyeyGreenstein(HenyeyGreenstein),
+    /// Tabulated over cos θ (e.g. from Lorenz–Mie theory).
+    Tabulated(TabulatedPhase),
+}
+
+impl PhaseFunction {
+    /// Phase function value in sr⁻¹.
+    pub fn eval(&self, cos_theta: f64) -> f64 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(p) => p.eval(cos_theta),
+            PhaseFunction::Tabulated(p) => p.eval(cos_theta),
+        }
+    }
+
+    /// Exact inverse-CDF sample of cos θ from `u` uniform in [0, 1].
+    pub fn sample_cos_theta(&self, u: f64) -> f64 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(p) => p.sample_cos_theta(u),
+            PhaseFunction::Tabulated(p) => p.sample_cos_theta(u),
+        }
+    }
+
+    /// Sample the direction after scattering from `dir` (unit); `u1` picks cos θ, `u2` the azimuth.
+    /// Its density over directions is `eval` of the cosine to `dir`.
+    pub fn sample_direction(&self, dir: [f64; 3], u1: f64, u2: f64) -> [f64; 3] {
+        scatter_direction(dir, self.sample_cos_theta(u1), 2.0 * PI * u2)
+    }
+
+    /// Mean cosine of the scattering angle (dimensionless).
+    pub fn g(&self) -> f64 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(p) => p.g,
+            PhaseFunction::Tabulated(p) => p.g(),
+        }
     }
 }

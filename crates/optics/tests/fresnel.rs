@@ -61,7 +61,10 @@ fn reflectance_plus_transmittance_is_one_and_reciprocal() {
             // Stokes reciprocity: the reverse path through the refracted angle has the same R.
             if let Some(cos_t) = cos_theta_transmitted(cos_i, n).filter(|_| cos_i > 0.0) {
                 let r_back = fresnel_dielectric(cos_t, 1.0 / n);
-                assert!(close(r, r_back, 1e-12), "n {n} cos {cos_i}: {r} vs {r_back}");
+                assert!(
+                    close(r, r_back, 1e-12),
+                    "n {n} cos {cos_i}: {r} vs {r_back}"
+                );
                 // Power transmittance from the amplitude coefficient:
                 // T_s = (n cos_t / cos_i) t_s², t_s = 2 cos_i / (cos_i + n cos_t).
                 if cos_i > 0.0 {
@@ -100,10 +103,18 @@ fn complex_index_closed_forms() {
         let expect = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
         assert!(close(r0, expect, 1e-13));
         let (rs, rp) = fresnel_complex_sp(std::f64::consts::FRAC_1_SQRT_2, eta);
-        assert!(close(rp, rs * rs, 1e-12), "Abelès: R_p {rp} vs R_s² {}", rs * rs);
+        assert!(
+            close(rp, rs * rs, 1e-12),
+            "Abelès: R_p {rp} vs R_s² {}",
+            rs * rs
+        );
         // Grazing incidence reflects everything; transmittance is the complement.
         assert!(close(fresnel_complex(0.0, eta), 1.0, 1e-12));
-        assert!(close(fresnel_complex_transmittance(0.5, eta) + fresnel_complex(0.5, eta), 1.0, 1e-15));
+        assert!(close(
+            fresnel_complex_transmittance(0.5, eta) + fresnel_complex(0.5, eta),
+            1.0,
+            1e-15
+        ));
         // Metals: R_s grows monotonically with angle, R_p dips at the pseudo-Brewster angle.
         let (rs30, _) = fresnel_complex_sp(30f64.to_radians().cos(), eta);
         let (rs60, _) = fresnel_complex_sp(60f64.to_radians().cos(), eta);
@@ -150,11 +161,16 @@ fn metals_match_published_normal_reflectance() {
     for (metal, lambda, expect, tol) in cases {
         let eta = nearest(&ior_table(metal), lambda);
         let r = fresnel_complex(1.0, eta);
-        assert!(close(r, expect, tol), "{metal} at {lambda} nm: R = {r}, handbook {expect}");
+        assert!(
+            close(r, expect, tol),
+            "{metal} at {lambda} nm: R = {r}, handbook {expect}"
+        );
     }
     // Gold: the red end reflects more than the blue end by a factor > 2.
     let au = ior_table("Au");
-    assert!(fresnel_complex(1.0, nearest(&au, 700.0)) > 2.0 * fresnel_complex(1.0, nearest(&au, 450.0)));
+    assert!(
+        fresnel_complex(1.0, nearest(&au, 700.0)) > 2.0 * fresnel_complex(1.0, nearest(&au, 450.0))
+    );
 }
 
 #[test]
@@ -168,7 +184,10 @@ fn moments_closed_forms() {
     for &n in &[1.1, 1.33, 1.5, 2.0, 2.5] {
         let ext = fresnel_diffuse_reflectance(n);
         let int = fresnel_diffuse_reflectance(1.0 / n);
-        assert!(close(1.0 - int, (1.0 - ext) / (n * n), 1e-10), "n {n}: {ext} {int}");
+        assert!(
+            close(1.0 - int, (1.0 - ext) / (n * n), 1e-10),
+            "n {n}: {ext} {int}"
+        );
         let mu_c = (1.0 - 1.0 / (n * n)).sqrt();
         assert!(fresnel_moment(0, 1.0 / n) > mu_c);
     }
@@ -193,7 +212,10 @@ fn moments_agree_with_brute_force_quadrature() {
                 })
                 .sum();
             let fast = fresnel_moment(order, eta);
-            assert!(close(fast, brute, 1e-8), "eta {eta} order {order}: {fast} vs {brute}");
+            assert!(
+                close(fast, brute, 1e-8),
+                "eta {eta} order {order}: {fast} vs {brute}"
+            );
         }
     }
 }
@@ -210,13 +232,26 @@ fn diffuse_reflectance_matches_egan_hilgeman() {
         let n = 1.05 + k as f64 * 0.05; // 1.05 .. 2.5
         let fit = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
         let exact = fresnel_diffuse_reflectance(1.0 / n);
-        assert!(close(exact, fit, 0.006), "η {n}: exact {exact} vs fit {fit}");
+        assert!(
+            close(exact, fit, 0.006),
+            "η {n}: exact {exact} vs fit {fit}"
+        );
         if (1.2..=2.0).contains(&n) {
-            assert!((exact - fit).abs() / exact < 0.002, "η {n}: exact {exact} vs fit {fit}");
+            assert!(
+                (exact - fit).abs() / exact < 0.002,
+                "η {n}: exact {exact} vs fit {fit}"
+            );
         }
     }
     // Textbook value: water (n = 1.33) internal diffuse reflectance ≈ 0.44 … glass 1.5 ≈ 0.596.
     assert!(close(fresnel_diffuse_reflectance(1.0 / 1.5), 0.596, 0.002));
     // External: diffuse light from air onto glass reflects ≈ 9.2 %.
     assert!(close(fresnel_diffuse_reflectance(1.5), 0.092, 0.001));
+}
+
+#[test]
+fn invalid_relative_index_gives_nan_not_a_panic() {
+    assert!(fresnel_moment(1, 0.0).is_nan());
+    assert!(fresnel_moment(1, -1.5).is_nan());
+    assert!(fresnel_moment(2, f64::NAN).is_nan());
 }

@@ -24,7 +24,13 @@ fn sphere_moment(f: impl Fn(f64) -> f64, k: i32) -> f64 {
     let mut s = 0.0;
     for i in 0..=n {
         let x = -1.0 + i as f64 * h;
-        let w = if i == 0 || i == n { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+        let w = if i == 0 || i == n {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
         s += w * f(x) * x.powi(k);
     }
     2.0 * PI * s * h / 3.0
@@ -34,7 +40,10 @@ fn sphere_moment(f: impl Fn(f64) -> f64, k: i32) -> f64 {
 fn hg_is_normalised_and_has_mean_cosine_g() {
     for &g in &[-0.9, -0.3, 0.0, 0.5, 0.75, 0.9] {
         let hg = HenyeyGreenstein { g };
-        assert!((sphere_moment(|m| hg.eval(m), 0) - 1.0).abs() < 1e-6, "g {g}");
+        assert!(
+            (sphere_moment(|m| hg.eval(m), 0) - 1.0).abs() < 1e-6,
+            "g {g}"
+        );
         assert!((sphere_moment(|m| hg.eval(m), 1) - g).abs() < 1e-6, "g {g}");
     }
     // Isotropic: 1/(4π).
@@ -60,9 +69,15 @@ fn hg_sampling_matches_g_and_second_moment() {
         let m2 = s2 / n as f64;
         let se1 = ((m2 - m1 * m1) / n as f64).sqrt();
         let se2 = ((s4 / n as f64 - m2 * m2) / n as f64).sqrt();
-        assert!((m1 - g).abs() < 4.0 * se1 + 1e-12, "g {g}: mean {m1} ± {se1}");
+        assert!(
+            (m1 - g).abs() < 4.0 * se1 + 1e-12,
+            "g {g}: mean {m1} ± {se1}"
+        );
         let expect2 = (1.0 + 2.0 * g * g) / 3.0;
-        assert!((m2 - expect2).abs() < 4.0 * se2 + 1e-12, "g {g}: ⟨μ²⟩ {m2} vs {expect2} ± {se2}");
+        assert!(
+            (m2 - expect2).abs() < 4.0 * se2 + 1e-12,
+            "g {g}: ⟨μ²⟩ {m2} vs {expect2} ± {se2}"
+        );
     }
 }
 
@@ -73,7 +88,8 @@ fn hg_inverse_cdf_is_exact() {
         let hg = HenyeyGreenstein { g };
         let cdf = |mu: f64| {
             // closed form: (1 − g²)/(2g) [ (1 + g² − 2gμ)^{-1/2} − 1/(1 + g) ]
-            (1.0 - g * g) / (2.0 * g) * (1.0 / (1.0 + g * g - 2.0 * g * mu).sqrt() - 1.0 / (1.0 + g))
+            (1.0 - g * g) / (2.0 * g)
+                * (1.0 / (1.0 + g * g - 2.0 * g * mu).sqrt() - 1.0 / (1.0 + g))
         };
         for k in 0..=20 {
             let u = k as f64 / 20.0;
@@ -102,7 +118,13 @@ fn histogram_matches(sample: impl Fn(f64) -> f64, eval: impl Fn(f64) -> f64, see
         let h = (hi - lo) / m as f64;
         let mut p = 0.0;
         for i in 0..=m {
-            let w = if i == 0 || i == m { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+            let w = if i == 0 || i == m {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
             p += w * 2.0 * PI * eval(lo + i as f64 * h);
         }
         let expect = p * h / 3.0 * n as f64;
@@ -139,7 +161,10 @@ fn tabulated_phase_reproduces_hg() {
 fn tabulated_phase_sampling_is_its_inverse_cdf() {
     // A strongly peaked, unnormalised table (Rayleigh-like times a forward lobe).
     let mu: Vec<f64> = (0..=100).map(|i| -1.0 + 0.02 * i as f64).collect();
-    let v: Vec<f64> = mu.iter().map(|m| (1.0 + m * m) * (1.0 + 20.0 * m.max(0.0).powi(8))).collect();
+    let v: Vec<f64> = mu
+        .iter()
+        .map(|m| (1.0 + m * m) * (1.0 + 20.0 * m.max(0.0).powi(8)))
+        .collect();
     let tab = TabulatedPhase::new(mu.clone(), v).unwrap();
     // Mean cosine by sampling vs the exact piecewise-linear moment.
     let mut rng = Rng(5);
@@ -152,7 +177,11 @@ fn tabulated_phase_sampling_is_its_inverse_cdf() {
     }
     let m1 = s1 / n as f64;
     let se = ((s2 / n as f64 - m1 * m1) / n as f64).sqrt();
-    assert!((m1 - tab.g()).abs() < 4.0 * se, "{m1} vs {} ± {se}", tab.g());
+    assert!(
+        (m1 - tab.g()).abs() < 4.0 * se,
+        "{m1} vs {} ± {se}",
+        tab.g()
+    );
     // Monotone and hitting the ends.
     assert!((tab.sample_cos_theta(0.0) + 1.0).abs() < 1e-12);
     assert!((tab.sample_cos_theta(1.0) - 1.0).abs() < 1e-12);
@@ -178,7 +207,12 @@ fn tabulated_phase_rejects_bad_tables() {
 fn sampled_directions_are_unit_with_mean_cosine_g() {
     use optics::phase::scatter_direction;
     let mut rng = Rng(77);
-    for &dir in &[[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.6, 0.0, 0.8], [0.2, -0.3, (1.0f64 - 0.13).sqrt()]] {
+    for &dir in &[
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [0.6, 0.0, 0.8],
+        [0.2, -0.3, (1.0f64 - 0.13).sqrt()],
+    ] {
         let g = 0.7;
         let hg = HenyeyGreenstein { g };
         let n = 200_000;
@@ -209,4 +243,41 @@ fn sampled_directions_are_unit_with_mean_cosine_g() {
     let b = scatter_direction(dir, 0.0, PI / 2.0);
     let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
     assert!(dot(a, dir).abs() < 1e-12 && dot(b, dir).abs() < 1e-12 && dot(a, b).abs() < 1e-12);
+}
+
+#[test]
+fn tabulated_phase_accepts_a_grid_uniform_in_theta_from_forward_to_back() {
+    // The layout of Mie tables (θ uniform over 0°…180°, cos θ decreasing from 1 to −1),
+    // for a strongly forward-peaked HG (g = 0.9): mean cosine and normalisation are kept.
+    let hg = HenyeyGreenstein { g: 0.9 };
+    let n = 1801;
+    let mu: Vec<f64> = (0..n)
+        .map(|i| (PI * i as f64 / (n - 1) as f64).cos())
+        .collect();
+    let v: Vec<f64> = mu.iter().map(|&m| hg.eval(m)).collect();
+    let tab = TabulatedPhase::new(mu, v).unwrap();
+    assert!((tab.g() - 0.9).abs() < 2e-3, "g {}", tab.g());
+    assert!((sphere_moment(|m| tab.eval(m), 0) - 1.0).abs() < 1e-4);
+    assert!((tab.eval(1.0) - hg.eval(1.0)).abs() / hg.eval(1.0) < 2e-3);
+    histogram_matches(|u| tab.sample_cos_theta(u), |m| tab.eval(m), 101);
+}
+
+#[test]
+fn phase_function_enum_dispatches_to_both_kinds() {
+    use optics::phase::PhaseFunction;
+    let hg = HenyeyGreenstein { g: 0.4 };
+    let a = PhaseFunction::HenyeyGreenstein(hg);
+    let b = PhaseFunction::Tabulated(TabulatedPhase::from_fn(4001, |m| hg.eval(m)).unwrap());
+    assert!((a.g() - b.g()).abs() < 1e-4);
+    for k in 0..=10 {
+        let mu = -1.0 + 0.2 * k as f64;
+        assert!((a.eval(mu) - b.eval(mu)).abs() < 1e-4 * a.eval(mu));
+        let u = k as f64 / 10.0;
+        assert!(
+            (a.sample_cos_theta(u) - b.sample_cos_theta(u)).abs() < 1e-3,
+            "u {u}"
+        );
+    }
+    let d = b.sample_direction([0.0, 1.0, 0.0], 0.3, 0.7);
+    assert!(((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - 1.0).abs() < 1e-12);
 }

@@ -11,7 +11,7 @@
 
 use crate::geometry::{Aabb, Ray, RayTri, Sphere};
 use crate::mesh::TriangleMesh;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// A shape of the scene.
 #[derive(Clone, Debug)]
@@ -72,33 +72,59 @@ pub struct SurfacePoint {
     pub prim: u32,
 }
 
-/// Flattened BVH node, 32 bytes.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C)]
-struct Node {
-    min: [f32; 3],
-    /// Leaf: index of the first primitive. Inner: index of the left child (the right is next).
-    offset: u32,
-    max: [f32; 3],
-    /// Leaf: primitive count (> 0). Inner: 0.
-    count: u32,
+/// Wide node: the boxes of four children in SoA layout, `b[side][axis][child]` (side 0 = min,
+/// 1 = max), and the children's references. 128 bytes (two cache lines).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node4 {
+    b: [[[f32; 4]; 3]; 2],
+    child: [u32; 4],
+    _pad: [u32; 4],
 }
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 {
+        b: [[[f32::INFINITY; 4]; 3], [[f32::NEG_INFINITY; 4]; 3]],
+        child: [EMPTY_CHILD; 4],
+        _pad: [0; 4],
+    };
+}
+
+/// Four primitives in SoA layout: `v[vertex][axis][lane]` (a sphere lane: centre in vertex 0,
+/// radius in vertex 1's x). Unused lanes hold NaN and never hit.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Packet {
+    v: [[[f32; 4]; 3]; 3],
+}
+
+/// Child reference of an empty slot (its box is empty, so it is never entered).
+const EMPTY_CHILD: u32 = u32::MAX;
+/// Child reference flag of a leaf: bits 27..30 hold the packet count, bits 0..26 the first packet.
+const LEAF_BIT: u32 = 1 << 31;
+const LEAF_SHIFT: u32 = 27;
+const LEAF_OFFSET: u32 = (1 << LEAF_SHIFT) - 1;
+/// Lane id of an unused lane.
+const NO_PRIM: (u32, u32) = (u32::MAX, u32::MAX);
 
 const SPHERE_BIT: u32 = 0x8000_0000;
 const MAX_LEAF: usize = 8;
 const MAX_DEPTH: usize = 60;
-const STACK: usize = 64;
+const STACK: usize = 320;
 const BINS: usize = 16;
 
 /// A binned-SAH BVH over all triangles and spheres, flattened for traversal.
 #[derive(Clone, Debug)]
 pub struct Accel {
     shapes: Vec<Shape>,
-    nodes: Vec<Node>,
-    /// Triangle vertices in leaf order (sphere: centre, (radius, 0, 0), unused).
-    verts: Vec<[Vec3; 3]>,
-    /// (object, prim | SPHERE_BIT for spheres) in leaf order.
-    ids: Vec<(u32, u32)>,
+    /// Wide nodes; the root is node 0.
+    nodes: Vec<Node4>,
+    /// Primitives in leaf order, four per packet.
+    packets: Vec<Packet>,
+    /// (object, prim | SPHERE_BIT for spheres) of each lane, NO_PRIM for unused lanes.
+    ids: Vec<[(u32, u32); 4]>,
+    /// Whether a packet holds a sphere (then it is tested lane by lane).
+    has_sphere: Vec<bool>,
     bounds: Aabb,
 }
 
@@ -171,6 +197,15 @@ fn half_area(lo: Vec3, hi: Vec3) -> f32 {
 
 const PAR_THRESHOLD: usize = 4096;
 
+/// Cost of a node visit relative to one 4-wide triangle test (SAH).
+const TRAVERSAL_COST: f32 = 1.0;
+
+/// SAH cost of intersecting `n` primitives: one 4-wide test per started group of 4.
+#[inline]
+fn leaf_cost(n: usize) -> f32 {
+    n.div_ceil(4) as f32
+}
+
 fn bin_prims(prims: &[PrimRef], c_lo: Vec3, scale: Vec3) -> [[Bin; BINS]; 3] {
     let fold = |mut bins: [[Bin; BINS]; 3], p: &PrimRef| {
         let c = p.centroid();
@@ -230,7 +265,12 @@ fn build_rec(prims: &mut [PrimRef], start: usize, depth: usize) -> BuildNode {
     // SAH split search over the three axes.
     let mut best = (f32::INFINITY, 0usize, 0usize); // cost, axis, bin boundary (left = bins < k)
     let degenerate = !(c_ext.max_element() > 0.0);
-    if !degenerate {
+    if depth >= MAX_DEPTH {
+        // Too deep for the SAH to be trusted (pathological input): leaf, or a median split.
+        if n <= MAX_LEAF {
+            return leaf;
+        }
+    } else if !degenerate {
         let scale = Vec3::select(c_ext.cmpgt(Vec3::ZERO), Vec3::splat(BINS as f32 * (1.0 - 1e-6)) / c_ext, Vec3::ZERO);
         let bins = bin_prims(prims, c_lo, scale);
         for (axis, bins_a) in bins.iter().enumerate() {
@@ -241,7 +281,7 @@ fn build_rec(prims: &mut [PrimRef], start: usize, depth: usize) -> BuildNode {
             let mut acc = Bin::default();
             for i in (1..BINS).rev() {
                 acc.merge(&bins_a[i]);
-                right_cost[i] = if acc.n > 0 { half_area(acc.lo, acc.hi) * acc.n as f32 } else { 0.0 };
+                right_cost[i] = if acc.n > 0 { half_area(acc.lo, acc.hi) * leaf_cost(acc.n as usize) } else { 0.0 };
             }
             let mut accl = Bin::default();
             for k in 1..BINS {
@@ -249,19 +289,18 @@ fn build_rec(prims: &mut [PrimRef], start: usize, depth: usize) -> BuildNode {
                 if accl.n == 0 || accl.n as usize == n {
                     continue;
                 }
-                let cost = half_area(accl.lo, accl.hi) * accl.n as f32 + right_cost[k];
+                let cost = half_area(accl.lo, accl.hi) * leaf_cost(accl.n as usize) + right_cost[k];
                 if cost < best.0 {
                     best = (cost, axis, k);
                 }
             }
         }
-        // Leaf if splitting does not pay: C_trav = 1, C_isect = 1 (in units of one triangle test).
-        let leaf_cost = n as f32;
-        let split_cost = 1.0 + best.0 / half_area(lo, hi).max(f32::MIN_POSITIVE);
-        if n <= MAX_LEAF && (split_cost >= leaf_cost || !best.0.is_finite()) || depth >= MAX_DEPTH {
+        // Leaf if splitting does not pay (costs in units of one 4-wide triangle test).
+        let split_cost = TRAVERSAL_COST + best.0 / half_area(lo, hi).max(f32::MIN_POSITIVE);
+        if n <= MAX_LEAF && (split_cost >= leaf_cost(n) || !best.0.is_finite()) {
             return leaf;
         }
-    } else if n <= MAX_LEAF || depth >= MAX_DEPTH {
+    } else if n <= MAX_LEAF {
         return leaf;
     }
     let mid = if best.0.is_finite() {
@@ -300,83 +339,220 @@ fn partition(prims: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
     i
 }
 
-/// Write `node`'s children at `nodes[at]` and `nodes[at+1]`, their subtrees after `next`.
-/// Returns the next free index.
-fn flatten(children: &[BuildNode; 2], nodes: &mut [Node], at: usize, mut next: usize) -> usize {
-    for (k, c) in children.iter().enumerate() {
-        let (lo, hi) = c.bounds();
-        let slot = at + k;
+/// Output of the collapse of the binary tree into wide nodes.
+struct Wide<'a> {
+    shapes: &'a [Shape],
+    prims: &'a [PrimRef],
+    ids_all: &'a [(u32, u32)],
+    nodes: Vec<Node4>,
+    packets: Vec<Packet>,
+    ids: Vec<[(u32, u32); 4]>,
+    has_sphere: Vec<bool>,
+}
+
+impl Wide<'_> {
+    /// Emit the primitives `start..start+count` as packets; returns the leaf reference.
+    fn leaf(&mut self, start: usize, count: usize) -> u32 {
+        let first = self.packets.len();
+        for chunk in self.prims[start..start + count].chunks(4) {
+            let mut pk = Packet { v: [[[f32::NAN; 4]; 3]; 3] };
+            let mut ids = [NO_PRIM; 4];
+            let mut sphere = false;
+            for (lane, p) in chunk.iter().enumerate() {
+                let (o, i) = self.ids_all[p.index as usize];
+                ids[lane] = (o, i);
+                let verts = match &self.shapes[o as usize] {
+                    Shape::Mesh(m) => m.triangle(i as usize),
+                    Shape::Sphere(s) => {
+                        sphere = true;
+                        [s.center, Vec3::new(s.radius, 0.0, 0.0), Vec3::ZERO]
+                    }
+                };
+                for (k, v) in verts.iter().enumerate() {
+                    for axis in 0..3 {
+                        pk.v[k][axis][lane] = v[axis];
+                    }
+                }
+            }
+            self.packets.push(pk);
+            self.ids.push(ids);
+            self.has_sphere.push(sphere);
+        }
+        let n = self.packets.len() - first;
+        assert!(n < 16 && first <= LEAF_OFFSET as usize, "BVH leaf too large or too many primitives");
+        LEAF_BIT | ((n as u32) << LEAF_SHIFT) | first as u32
+    }
+
+    /// Emit the wide node for an inner node of the binary tree; returns its index.
+    fn inner(&mut self, children: &[BuildNode; 2]) -> u32 {
+        // Open the largest inner grandchildren until there are four children.
+        let mut list: Vec<&BuildNode> = vec![&children[0], &children[1]];
+        while list.len() < 4 {
+            let pick = list
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| matches!(c, BuildNode::Inner { .. }))
+                .max_by(|a, b| {
+                    let (la, ha) = a.1.bounds();
+                    let (lb, hb) = b.1.bounds();
+                    half_area(la, ha).total_cmp(&half_area(lb, hb))
+                })
+                .map(|(i, _)| i);
+            let Some(i) = pick else { break };
+            let BuildNode::Inner { children: cc, .. } = list[i] else { unreachable!() };
+            list[i] = &cc[0];
+            list.push(&cc[1]);
+        }
+        let index = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        let mut node = Node4::EMPTY;
+        for (k, c) in list.iter().enumerate() {
+            let (lo, hi) = c.bounds();
+            for axis in 0..3 {
+                node.b[0][axis][k] = lo[axis];
+                node.b[1][axis][k] = hi[axis];
+            }
+            node.child[k] = self.child(c);
+        }
+        self.nodes[index] = node;
+        index as u32
+    }
+
+    fn child(&mut self, c: &BuildNode) -> u32 {
         match c {
-            BuildNode::Leaf { start, count, .. } => {
-                nodes[slot] = Node { min: lo.to_array(), offset: *start as u32, max: hi.to_array(), count: *count as u32 };
-            }
-            BuildNode::Inner { children: cc, .. } => {
-                let child_at = next;
-                nodes[slot] = Node { min: lo.to_array(), offset: child_at as u32, max: hi.to_array(), count: 0 };
-                next = flatten(cc, nodes, child_at, next + 2);
-            }
+            BuildNode::Leaf { start, count, .. } => self.leaf(*start, *count),
+            BuildNode::Inner { children, .. } => self.inner(children),
         }
     }
-    next
 }
 
-/// Precomputed per-ray data for box tests.
+/// Per-ray constants for box and triangle tests.
 #[derive(Clone, Copy)]
-struct RayBox {
+struct Pre {
     inv: [f32; 3],
     o: [f32; 3],
-    /// Some direction component is zero (or subnormal): use the careful test.
+    /// For each axis, which side (0 = min, 1 = max) of a box the ray enters through.
+    near_side: [usize; 3],
+    /// Some direction component is zero (or its inverse overflows): use the careful box test.
     parallel: bool,
+    rt: RayTri,
+    /// Permuted axes (kx, ky, kz) of the watertight test, each < 3.
+    k: [usize; 3],
+    o4: [Vec4; 3],
+    inv4: [Vec4; 3],
 }
 
-impl RayBox {
+impl Pre {
     #[inline(always)]
-    fn new(ray: &Ray) -> RayBox {
+    fn new(ray: &Ray) -> Pre {
         let inv = ray.d.recip();
-        RayBox { inv: inv.to_array(), o: ray.o.to_array(), parallel: !inv.is_finite() }
+        let rt = RayTri::new(ray);
+        Pre {
+            inv: inv.to_array(),
+            o: ray.o.to_array(),
+            near_side: [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize],
+            parallel: !inv.is_finite(),
+            k: [rt.k[0].min(2), rt.k[1].min(2), rt.k[2].min(2)],
+            rt,
+            o4: [Vec4::splat(ray.o.x), Vec4::splat(ray.o.y), Vec4::splat(ray.o.z)],
+            inv4: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+        }
+    }
+
+    /// Entry distances of the four child boxes and a bit mask of those hit within (t_min, t_max).
+    #[inline(always)]
+    fn hit4(&self, n: &Node4, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
+        if self.parallel {
+            return self.hit4_parallel(n, t_min, t_max);
+        }
+        let (sx, sy, sz) = (self.near_side[0] & 1, self.near_side[1] & 1, self.near_side[2] & 1);
+        let tnx = (Vec4::from_array(n.b[sx][0]) - self.o4[0]) * self.inv4[0];
+        let tny = (Vec4::from_array(n.b[sy][1]) - self.o4[1]) * self.inv4[1];
+        let tnz = (Vec4::from_array(n.b[sz][2]) - self.o4[2]) * self.inv4[2];
+        let tfx = (Vec4::from_array(n.b[sx ^ 1][0]) - self.o4[0]) * self.inv4[0];
+        let tfy = (Vec4::from_array(n.b[sy ^ 1][1]) - self.o4[1]) * self.inv4[1];
+        let tfz = (Vec4::from_array(n.b[sz ^ 1][2]) - self.o4[2]) * self.inv4[2];
+        let near = tnx.max(tny).max(tnz.max(Vec4::splat(t_min)));
+        let far = tfx.min(tfy).min(tfz.min(Vec4::splat(t_max))) * ROUND_UP;
+        (near.to_array(), near.cmple(far).bitmask())
     }
 
     /// Box test for rays with a zero direction component: such a slab holds the ray for all t
     /// when the origin is inside it (boundary included), for no t otherwise.
     #[inline(never)]
-    fn hit_parallel(&self, n: &Node, t_min: f32, t_max: f32) -> f32 {
-        let (mut near, mut far) = (t_min, t_max);
-        for a in 0..3 {
-            if self.inv[a].is_finite() {
-                let t0 = (n.min[a] - self.o[a]) * self.inv[a];
-                let t1 = (n.max[a] - self.o[a]) * self.inv[a];
-                near = near.max(t0.min(t1));
-                far = far.min(t0.max(t1) * ROUND_UP);
-            } else if !(self.o[a] >= n.min[a] && self.o[a] <= n.max[a]) {
-                return f32::INFINITY;
+    fn hit4_parallel(&self, n: &Node4, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
+        let mut tn = [0.0f32; 4];
+        let mut hit = 0u32;
+        for i in 0..4 {
+            let (mut near, mut far) = (t_min, t_max);
+            let mut inside = true;
+            for a in 0..3 {
+                let (lo, hi) = (n.b[0][a][i], n.b[1][a][i]);
+                if self.inv[a].is_finite() {
+                    let t0 = (lo - self.o[a]) * self.inv[a];
+                    let t1 = (hi - self.o[a]) * self.inv[a];
+                    near = near.max(t0.min(t1));
+                    far = far.min(t0.max(t1) * ROUND_UP);
+                } else if !(self.o[a] >= lo && self.o[a] <= hi) {
+                    inside = false;
+                }
             }
+            tn[i] = near;
+            hit |= ((inside && near <= far) as u32) << i;
         }
-        if near <= far {
-            near
-        } else {
-            f32::INFINITY
-        }
+        (tn, hit)
+    }
+}
+
+/// Result of a 4-wide triangle test.
+struct Lanes {
+    t: [f32; 4],
+    u: [f32; 4],
+    v: [f32; 4],
+    /// Bit mask of lanes hit within (t_min, t_max).
+    ok: u32,
+    /// Bit mask of lanes with an edge function exactly 0: redo them with the scalar test (f64
+    /// fallback, tie rule).
+    exact: u32,
+}
+
+impl Packet {
+    /// Watertight test of the four triangles, the same arithmetic as [`RayTri::intersect`]
+    /// lane by lane (so results agree bit for bit).
+    #[inline(always)]
+    fn intersect(&self, pre: &Pre, t_min: f32, t_max: f32) -> Lanes {
+        let [kx, ky, kz] = pre.k;
+        let (ox, oy, oz) = (Vec4::splat(pre.o[kx]), Vec4::splat(pre.o[ky]), Vec4::splat(pre.o[kz]));
+        let (sx, sy, sz) = (Vec4::splat(pre.rt.s.x), Vec4::splat(pre.rt.s.y), Vec4::splat(pre.rt.s.z));
+        let v = &self.v;
+        let az = Vec4::from_array(v[0][kz]) - oz;
+        let bz = Vec4::from_array(v[1][kz]) - oz;
+        let cz = Vec4::from_array(v[2][kz]) - oz;
+        let ax = (Vec4::from_array(v[0][kx]) - ox) - sx * az;
+        let ay = (Vec4::from_array(v[0][ky]) - oy) - sy * az;
+        let bx = (Vec4::from_array(v[1][kx]) - ox) - sx * bz;
+        let by = (Vec4::from_array(v[1][ky]) - oy) - sy * bz;
+        let cx = (Vec4::from_array(v[2][kx]) - ox) - sx * cz;
+        let cy = (Vec4::from_array(v[2][ky]) - oy) - sy * cz;
+        let e0 = cx * by - cy * bx;
+        let e1 = ax * cy - ay * cx;
+        let e2 = bx * ay - by * ax;
+        let det = e0 + e1 + e2;
+        let t_scaled = sz * (e0 * az + e1 * bz + e2 * cz);
+        let inv_det = Vec4::ONE / det;
+        let t = t_scaled * inv_det;
+        let zero = Vec4::ZERO;
+        let pos = e0.cmpge(zero) & e1.cmpge(zero) & e2.cmpge(zero);
+        let neg = e0.cmple(zero) & e1.cmple(zero) & e2.cmple(zero);
+        let exact = e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero);
+        let ok = (pos | neg) & det.cmpne(zero) & t.cmpgt(Vec4::splat(t_min)) & t.cmplt(Vec4::splat(t_max));
+        Lanes { t: t.to_array(), u: (e1 * inv_det).to_array(), v: (e2 * inv_det).to_array(), ok: ok.bitmask(), exact: exact.bitmask() }
     }
 
-    /// Entry distance into the node's box within (t_min, t_max), or +∞ when missed.
     #[inline(always)]
-    fn hit(&self, n: &Node, t_min: f32, t_max: f32) -> f32 {
-        if self.parallel {
-            return self.hit_parallel(n, t_min, t_max);
-        }
-        let tx0 = (n.min[0] - self.o[0]) * self.inv[0];
-        let tx1 = (n.max[0] - self.o[0]) * self.inv[0];
-        let ty0 = (n.min[1] - self.o[1]) * self.inv[1];
-        let ty1 = (n.max[1] - self.o[1]) * self.inv[1];
-        let tz0 = (n.min[2] - self.o[2]) * self.inv[2];
-        let tz1 = (n.max[2] - self.o[2]) * self.inv[2];
-        let near = tx0.min(tx1).max(ty0.min(ty1)).max(tz0.min(tz1)).max(t_min);
-        let far = tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)).min(t_max) * ROUND_UP;
-        if near <= far {
-            near
-        } else {
-            f32::INFINITY
-        }
+    fn vertices(&self, lane: usize) -> [Vec3; 3] {
+        let v = &self.v;
+        [0, 1, 2].map(|k| Vec3::new(v[k][0][lane], v[k][1][lane], v[k][2][lane]))
     }
 }
 
@@ -405,36 +581,34 @@ impl Accel {
                 }
             }
         }
-        let mut nodes = Vec::new();
         let mut bounds = Aabb::EMPTY;
+        let mut wide = Wide { shapes: &shapes, prims: &[], ids_all: &ids_all, nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), has_sphere: Vec::new() };
         if !prims.is_empty() {
             let root = build_rec(&mut prims, 0, 0);
             let (lo, hi) = root.bounds();
             bounds = Aabb { min: lo, max: hi };
-            // Node 0 is the root; node 1 is padding so that sibling pairs start at even indices.
-            nodes = vec![Node::default(); root.node_count() + 1];
+            wide.prims = &prims;
+            wide.packets.reserve(prims.len() / 3);
             match &root {
-                BuildNode::Leaf { start, count, .. } => {
-                    nodes[0] = Node { min: lo.to_array(), offset: *start as u32, max: hi.to_array(), count: *count as u32 };
+                BuildNode::Inner { children, size, .. } => {
+                    wide.nodes.reserve(size / 2 + 1);
+                    wide.inner(children);
                 }
-                BuildNode::Inner { children, .. } => {
-                    nodes[0] = Node { min: lo.to_array(), offset: 2, max: hi.to_array(), count: 0 };
-                    let end = flatten(children, &mut nodes, 2, 4);
-                    debug_assert_eq!(end, nodes.len());
+                leaf @ BuildNode::Leaf { .. } => {
+                    wide.nodes.push(Node4::EMPTY);
+                    let r = wide.child(leaf);
+                    let mut n = Node4::EMPTY;
+                    for axis in 0..3 {
+                        n.b[0][axis][0] = lo[axis];
+                        n.b[1][axis][0] = hi[axis];
+                    }
+                    n.child[0] = r;
+                    wide.nodes[0] = n;
                 }
             }
         }
-        let mut verts = Vec::with_capacity(prims.len());
-        let mut ids = Vec::with_capacity(prims.len());
-        for p in &prims {
-            let (o, i) = ids_all[p.index as usize];
-            ids.push((o, i));
-            verts.push(match &shapes[o as usize] {
-                Shape::Mesh(m) => m.triangle(i as usize),
-                Shape::Sphere(s) => [s.center, Vec3::new(s.radius, 0.0, 0.0), Vec3::ZERO],
-            });
-        }
-        Accel { shapes, nodes, verts, ids, bounds }
+        let Wide { nodes, packets, ids, has_sphere, .. } = wide;
+        Accel { shapes, nodes, packets, ids, has_sphere, bounds }
     }
 
     /// Bounding box of the whole scene.
@@ -452,7 +626,7 @@ impl Accel {
         &self.shapes
     }
 
-    /// Number of nodes of the flattened tree.
+    /// Number of (4-wide) nodes of the flattened tree.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }
@@ -462,77 +636,122 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
-        let rb = RayBox::new(ray);
-        let rt = RayTri::new(ray);
+        let pre = Pre::new(ray);
+        let t_min = ray.t_min;
         let mut t_max = ray.t_max;
-        let mut best: Option<(usize, f32, f32)> = None;
+        let mut best: Option<(usize, usize, f32, f32)> = None;
         let mut stack = [(0u32, 0f32); STACK];
         let mut sp = 0usize;
-        let root = &self.nodes[0];
-        if rb.hit(root, ray.t_min, t_max) == f32::INFINITY {
-            return None;
-        }
-        let mut node = root;
+        let mut cur = 0u32;
         loop {
-            if node.count > 0 {
-                let start = node.offset as usize;
-                let end = start + node.count as usize;
-                for i in start..end {
-                    let v = &self.verts[i];
-                    if self.ids[i].1 & SPHERE_BIT == 0 {
-                        if let Some((t, u, w)) = rt.intersect(v[0], v[1], v[2], ray.t_min, t_max) {
-                            t_max = t;
-                            best = Some((i, u, w));
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let (tn, mut hit) = pre.hit4(node, t_min, t_max);
+                let mut c = [(0u32, 0f32); 4];
+                let mut cnt = 0;
+                while hit != 0 {
+                    let i = hit.trailing_zeros() as usize;
+                    hit &= hit - 1;
+                    c[cnt] = (node.child[i], tn[i]);
+                    cnt += 1;
+                }
+                if cnt == 1 {
+                    cur = c[0].0;
+                    continue;
+                }
+                if cnt > 1 {
+                    // Farthest first onto the stack; descend into the nearest.
+                    for i in 1..cnt {
+                        let x = c[i];
+                        let mut j = i;
+                        while j > 0 && c[j - 1].1 < x.1 {
+                            c[j] = c[j - 1];
+                            j -= 1;
                         }
-                    } else if let Some(t) = (Sphere { center: v[0], radius: v[1].x }).intersect(&Ray { t_max, ..*ray }) {
-                        t_max = t;
-                        best = Some((i, 0.0, 0.0));
+                        c[j] = x;
                     }
+                    for &e in &c[..cnt - 1] {
+                        stack[sp] = e;
+                        sp += 1;
+                    }
+                    cur = c[cnt - 1].0;
+                    continue;
                 }
             } else {
-                let l = node.offset as usize;
-                let (a, b) = (&self.nodes[l], &self.nodes[l + 1]);
-                let ta = rb.hit(a, ray.t_min, t_max);
-                let tb = rb.hit(b, ray.t_min, t_max);
-                if ta != f32::INFINITY {
-                    if tb != f32::INFINITY {
-                        let (near, far, tfar) = if ta <= tb { (a, l + 1, tb) } else { (b, l, ta) };
-                        stack[sp] = (far as u32, tfar);
-                        sp += 1;
-                        node = near;
-                    } else {
-                        node = a;
-                    }
-                    continue;
-                } else if tb != f32::INFINITY {
-                    node = b;
-                    continue;
+                let first = (cur & LEAF_OFFSET) as usize;
+                let n = ((cur & !LEAF_BIT) >> LEAF_SHIFT) as usize;
+                for p in first..first + n {
+                    self.packet_closest(p, &pre, ray, &mut t_max, &mut best);
                 }
             }
             // Pop the next node that may still hold a closer hit.
             loop {
                 if sp == 0 {
-                    return best.map(|(i, u, v)| self.make_hit(i, u, v, t_max, ray));
+                    return best.map(|(p, lane, u, v)| self.make_hit(p, lane, u, v, t_max, ray));
                 }
                 sp -= 1;
                 let (n, tn) = stack[sp];
                 if tn <= t_max * ROUND_UP {
-                    node = &self.nodes[n as usize];
+                    cur = n;
                     break;
                 }
             }
         }
     }
 
-    fn make_hit(&self, i: usize, u: f32, v: f32, t: f32, ray: &Ray) -> Hit {
-        let (object, prim) = self.ids[i];
+    #[inline(always)]
+    fn packet_closest(&self, p: usize, pre: &Pre, ray: &Ray, t_max: &mut f32, best: &mut Option<(usize, usize, f32, f32)>) {
+        let pk = &self.packets[p];
+        if self.has_sphere[p] {
+            self.packet_scalar(p, pre, ray, t_max, best);
+            return;
+        }
+        let r = pk.intersect(pre, ray.t_min, *t_max);
+        let mut bits = r.ok | r.exact;
+        while bits != 0 {
+            let lane = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if r.exact & (1 << lane) != 0 {
+                let [a, b, c] = pk.vertices(lane);
+                if let Some((t, u, v)) = pre.rt.intersect(a, b, c, ray.t_min, *t_max) {
+                    *t_max = t;
+                    *best = Some((p, lane, u, v));
+                }
+            } else if r.t[lane] < *t_max {
+                *t_max = r.t[lane];
+                *best = Some((p, lane, r.u[lane], r.v[lane]));
+            }
+        }
+    }
+
+    /// Lane-by-lane test of a packet holding spheres.
+    #[inline(never)]
+    fn packet_scalar(&self, p: usize, pre: &Pre, ray: &Ray, t_max: &mut f32, best: &mut Option<(usize, usize, f32, f32)>) {
+        let pk = &self.packets[p];
+        for lane in 0..4 {
+            let (o, i) = self.ids[p][lane];
+            if o == u32::MAX {
+                continue;
+            }
+            let [a, b, c] = pk.vertices(lane);
+            if i & SPHERE_BIT != 0 {
+                if let Some(t) = (Sphere { center: a, radius: b.x }).intersect(&Ray { t_max: *t_max, ..*ray }) {
+                    *t_max = t;
+                    *best = Some((p, lane, 0.0, 0.0));
+                }
+            } else if let Some((t, u, v)) = pre.rt.intersect(a, b, c, ray.t_min, *t_max) {
+                *t_max = t;
+                *best = Some((p, lane, u, v));
+            }
+        }
+    }
+
+    fn make_hit(&self, p: usize, lane: usize, u: f32, v: f32, t: f32, ray: &Ray) -> Hit {
+        let (object, prim) = self.ids[p][lane];
         if prim & SPHERE_BIT != 0 {
-            let c = self.verts[i][0];
-            let d = (ray.at(t) - c).normalize_or_zero();
-            let phi = d.z.atan2(d.x);
-            let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
-            let theta = d.y.clamp(-1.0, 1.0).acos();
-            Hit { t, object, prim: 0, u: phi / (2.0 * std::f32::consts::PI), v: theta / std::f32::consts::PI }
+            let c = self.packets[p].vertices(lane)[0];
+            let (u, v) = sphere_uv(ray.at(t) - c);
+            Hit { t, object, prim: 0, u, v }
         } else {
             Hit { t, object, prim, u, v }
         }
@@ -543,53 +762,55 @@ impl Accel {
         if self.nodes.is_empty() {
             return false;
         }
-        let rb = RayBox::new(ray);
-        let rt = RayTri::new(ray);
-        let t_max = ray.t_max;
+        let pre = Pre::new(ray);
+        let (t_min, t_max) = (ray.t_min, ray.t_max);
         let mut stack = [0u32; STACK];
         let mut sp = 0usize;
-        let root = &self.nodes[0];
-        if rb.hit(root, ray.t_min, t_max) == f32::INFINITY {
-            return false;
-        }
-        let mut node = root;
+        let mut cur = 0u32;
         loop {
-            if node.count > 0 {
-                let start = node.offset as usize;
-                let end = start + node.count as usize;
-                for i in start..end {
-                    let v = &self.verts[i];
-                    let hit = if self.ids[i].1 & SPHERE_BIT == 0 {
-                        rt.intersect(v[0], v[1], v[2], ray.t_min, t_max).is_some()
-                    } else {
-                        (Sphere { center: v[0], radius: v[1].x }).intersect(ray).is_some()
-                    };
-                    if hit {
-                        return true;
-                    }
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let (_, mut hit) = pre.hit4(node, t_min, t_max);
+                while hit != 0 {
+                    let i = hit.trailing_zeros() as usize;
+                    hit &= hit - 1;
+                    stack[sp] = node.child[i];
+                    sp += 1;
                 }
             } else {
-                let l = node.offset as usize;
-                let (a, b) = (&self.nodes[l], &self.nodes[l + 1]);
-                let ha = rb.hit(a, ray.t_min, t_max) != f32::INFINITY;
-                let hb = rb.hit(b, ray.t_min, t_max) != f32::INFINITY;
-                if ha {
-                    if hb {
-                        stack[sp] = (l + 1) as u32;
-                        sp += 1;
+                let first = (cur & LEAF_OFFSET) as usize;
+                let n = ((cur & !LEAF_BIT) >> LEAF_SHIFT) as usize;
+                for p in first..first + n {
+                    if self.has_sphere[p] {
+                        let mut tm = t_max;
+                        let mut best = None;
+                        self.packet_scalar(p, &pre, ray, &mut tm, &mut best);
+                        if best.is_some() {
+                            return true;
+                        }
+                        continue;
                     }
-                    node = a;
-                    continue;
-                } else if hb {
-                    node = b;
-                    continue;
+                    let pk = &self.packets[p];
+                    let r = pk.intersect(&pre, t_min, t_max);
+                    if r.ok & !r.exact != 0 {
+                        return true;
+                    }
+                    let mut bits = r.exact;
+                    while bits != 0 {
+                        let lane = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        let [a, b, c] = pk.vertices(lane);
+                        if pre.rt.intersect(a, b, c, t_min, t_max).is_some() {
+                            return true;
+                        }
+                    }
                 }
             }
             if sp == 0 {
                 return false;
             }
             sp -= 1;
-            node = &self.nodes[stack[sp] as usize];
+            cur = stack[sp];
         }
     }
 
@@ -653,18 +874,20 @@ impl Accel {
             }
         }
         best.map(|h| {
-            if matches!(self.shapes[h.object as usize], Shape::Sphere(_)) {
-                let c = match &self.shapes[h.object as usize] {
-                    Shape::Sphere(s) => s.center,
-                    _ => unreachable!(),
-                };
-                let d = (ray.at(h.t) - c).normalize_or_zero();
-                let phi = d.z.atan2(d.x);
-                let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
-                Hit { u: phi / (2.0 * std::f32::consts::PI), v: d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI, ..h }
+            if let Shape::Sphere(s) = &self.shapes[h.object as usize] {
+                let (u, v) = sphere_uv(ray.at(h.t) - s.center);
+                Hit { u, v, ..h }
             } else {
                 h
             }
         })
     }
+}
+
+/// Sphere parametrisation of the direction `d` from the centre: (azimuth about +y / 2π, polar angle from +y / π).
+fn sphere_uv(d: Vec3) -> (f32, f32) {
+    let d = d.normalize_or_zero();
+    let phi = d.z.atan2(d.x);
+    let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
+    (phi / (2.0 * std::f32::consts::PI), d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
 }

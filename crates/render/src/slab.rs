@@ -12,6 +12,15 @@
 //! Units: lengths in millimetres and coefficients in mm⁻¹ (the conventional units of tissue
 //! optics, and those of the `lucent slab` command); every field names its unit.
 //!
+//! Validation (seed 1; see `tests/slab.rs` for the fast versions with 3σ tolerances):
+//!
+//! | case | published | lucent slab |
+//! |---|---|---|
+//! | n = 1, μa = 1, μs = 9 mm⁻¹, g = 0.75, d = 0.2 mm: R_d (van de Hulst, via MCML) | 0.09739 | 0.09748 ± 0.00007 (10⁷ photons) |
+//! | same: T_t | 0.66096 | 0.66088 ± 0.00010 |
+//! | semi-infinite, n = 1.5, albedo 0.9, g = 0: R_sp + R_d (Giovanelli 1955) | 0.2600 | 0.25995 ± 0.00013 (5·10⁶) |
+//! | semi-infinite, n = 1, albedo 0.9, g = 0: 1 − H(1)√(1−a) (Chandrasekhar) | 0.41495 | 0.41488 ± 0.00035 (10⁶) |
+//!
 //! Geometry: z points down into the stack; layer 0 is on top, between the ambient medium
 //! above (index `n_above`) and layer 1; the last layer may be semi-infinite.
 
@@ -41,10 +50,16 @@ impl Layer {
     pub fn validate(&self) -> Result<()> {
         let l = self;
         if !(l.mua_per_mm.is_finite() && l.mua_per_mm >= 0.0) {
-            bail!("absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)", l.mua_per_mm);
+            bail!(
+                "absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)",
+                l.mua_per_mm
+            );
         }
         if !(l.mus_per_mm.is_finite() && l.mus_per_mm >= 0.0) {
-            bail!("scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)", l.mus_per_mm);
+            bail!(
+                "scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)",
+                l.mus_per_mm
+            );
         }
         if !(l.g > -1.0 && l.g < 1.0) {
             bail!("anisotropy G = {} must lie in (-1, 1)", l.g);
@@ -68,6 +83,16 @@ pub struct RadialGrid {
     pub max_mm: f64,
 }
 
+/// Reflectance along the x axis (the plane of incidence) in a strip |y| < Δx/2, for oblique
+/// incidence reflectometry: bins of width Δx = 2·`max_mm`/`bins` over [−`max_mm`, `max_mm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineGrid {
+    /// Number of bins along x.
+    pub bins: usize,
+    /// Half length of the line in mm.
+    pub max_mm: f64,
+}
+
 /// Everything a slab simulation needs.
 #[derive(Clone, Debug)]
 pub struct SlabSettings {
@@ -84,6 +109,28 @@ pub struct SlabSettings {
     pub seed: u64,
     /// Radially resolved diffuse reflectance, if wanted.
     pub radial: Option<RadialGrid>,
+    /// Angle of the incident beam from the normal in the ambient medium above, in degrees
+    /// (0 = normal incidence; the beam travels towards +x), in [0, 90).
+    pub incidence_deg: f64,
+    /// Diffuse reflectance along the x axis, if wanted.
+    pub line: Option<LineGrid>,
+}
+
+impl SlabSettings {
+    /// Settings for a normally incident beam in air above and below, 10⁶ photons, seed 1,
+    /// no resolved tallies.
+    pub fn new(layers: Vec<Layer>) -> Self {
+        SlabSettings {
+            layers,
+            n_above: 1.0,
+            n_below: 1.0,
+            photons: 1_000_000,
+            seed: 1,
+            radial: None,
+            incidence_deg: 0.0,
+            line: None,
+        }
+    }
 }
 
 /// Radially resolved diffuse reflectance R(r).
@@ -99,6 +146,19 @@ pub struct RadialReflectance {
     pub rd_per_mm2_stderr: Vec<f64>,
     /// Fraction of incident photons escaping on top beyond the last bin (dimensionless).
     pub rd_beyond_max: f64,
+}
+
+/// Diffuse reflectance along the x axis, R(x, y ≈ 0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineReflectance {
+    /// Bin centres in mm.
+    pub x_mm: Vec<f64>,
+    /// Bin width (and strip width) Δx in mm.
+    pub dx_mm: f64,
+    /// Escaping weight per unit area per incident photon in the bin's Δx × Δx cell, mm⁻².
+    pub rd_per_mm2: Vec<f64>,
+    /// Standard error of each bin in mm⁻².
+    pub rd_per_mm2_stderr: Vec<f64>,
 }
 
 /// Result of a slab simulation: fractions of the incident power (dimensionless).
@@ -125,12 +185,21 @@ pub struct SlabResult {
     pub roulette_gain: f64,
     /// R(r) when a radial grid was requested.
     pub radial: Option<RadialReflectance>,
+    /// R(x, 0) when a line grid was requested.
+    pub line: Option<LineReflectance>,
+    /// Mean x of the diffusely reflected weight in mm (the "diffuse centre" shifts towards +x
+    /// under oblique incidence).
+    pub rd_centroid_x_mm: f64,
     /// Photon packets launched.
     pub photons: u64,
     /// Free-flight steps taken (to an interaction or to an interface).
     pub photon_steps: u64,
     /// Wall-clock time of the transport in seconds.
     pub seconds: f64,
+    /// CPU time spent in transport, summed over threads, in seconds (Linux: from
+    /// /proc/thread-self/schedstat; `None` elsewhere). Unlike `seconds` it does not grow when
+    /// other processes compete for the cores.
+    pub cpu_seconds: Option<f64>,
     /// Threads used.
     pub threads: usize,
 }
@@ -139,6 +208,12 @@ impl SlabResult {
     /// Throughput: photon steps per second of wall-clock time, all threads together.
     pub fn photon_steps_per_s(&self) -> f64 {
         self.photon_steps as f64 / self.seconds.max(1e-12)
+    }
+
+    /// Throughput per core: photon steps per second of CPU time (None if CPU time is unknown).
+    pub fn photon_steps_per_cpu_s(&self) -> Option<f64> {
+        self.cpu_seconds
+            .map(|c| self.photon_steps as f64 / c.max(1e-12))
     }
 }
 
@@ -149,9 +224,13 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     }
     let last = settings.layers.len() - 1;
     for (i, l) in settings.layers.iter().enumerate() {
-        l.validate().map_err(|e| anyhow::anyhow!("layer {}: {e}", i + 1))?;
+        l.validate()
+            .map_err(|e| anyhow::anyhow!("layer {}: {e}", i + 1))?;
         if l.thickness_mm.is_infinite() && i != last {
-            bail!("layer {}: only the last layer may be semi-infinite (THICKNESS_MM = inf)", i + 1);
+            bail!(
+                "layer {}: only the last layer may be semi-infinite (THICKNESS_MM = inf)",
+                i + 1
+            );
         }
     }
     for (name, n) in [("n-above", settings.n_above), ("n-below", settings.n_below)] {
@@ -162,9 +241,23 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     if settings.photons == 0 {
         bail!("photons must be at least 1");
     }
+    if !(settings.incidence_deg >= 0.0 && settings.incidence_deg < 90.0) {
+        bail!(
+            "incidence-deg = {} must lie in [0, 90)",
+            settings.incidence_deg
+        );
+    }
+    if let Some(g) = settings.line {
+        if g.bins == 0 || g.bins > MAX_BINS {
+            bail!("line-bins = {} must be between 1 and {MAX_BINS}", g.bins);
+        }
+        if !(g.max_mm.is_finite() && g.max_mm > 0.0) {
+            bail!("line-max-mm = {} must be finite and > 0", g.max_mm);
+        }
+    }
     if let Some(g) = settings.radial {
-        if g.bins == 0 {
-            bail!("radial-bins must be at least 1");
+        if g.bins == 0 || g.bins > MAX_BINS {
+            bail!("radial-bins = {} must be between 1 and {MAX_BINS}", g.bins);
         }
         if !(g.max_mm.is_finite() && g.max_mm > 0.0) {
             bail!("radial-max-mm = {} must be finite and > 0", g.max_mm);
@@ -175,6 +268,10 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
 
 /// Photons per independently seeded chunk (the unit of parallel work).
 const CHUNK: u64 = 1 << 13;
+/// Chunks run in parallel before their tallies are summed.
+const GROUP: u64 = 64;
+/// Most bins a histogram may have.
+pub const MAX_BINS: usize = 100_000;
 /// Russian roulette: packets below this weight survive with probability 1/ROULETTE_M.
 const WEIGHT_THRESHOLD: f64 = 1e-4;
 const ROULETTE_M: f64 = 10.0;
@@ -185,35 +282,58 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
     let layers = prepare(settings);
     let n0 = settings.n_above;
     let n1 = settings.layers[0].n;
-    let specular = ((n0 - n1) / (n0 + n1)).powi(2);
+    let theta_i = settings.incidence_deg.to_radians();
+    let specular = fresnel_dielectric(theta_i.cos(), n1 / n0);
+    // Refracted launch direction in the top layer (Snell), travelling towards +x.
+    let sin_t = n0 / n1 * theta_i.sin();
+    let launch = [sin_t, 0.0, (1.0 - sin_t * sin_t).sqrt()];
+    let line_bins = settings.line.map(|g| g.bins).unwrap_or(0);
+    let line_max_mm = settings.line.map(|g| g.max_mm).unwrap_or(1.0);
+    let dx_mm = 2.0 * line_max_mm / line_bins.max(1) as f64;
     let bins = settings.radial.map(|g| g.bins).unwrap_or(0);
-    let dr_mm = settings.radial.map(|g| g.max_mm / g.bins as f64).unwrap_or(1.0);
+    let dr_mm = settings
+        .radial
+        .map(|g| g.max_mm / g.bins as f64)
+        .unwrap_or(1.0);
     let ctx = Ctx {
         layers: &layers,
         w0: 1.0 - specular,
+        launch,
         bins,
         inv_dr: 1.0 / dr_mm,
+        line_bins,
+        line_max_mm,
+        inv_dx: 1.0 / dx_mm,
     };
     let chunks = settings.photons.div_ceil(CHUNK);
     let start = Instant::now();
-    let parts: Vec<Tally> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let n = CHUNK.min(settings.photons - c * CHUNK);
-            let mut rng = Rng::new(settings.seed, c);
-            let mut t = Tally::new(layers.len(), bins);
-            for _ in 0..n {
-                ctx.trace(&mut rng, &mut t);
-            }
-            t
-        })
-        .collect();
-    let seconds = start.elapsed().as_secs_f64();
-    // Sum in chunk order: deterministic whatever the scheduling.
-    let mut total = Tally::new(layers.len(), bins);
-    for p in &parts {
-        total.add(p);
+    let run_chunk = |c: u64| {
+        let n = CHUNK.min(settings.photons - c * CHUNK);
+        let mut rng = Rng::new(settings.seed, c);
+        let mut t = Tally::new(layers.len(), bins, line_bins);
+        let cpu0 = thread_cpu_ns();
+        for _ in 0..n {
+            ctx.trace(&mut rng, &mut t);
+        }
+        t.cpu_ns = match (cpu0, thread_cpu_ns()) {
+            (Some(a), Some(b)) => Some(b.saturating_sub(a)),
+            _ => None,
+        };
+        t
+    };
+    // Chunks run in parallel in groups (bounded memory for the histograms) and are summed in
+    // chunk order: the result is deterministic whatever the scheduling and thread count.
+    let mut total = Tally::new(layers.len(), bins, line_bins);
+    let mut first = 0;
+    while first < chunks {
+        let last = (first + GROUP).min(chunks);
+        let parts: Vec<Tally> = (first..last).into_par_iter().map(run_chunk).collect();
+        for p in &parts {
+            total.add(p);
+        }
+        first = last;
     }
+    let seconds = start.elapsed().as_secs_f64();
     let n = settings.photons as f64;
     let stderr = |s: f64, s2: f64| {
         if settings.photons < 2 {
@@ -233,9 +353,37 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
             rd.push(total.radial[k] / n / area);
             se.push(stderr(total.radial[k], total.radial_sq[k]) / area);
         }
-        RadialReflectance { r_mm, dr_mm, rd_per_mm2: rd, rd_per_mm2_stderr: se, rd_beyond_max: total.rd_beyond / n }
+        RadialReflectance {
+            r_mm,
+            dr_mm,
+            rd_per_mm2: rd,
+            rd_per_mm2_stderr: se,
+            rd_beyond_max: total.rd_beyond / n,
+        }
+    });
+    let line = settings.line.map(|g| {
+        let area = dx_mm * dx_mm;
+        LineReflectance {
+            x_mm: (0..g.bins)
+                .map(|k| -g.max_mm + (k as f64 + 0.5) * dx_mm)
+                .collect(),
+            dx_mm,
+            rd_per_mm2: total.line.iter().map(|v| v / n / area).collect(),
+            rd_per_mm2_stderr: total
+                .line
+                .iter()
+                .zip(&total.line_sq)
+                .map(|(v, v2)| stderr(*v, *v2) / area)
+                .collect(),
+        }
     });
     Ok(SlabResult {
+        line,
+        rd_centroid_x_mm: if total.rd > 0.0 {
+            total.rd_x / total.rd
+        } else {
+            0.0
+        },
         specular,
         rd: total.rd / n,
         rd_stderr: stderr(total.rd, total.rd_sq),
@@ -249,6 +397,7 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         photons: settings.photons,
         photon_steps: total.steps,
         seconds,
+        cpu_seconds: total.cpu_ns.filter(|&ns| ns > 0).map(|ns| ns as f64 * 1e-9),
         threads: rayon::current_num_threads(),
     })
 }
@@ -280,12 +429,20 @@ fn prepare(s: &SlabSettings) -> Vec<LayerData> {
                 z0_mm: z,
                 z1_mm: z + l.thickness_mm,
                 mut_per_mm: mu_t,
-                inv_mut_mm: if mu_t > 0.0 { 1.0 / mu_t } else { f64::INFINITY },
+                inv_mut_mm: if mu_t > 0.0 {
+                    1.0 / mu_t
+                } else {
+                    f64::INFINITY
+                },
                 absorb_fraction: if mu_t > 0.0 { l.mua_per_mm / mu_t } else { 0.0 },
                 hg: HenyeyGreenstein { g: l.g },
                 n: l.n,
                 n_up: if i == 0 { s.n_above } else { s.layers[i - 1].n },
-                n_down: if i + 1 == count { s.n_below } else { s.layers[i + 1].n },
+                n_down: if i + 1 == count {
+                    s.n_below
+                } else {
+                    s.layers[i + 1].n
+                },
             };
             z += l.thickness_mm;
             d
@@ -307,11 +464,16 @@ struct Tally {
     radial: Vec<f64>,
     radial_sq: Vec<f64>,
     rd_beyond: f64,
+    line: Vec<f64>,
+    line_sq: Vec<f64>,
+    rd_x: f64,
     steps: u64,
+    /// CPU time of the thread that ran the chunk, when the platform tells it.
+    cpu_ns: Option<u64>,
 }
 
 impl Tally {
-    fn new(layers: usize, bins: usize) -> Self {
+    fn new(layers: usize, bins: usize, line_bins: usize) -> Self {
         Tally {
             rd: 0.0,
             rd_sq: 0.0,
@@ -324,7 +486,11 @@ impl Tally {
             radial: vec![0.0; bins],
             radial_sq: vec![0.0; bins],
             rd_beyond: 0.0,
+            line: vec![0.0; line_bins],
+            line_sq: vec![0.0; line_bins],
+            rd_x: 0.0,
             steps: 0,
+            cpu_ns: Some(0),
         }
     }
 
@@ -346,15 +512,30 @@ impl Tally {
             *a += b;
         }
         self.rd_beyond += o.rd_beyond;
+        for (a, b) in self.line.iter_mut().zip(&o.line) {
+            *a += b;
+        }
+        for (a, b) in self.line_sq.iter_mut().zip(&o.line_sq) {
+            *a += b;
+        }
+        self.rd_x += o.rd_x;
         self.steps += o.steps;
+        self.cpu_ns = match (self.cpu_ns, o.cpu_ns) {
+            (Some(a), Some(b)) => Some(a + b),
+            _ => None,
+        };
     }
 }
 
 struct Ctx<'a> {
     layers: &'a [LayerData],
     w0: f64,
+    launch: [f64; 3],
     bins: usize,
     inv_dr: f64,
+    line_bins: usize,
+    line_max_mm: f64,
+    inv_dx: f64,
 }
 
 impl Ctx<'_> {
@@ -362,7 +543,7 @@ impl Ctx<'_> {
     #[inline]
     fn trace(&self, rng: &mut Rng, t: &mut Tally) {
         let (mut x, mut y, mut z) = (0.0f64, 0.0f64, 0.0f64);
-        let (mut ux, mut uy, mut uz) = (0.0f64, 0.0f64, 1.0f64);
+        let [mut ux, mut uy, mut uz] = self.launch;
         let mut w = self.w0;
         let mut layer = 0usize;
         let mut tau = 0.0f64; // remaining dimensionless optical depth of the current free path
@@ -393,7 +574,8 @@ impl Ctx<'_> {
                 absorbed += dw;
                 t.absorbed_layer[layer] += dw;
                 // Scatter (the same sampling code as the renderer's media).
-                [ux, uy, uz] = l.hg.sample_direction([ux, uy, uz], rng.uniform(), rng.uniform());
+                [ux, uy, uz] =
+                    l.hg.sample_direction([ux, uy, uz], rng.uniform(), rng.uniform());
                 if w < WEIGHT_THRESHOLD {
                     if rng.uniform() * ROULETTE_M < 1.0 {
                         t.roulette_gain += w * (ROULETTE_M - 1.0);
@@ -413,7 +595,11 @@ impl Ctx<'_> {
             // Move to the interface, keeping the unspent optical depth.
             x += db * ux;
             y += db * uy;
-            tau = if l.mut_per_mm > 0.0 { (tau - db * l.mut_per_mm).max(0.0) } else { tau };
+            tau = if l.mut_per_mm > 0.0 {
+                (tau - db * l.mut_per_mm).max(0.0)
+            } else {
+                tau
+            };
             let up = uz < 0.0;
             z = if up { l.z0_mm } else { l.z1_mm };
             let n_t = if up { l.n_up } else { l.n_down };
@@ -435,6 +621,14 @@ impl Ctx<'_> {
                 // Escapes into the ambient medium above: diffuse reflectance.
                 t.rd += w;
                 t.rd_sq += w * w;
+                t.rd_x += w * x;
+                if self.line_bins > 0 && (y * self.inv_dx).abs() < 0.5 {
+                    let k = (x + self.line_max_mm) * self.inv_dx;
+                    if k >= 0.0 && (k as usize) < self.line_bins {
+                        t.line[k as usize] += w;
+                        t.line_sq[k as usize] += w * w;
+                    }
+                }
                 if self.bins > 0 {
                     let k = ((x * x + y * y).sqrt() * self.inv_dr) as usize;
                     if k < self.bins {
@@ -485,7 +679,9 @@ impl Rng {
             z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             z ^ (z >> 31)
         };
-        Rng { s: [next(), next(), next(), next()] }
+        Rng {
+            s: [next(), next(), next(), next()],
+        }
     }
 
     #[inline(always)]
@@ -507,6 +703,32 @@ impl Rng {
     fn uniform(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
+}
+
+/// CPU time consumed so far by the calling thread in ns (Linux), or `None`.
+fn thread_cpu_ns() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
+/// Benchmark for `lucent bench`: single-thread throughput in photon steps per second on
+/// Giovanelli's semi-infinite medium (n = 1.5, albedo 0.9, isotropic; ≈ 46 steps per photon),
+/// per second of CPU time where known (robust to other load), else of wall-clock time.
+pub fn benchmark_steps_per_s(photons: u64) -> Result<f64> {
+    let settings = SlabSettings {
+        photons: photons.max(1),
+        ..SlabSettings::new(vec![Layer {
+            mua_per_mm: 0.1,
+            mus_per_mm: 0.9,
+            g: 0.0,
+            n: 1.5,
+            thickness_mm: f64::INFINITY,
+        }])
+    };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let r = pool.install(|| simulate(&settings))?;
+    Ok(r.photon_steps_per_cpu_s()
+        .unwrap_or_else(|| r.photon_steps_per_s()))
 }
 
 #[cfg(test)]

@@ -3,6 +3,8 @@ pub mod bench;
 pub mod bench_mie;
 pub mod bssrdf;
 pub mod compare;
+pub mod fit;
+pub mod fit_scene;
 pub mod medium;
 pub mod merge;
 pub mod mie;
