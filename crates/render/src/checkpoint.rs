@@ -6,7 +6,7 @@
 //! version    u32      1
 //! width      u32      pixels
 //! height     u32      pixels
-//! scene_hash u64      FNV-1a 64 of scene bytes + resolution + integrator settings (see scene_hash)
+//! scene_hash u64      FNV-1a 64 of scene content hash + resolution + integrator settings (see scene_hash)
 //! scene      u32 length + UTF-8   what was rendered (file path or "built-in Cornell box"), for messages
 //! integrator u8 kind (0 path, 1 direct, 2 ao), u32 max_depth, u32 rr_depth
 //! target_spp u64      samples per pixel the run was asked for (0: none, e.g. --time)
@@ -27,6 +27,7 @@ use anyhow::{bail, Context, Result};
 
 use crate::film::Film;
 use crate::integrator::{IntegratorKind, IntegratorSettings};
+use crate::scene::Scene;
 
 const MAGIC: &[u8; 8] = b"LUCENTCK";
 /// Version of the checkpoint format written by this build.
@@ -67,15 +68,6 @@ impl Fnv1a64 {
     }
 }
 
-/// What was rendered: the bytes of a scene file, or the built-in scene.
-#[derive(Clone, Copy, Debug)]
-pub enum SceneSource<'a> {
-    /// The contents of a TOML scene file (the meshes it names are not hashed).
-    File(&'a [u8]),
-    /// The built-in measured Cornell box.
-    BuiltinCornellBox,
-}
-
 fn kind_code(kind: IntegratorKind) -> u8 {
     match kind {
         IntegratorKind::Path => 0,
@@ -102,19 +94,14 @@ pub fn integrator_name(kind: IntegratorKind) -> &'static str {
     }
 }
 
-/// Stable identity of a render: FNV-1a 64 of the scene (file bytes or built-in identity),
-/// the resolution in pixels and the integrator settings. Two runs with the same hash sample the
-/// same image, so their checkpoints can be resumed or merged.
-pub fn scene_hash(source: SceneSource, width: u32, height: u32, settings: &IntegratorSettings) -> u64 {
+/// Stable identity of a render: FNV-1a 64 of the scene's content hash
+/// ([`Scene::content_hash`]: scene text and every file it reads), the resolution in pixels and
+/// the integrator settings. Two runs with the same hash sample the same image, so their
+/// checkpoints can be resumed or merged.
+pub fn scene_hash(scene_content_hash: u64, width: u32, height: u32, settings: &IntegratorSettings) -> u64 {
     let mut h = Fnv1a64::new();
     h.write_field(b"lucent render identity v1");
-    match source {
-        SceneSource::File(bytes) => {
-            h.write_field(b"file");
-            h.write_field(bytes);
-        }
-        SceneSource::BuiltinCornellBox => h.write_field(b"builtin:cornell-box:v1"),
-    }
+    h.write(&scene_content_hash.to_le_bytes());
     h.write(&width.to_le_bytes());
     h.write(&height.to_le_bytes());
     h.write(&[kind_code(settings.kind)]);
@@ -160,15 +147,21 @@ pub struct RenderIdentity {
 }
 
 impl RenderIdentity {
-    /// Identity of a render of `source` at `width`×`height` with `settings`.
-    pub fn new(source: SceneSource, scene_name: &str, width: u32, height: u32, settings: &IntegratorSettings) -> Self {
+    /// Identity of a render of a scene with content hash `scene_content_hash` at `width`×`height` with `settings`.
+    pub fn new(scene_content_hash: u64, scene_name: &str, width: u32, height: u32, settings: &IntegratorSettings) -> Self {
         RenderIdentity {
-            scene_hash: scene_hash(source, width, height, settings),
+            scene_hash: scene_hash(scene_content_hash, width, height, settings),
             scene_name: scene_name.to_string(),
             width,
             height,
             settings: settings.clone(),
         }
+    }
+
+    /// Identity of a render of `scene` (at its current resolution) with `settings`.
+    pub fn of_scene(scene: &Scene, settings: &IntegratorSettings) -> Self {
+        let (w, h) = scene.resolution();
+        RenderIdentity::new(scene.content_hash(), &scene.source, w, h, settings)
     }
 }
 
@@ -431,7 +424,9 @@ mod tests {
     }
 
     fn identity(scene: &[u8], w: u32, h: u32) -> RenderIdentity {
-        RenderIdentity::new(SceneSource::File(scene), "test.toml", w, h, &settings(IntegratorKind::Path))
+        let mut f = Fnv1a64::new();
+        f.write(scene);
+        RenderIdentity::new(f.finish(), "test.toml", w, h, &settings(IntegratorKind::Path))
     }
 
     fn film_with(w: u32, h: u32, values: &[f32]) -> Film {
@@ -505,16 +500,19 @@ mod tests {
         assert!(err.contains("runs/a.ckpt") && err.contains("another scene"), "{err}");
         let err = c.check_matches(p, &identity(b"scene A", 4, 2)).unwrap_err().to_string();
         assert!(err.contains("runs/a.ckpt") && err.contains("2×2"), "{err}");
-        let ao = RenderIdentity::new(SceneSource::File(b"scene A"), "t", 2, 2, &settings(IntegratorKind::Ao));
+        let ao = RenderIdentity { settings: settings(IntegratorKind::Ao), ..identity(b"scene A", 2, 2) };
         let err = c.check_matches(p, &ao).unwrap_err().to_string();
         assert!(err.contains("integrator"), "{err}");
-        // The hash itself separates built-in and file scenes, resolutions and integrators.
+        // The hash itself separates scenes, resolutions and integrator settings.
         let s = settings(IntegratorKind::Path);
-        let base = scene_hash(SceneSource::BuiltinCornellBox, 2, 2, &s);
-        assert_ne!(base, scene_hash(SceneSource::File(b""), 2, 2, &s));
-        assert_ne!(base, scene_hash(SceneSource::BuiltinCornellBox, 2, 3, &s));
-        assert_ne!(base, scene_hash(SceneSource::BuiltinCornellBox, 2, 2, &IntegratorSettings { max_depth: 9, ..s.clone() }));
-        assert_eq!(base, scene_hash(SceneSource::BuiltinCornellBox, 2, 2, &s));
+        let base = scene_hash(1, 2, 2, &s);
+        assert_ne!(base, scene_hash(2, 2, 2, &s));
+        assert_ne!(base, scene_hash(1, 2, 3, &s));
+        assert_ne!(base, scene_hash(1, 3, 2, &s));
+        assert_ne!(base, scene_hash(1, 2, 2, &settings(IntegratorKind::Direct)));
+        assert_ne!(base, scene_hash(1, 2, 2, &IntegratorSettings { max_depth: 9, ..s.clone() }));
+        assert_ne!(base, scene_hash(1, 2, 2, &IntegratorSettings { rr_depth: 4, ..s.clone() }));
+        assert_eq!(base, scene_hash(1, 2, 2, &s));
     }
 
     #[test]

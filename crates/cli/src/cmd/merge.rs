@@ -20,7 +20,7 @@ pub struct Args {
     /// Also write the merged accumulator as a checkpoint (it can be merged again).
     #[arg(long, value_name = "FILE")]
     pub checkpoint: Option<PathBuf>,
-    /// Exposure in stops applied to the written images [default: 0].
+    /// Exposure in stops for PNG outputs (EXR and PFM stay unscaled linear radiance) [default: 0].
     #[arg(long, value_name = "STOPS", allow_hyphen_values = true)]
     pub exposure: Option<String>,
 }

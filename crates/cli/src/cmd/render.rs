@@ -11,14 +11,20 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use render::checkpoint::{Checkpoint, RenderIdentity, SceneSource};
+use render::checkpoint::{Checkpoint, RenderIdentity};
 use render::film::Film;
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
 use render::scene::Scene;
 
-/// Samples per pixel when neither `--spp` nor `--time` is given (about 10–20 s for the
-/// 256×256 Cornell box on 2 cores at the tracer's ~1.5 Msamples/s).
-pub const DEFAULT_SPP: u64 = 256;
+/// Samples per image aimed at when neither `--spp` nor `--time` is given: 2^24 ≈ 16.8 million,
+/// i.e. 64 spp at the Cornell box's 512×512 (about 11 s on 2 cores at ~1.5 Msamples/s).
+pub const DEFAULT_SAMPLES_PER_IMAGE: u64 = 1 << 24;
+
+/// Default samples per pixel: the power of two nearest below `DEFAULT_SAMPLES_PER_IMAGE / pixels`, at least 1.
+pub fn default_spp(pixels: u64) -> u64 {
+    let spp = (DEFAULT_SAMPLES_PER_IMAGE / pixels.max(1)).max(1);
+    1 << (63 - spp.leading_zeros())
+}
 /// Image written when no `--out` is given.
 pub const DEFAULT_OUT: &str = "lucent.png";
 /// Exit status after Ctrl-C (128 + SIGINT), once the checkpoint and images are written.
@@ -29,7 +35,7 @@ pub struct Args {
     /// Scene file (TOML, see docs/scene-format.md); the built-in measured Cornell box when omitted.
     #[arg(value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,
-    /// Samples per pixel in total (including those of a resumed checkpoint) [default: 256].
+    /// Samples per pixel in total, including those of a resumed checkpoint [default: 2^24 samples / pixels, as a power of two: 64 at 512×512].
     #[arg(long, value_name = "N", allow_hyphen_values = true, conflicts_with = "time")]
     pub spp: Option<String>,
     /// Render for this many seconds of wall-clock time instead of a sample count.
@@ -68,11 +74,11 @@ pub struct Args {
     /// Seconds between checkpoint writes [default: 5].
     #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
     pub checkpoint_interval: Option<String>,
-    /// Exposure in stops applied to the written images (PNG, EXR and PFM alike) [default: 0].
+    /// Exposure in stops for PNG outputs (EXR and PFM stay unscaled linear radiance) [default: 0].
     #[arg(long, value_name = "STOPS", allow_hyphen_values = true)]
     pub exposure: Option<String>,
     /// No progress bar and no summary line.
-    #[arg(long)]
+    #[arg(long, short)]
     pub quiet: bool,
 }
 
@@ -229,13 +235,13 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     // ---- The scene and the render's identity. ----
-    let (mut scene, scene_bytes, scene_name) = match &args.scene {
-        Some(path) => {
-            let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read scene", path.display()))?;
-            let scene = Scene::load(path)?;
-            (scene, Some(bytes), path.display().to_string())
-        }
-        None => (Scene::cornell_box(), None, "built-in Cornell box".to_string()),
+    let mut scene = match &args.scene {
+        Some(path) => Scene::load(path)?,
+        None => Scene::cornell_box(),
+    };
+    let scene_name = match &args.scene {
+        Some(path) => path.display().to_string(),
+        None => "built-in Cornell box".to_string(),
     };
     let (w0, h0) = scene.resolution();
     let (width, height) = match (width_arg, height_arg, &resumed) {
@@ -249,20 +255,18 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--width × --height = {width}×{height} pixels is too large");
     }
     scene.set_resolution(width, height);
+    // Integrator: the flags, else the checkpoint being resumed, else the scene file's.
     let base = match &resumed {
         Some(c) => c.identity.settings.clone(),
-        None => IntegratorSettings::default(),
+        None => scene.integrator.clone(),
     };
     let settings = IntegratorSettings {
         kind: kind_arg.unwrap_or(base.kind),
         max_depth: max_depth_arg.unwrap_or(base.max_depth),
         rr_depth: rr_depth_arg.unwrap_or(base.rr_depth),
     };
-    let source = match &scene_bytes {
-        Some(b) => SceneSource::File(b),
-        None => SceneSource::BuiltinCornellBox,
-    };
-    let identity = RenderIdentity::new(source, &scene_name, width, height, &settings);
+    let mut identity = RenderIdentity::of_scene(&scene, &settings);
+    identity.scene_name = scene_name.clone();
 
     // ---- Starting point: fresh, or where the checkpoint stopped. ----
     let (seed, first_pass, film, stored_target) = match (&args.resume, resumed) {
@@ -284,7 +288,7 @@ pub fn run(args: Args) -> Result<()> {
         (None, None) if args.resume.is_some() => {
             bail!("{}: checkpoint of a --time run: give --spp or --time to continue", args.resume.as_ref().unwrap().display())
         }
-        (None, None) => Stop::Spp(DEFAULT_SPP),
+        (None, None) => Stop::Spp(default_spp(width as u64 * height as u64)),
     };
     let target_spp = match stop {
         Stop::Spp(n) => Some(n),
