@@ -324,26 +324,52 @@ fn flatten(children: &[BuildNode; 2], nodes: &mut [Node], at: usize, mut next: u
 #[derive(Clone, Copy)]
 struct RayBox {
     inv: [f32; 3],
-    o_inv: [f32; 3],
+    o: [f32; 3],
+    /// Some direction component is zero (or subnormal): use the careful test.
+    parallel: bool,
 }
 
 impl RayBox {
     #[inline(always)]
     fn new(ray: &Ray) -> RayBox {
         let inv = ray.d.recip();
-        let o_inv = ray.o * inv;
-        RayBox { inv: inv.to_array(), o_inv: o_inv.to_array() }
+        RayBox { inv: inv.to_array(), o: ray.o.to_array(), parallel: !inv.is_finite() }
+    }
+
+    /// Box test for rays with a zero direction component: such a slab holds the ray for all t
+    /// when the origin is inside it (boundary included), for no t otherwise.
+    #[inline(never)]
+    fn hit_parallel(&self, n: &Node, t_min: f32, t_max: f32) -> f32 {
+        let (mut near, mut far) = (t_min, t_max);
+        for a in 0..3 {
+            if self.inv[a].is_finite() {
+                let t0 = (n.min[a] - self.o[a]) * self.inv[a];
+                let t1 = (n.max[a] - self.o[a]) * self.inv[a];
+                near = near.max(t0.min(t1));
+                far = far.min(t0.max(t1) * ROUND_UP);
+            } else if !(self.o[a] >= n.min[a] && self.o[a] <= n.max[a]) {
+                return f32::INFINITY;
+            }
+        }
+        if near <= far {
+            near
+        } else {
+            f32::INFINITY
+        }
     }
 
     /// Entry distance into the node's box within (t_min, t_max), or +∞ when missed.
     #[inline(always)]
     fn hit(&self, n: &Node, t_min: f32, t_max: f32) -> f32 {
-        let tx0 = n.min[0] * self.inv[0] - self.o_inv[0];
-        let tx1 = n.max[0] * self.inv[0] - self.o_inv[0];
-        let ty0 = n.min[1] * self.inv[1] - self.o_inv[1];
-        let ty1 = n.max[1] * self.inv[1] - self.o_inv[1];
-        let tz0 = n.min[2] * self.inv[2] - self.o_inv[2];
-        let tz1 = n.max[2] * self.inv[2] - self.o_inv[2];
+        if self.parallel {
+            return self.hit_parallel(n, t_min, t_max);
+        }
+        let tx0 = (n.min[0] - self.o[0]) * self.inv[0];
+        let tx1 = (n.max[0] - self.o[0]) * self.inv[0];
+        let ty0 = (n.min[1] - self.o[1]) * self.inv[1];
+        let ty1 = (n.max[1] - self.o[1]) * self.inv[1];
+        let tz0 = (n.min[2] - self.o[2]) * self.inv[2];
+        let tz1 = (n.max[2] - self.o[2]) * self.inv[2];
         let near = tx0.min(tx1).max(ty0.min(ty1)).max(tz0.min(tz1)).max(t_min);
         let far = tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)).min(t_max) * ROUND_UP;
         if near <= far {
@@ -490,7 +516,7 @@ impl Accel {
                 }
                 sp -= 1;
                 let (n, tn) = stack[sp];
-                if tn < t_max {
+                if tn <= t_max * ROUND_UP {
                     node = &self.nodes[n as usize];
                     break;
                 }

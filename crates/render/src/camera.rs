@@ -7,6 +7,9 @@
 //! ((i + uₓ)/W − ½)·(W/H) along the camera's right axis and (½ − (j + u_y)/H) along its up axis,
 //! with (uₓ, u_y) uniform in [0,1)² for antialiasing (a box pixel filter).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::geometry::Ray;
 use glam::{Vec2, Vec3};
 

@@ -392,7 +392,7 @@ pub fn ssim(a: &Image, b: &Image, mask: Option<&Mask>) -> Result<f64> {
         bail!("SSIM: images differ in size");
     }
     let (w, h) = (a.width as usize, a.height as usize);
-    let inside = |i: usize| mask.map_or(true, |m| m.inside[i]);
+    let inside = |i: usize| mask.is_none_or(|m| m.inside[i]);
     let m: Vec<f64> = (0..w * h).map(|i| if inside(i) { 1.0 } else { 0.0 }).collect();
     let x: Vec<f64> = a.rgb.iter().map(|p| luminance(to_f64(*p))).collect();
     let y: Vec<f64> = b.rgb.iter().map(|p| luminance(to_f64(*p))).collect();

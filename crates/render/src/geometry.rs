@@ -128,14 +128,23 @@ impl Aabb {
     /// The parametric interval (t0, t1) of the ray inside the box, clipped to the ray's
     /// bounds, or None. Conservative: rounding is compensated as in pbrt (1 + 2γ₃).
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, f32)> {
-        let inv = ray.d.recip();
-        let t_a = (self.min - ray.o) * inv;
-        let t_b = (self.max - ray.o) * inv;
-        let t_near = t_a.min(t_b);
-        let t_far = t_a.max(t_b) * (1.0 + 2.0 * gamma(3));
-        let t0 = t_near.max_element().max(ray.t_min);
-        let t1 = t_far.min_element().min(ray.t_max);
-        if t0 <= t1 && !t0.is_nan() && !t1.is_nan() {
+        let (mut t0, mut t1) = (ray.t_min, ray.t_max);
+        for a in 0..3 {
+            if ray.d[a] == 0.0 {
+                // Parallel to the slab: inside it (boundary included) or never.
+                if ray.o[a] < self.min[a] || ray.o[a] > self.max[a] || ray.o[a].is_nan() {
+                    return None;
+                }
+                continue;
+            }
+            let inv = 1.0 / ray.d[a];
+            let ta = (self.min[a] - ray.o[a]) * inv;
+            let tb = (self.max[a] - ray.o[a]) * inv;
+            let (near, far) = (ta.min(tb), ta.max(tb) * (1.0 + 2.0 * gamma(3)));
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+        if t0 <= t1 {
             Some((t0, t1))
         } else {
             None

@@ -108,10 +108,16 @@ pub fn srgb_decode(encoded: f64) -> f64 {
 
 /// Writes a file atomically: `write` is called with a temporary path `<name>.tmp-<pid>` in the
 /// same directory; on success that file is renamed to `path`, on error it is removed and any
-/// existing file at `path` is left untouched.
+/// existing file at `path` is left untouched. The temporary file is synced to disk before the
+/// rename. Two concurrent writes of the same path from one process would share the temporary name:
+/// callers serialise them.
 pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path)?;
     let result = write(&tmp).and_then(|()| {
+        // Data on disk before the rename makes it visible, so a crash never leaves a torn file.
+        File::open(&tmp)
+            .and_then(|f| f.sync_all())
+            .with_context(|| format!("flushing {}", tmp.display()))?;
         std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
     });
     if result.is_err() {

@@ -6,13 +6,17 @@
 //! q = min(max throughput, 0.95) and its throughput is divided by q.
 //!
 //! - `ao`: at the first hit, one cosine-weighted direction about the shading normal; the value is
-//!   spectral radiance 1 when that direction is not blocked within the scene's `ao_distance`
-//!   (so an unoccluded point shows Y = 1), else 0. Rays that miss everything give 0.
+//!   1 when that direction is not blocked within the scene's `ao_distance`, else 0, written as
+//!   equal-energy white with Y = value (an unoccluded point shows Y = 1 exactly). Rays that miss
+//!   everything give 0.
 //! - `direct`: emission seen by the camera ray plus one light sample (lights chosen in proportion
 //!   to power, a point chosen on the light, visibility tested) at the first hit — light sampling
 //!   only, the tutorial's soft-shadow estimator.
 //! - `path`: unidirectional path tracing; at every vertex one light sample and one BSDF sample,
 //!   combined by multiple importance sampling with the power heuristic (Veach 1997).
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::bvh::Hit;
 use crate::geometry::Ray;
@@ -26,18 +30,22 @@ use rayon::prelude::*;
 /// Which light-transport estimator to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum IntegratorKind {
+    /// Unidirectional path tracing with next-event estimation, MIS and Russian roulette.
     Path,
+    /// Emission plus one light sample at the first hit (soft shadows, no indirect light).
     Direct,
+    /// Ambient occlusion by cosine-weighted hemisphere sampling.
     Ao,
 }
 
 /// Settings of an integrator (Mitsuba's defaults for `path`: 8 bounces, Russian roulette from the 5th).
 #[derive(Clone, Debug)]
 pub struct IntegratorSettings {
+    /// The estimator.
     pub kind: IntegratorKind,
-    /// Longest path in bounces.
+    /// Longest path in segments (1: emitters seen directly, 2: direct lighting; Mitsuba's `max_depth`).
     pub max_depth: u32,
-    /// Russian roulette starts at this depth.
+    /// Russian roulette starts once a path has this many segments (Mitsuba's `rr_depth`).
     pub rr_depth: u32,
 }
 
@@ -78,14 +86,21 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
 /// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
 #[inline]
 pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
-    let wl = SampledWavelengths::sample(rng.next_f32());
+    let u_lambda = rng.next_f32();
     let ray = scene.camera.generate_ray(i, j, rng.next_2d());
-    let l = match settings.kind {
-        IntegratorKind::Path => li_path(scene, settings, ray, &wl, rng),
-        IntegratorKind::Direct => li_direct(scene, ray, &wl, rng),
-        IntegratorKind::Ao => li_ao(scene, ray, rng),
+    let xyz = match settings.kind {
+        IntegratorKind::Ao => {
+            // Visibility is wavelength-independent: report it as equal-energy white with Y = v.
+            let v = ao_visibility(scene, ray, rng);
+            let w = equal_energy_white();
+            [w[0] * v, w[1] * v, w[2] * v]
+        }
+        kind => {
+            let mut wl = SampledWavelengths::sample(u_lambda);
+            let l = if kind == IntegratorKind::Path { li_path(scene, settings, ray, &mut wl, rng) } else { li_direct(scene, ray, &wl, rng) };
+            wl.to_xyz(l)
+        }
     };
-    let xyz = wl.to_xyz(l);
     if xyz.iter().all(|c| c.is_finite()) {
         xyz
     } else {
@@ -162,7 +177,9 @@ fn sample_one_light(scene: &Scene, s: &Shading, wo: Vec3, bsdf: &Bsdf, wl: &Samp
 }
 
 /// Radiance along `ray` by path tracing with NEE, MIS and Russian roulette.
-pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+/// `wl` may lose its secondary wavelengths on the way (dispersion): convert the result with the
+/// `wl` as it is on return.
+pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
     let mut l = Vec4::ZERO;
     let mut beta = Vec4::ONE;
     let mut depth = 0u32; // segments traced so far
@@ -220,6 +237,9 @@ pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &
             break;
         }
         beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if bs.terminate_secondary {
+            wl.terminate_secondary();
+        }
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         prev_p = s.p;
@@ -258,21 +278,30 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
 }
 
 /// Ambient occlusion: 1 if a cosine-distributed direction at the first hit escapes within the
-/// scene's AO distance, else 0.
-pub fn li_ao(scene: &Scene, ray: Ray, rng: &mut Pcg32) -> SampledSpectrum {
-    let Some(hit) = scene.accel.intersect(&ray) else { return Vec4::ZERO };
+/// scene's AO distance, else 0 (0 also when the camera ray misses everything).
+pub fn ao_visibility(scene: &Scene, ray: Ray, rng: &mut Pcg32) -> f32 {
+    let Some(hit) = scene.accel.intersect(&ray) else { return 0.0 };
     let s = shade(scene, &ray, &hit);
     let d = s.frame.to_world(cosine_hemisphere(rng.next_2d()));
     if d.dot(s.ng) <= 0.0 {
-        return Vec4::ZERO;
+        return 0.0;
     }
     let mut r = spawn(scene, &s, d);
     r.t_max = scene.ao_distance_m;
     if scene.accel.occluded(&r) {
-        Vec4::ZERO
+        0.0
     } else {
-        Vec4::ONE
+        1.0
     }
+}
+
+/// CIE XYZ of the equal-energy spectrum normalised to Y = 1 (the colour `ao` reports).
+pub fn equal_energy_white() -> [f32; 3] {
+    static W: std::sync::OnceLock<[f32; 3]> = std::sync::OnceLock::new();
+    *W.get_or_init(|| {
+        let x = crate::spectral::xyz_of(|_| 1.0);
+        [(x[0] / x[1]) as f32, 1.0, (x[2] / x[1]) as f32]
+    })
 }
 
 /// Samples per second (millions) of `path` on the built-in Cornell box at `width`×`height`,

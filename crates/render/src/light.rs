@@ -11,6 +11,9 @@
 //! the cone they subtend). `pdf_li` gives the same density for a direction found by BSDF sampling,
 //! for multiple importance sampling.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
 use crate::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec2, Vec3, Vec4};
@@ -20,10 +23,10 @@ use std::f32::consts::PI;
 /// The surface an area light emits from (world coordinates, metres).
 #[derive(Clone, Debug)]
 pub enum Emitter {
-    /// Triangles (p0, p1, p2), sampled uniformly by area.
+    /// Triangles, sampled uniformly by area.
     Triangles {
-        /// Vertices of each triangle.
-        tris: Vec<[Vec3; 3]>,
+        /// Each triangle as (p0, p1 − p0, p2 − p0, unit normal along (p1 − p0) × (p2 − p0)).
+        tris: Vec<[Vec3; 4]>,
         /// Cumulative areas (m²); the last entry is the total area.
         cdf: Vec<f32>,
     },
@@ -39,18 +42,52 @@ pub enum Emitter {
 /// A light source.
 #[derive(Clone, Debug)]
 pub enum Light {
-    /// Isotropic point source of spectral intensity `intensity` (W·sr⁻¹·nm⁻¹).
-    Point { position: Vec3, intensity: DenseSpectrum },
+    /// Isotropic point source.
+    Point {
+        /// Position (m).
+        position: Vec3,
+        /// Spectral intensity (W·sr⁻¹·nm⁻¹).
+        intensity: DenseSpectrum,
+    },
     /// Spot light: intensity along the axis, smooth (smoothstep in cos θ) falloff from
     /// `cos_falloff_start` to zero at `cos_total`.
-    Spot { position: Vec3, frame: Frame, cos_total: f32, cos_falloff_start: f32, intensity: DenseSpectrum },
-    /// Distant source: light travels along `direction` (unit) with spectral irradiance `irradiance`.
-    Directional { direction: Vec3, irradiance: DenseSpectrum },
-    /// Diffuse emitter on the surface of scene object `object`, spectral radiance `radiance`,
-    /// emitting on the side of the geometric normal only unless `two_sided`.
-    Area { object: u32, emitter: Emitter, area_m2: f32, radiance: DenseSpectrum, two_sided: bool },
-    /// Radiance `radiance` arriving from every direction not blocked by the scene.
-    Environment { radiance: DenseSpectrum },
+    Spot {
+        /// Position (m).
+        position: Vec3,
+        /// Frame whose normal is the spot's axis.
+        frame: Frame,
+        /// Cosine of the total cone half-angle.
+        cos_total: f32,
+        /// Cosine of the half-angle where the falloff starts.
+        cos_falloff_start: f32,
+        /// Spectral intensity on the axis (W·sr⁻¹·nm⁻¹).
+        intensity: DenseSpectrum,
+    },
+    /// Distant source.
+    Directional {
+        /// Unit direction in which the light travels.
+        direction: Vec3,
+        /// Spectral irradiance on a surface perpendicular to it (W·m⁻²·nm⁻¹).
+        irradiance: DenseSpectrum,
+    },
+    /// Diffuse emitter on the surface of a scene object.
+    Area {
+        /// Index of the emitting object in the scene.
+        object: u32,
+        /// Its surface.
+        emitter: Emitter,
+        /// Emitting area (m²).
+        area_m2: f32,
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
+        radiance: DenseSpectrum,
+        /// Whether it emits on both sides (else only on the side of the geometric normal).
+        two_sided: bool,
+    },
+    /// Radiance arriving from every direction not blocked by the scene.
+    Environment {
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
+        radiance: DenseSpectrum,
+    },
 }
 
 /// A sample of incident light at a shading point.
@@ -80,15 +117,22 @@ impl Emitter {
     /// Build from triangles; errors when the total area is not positive.
     pub fn triangles(tris: Vec<[Vec3; 3]>) -> anyhow::Result<Emitter> {
         let mut cdf = Vec::with_capacity(tris.len());
+        let mut out = Vec::with_capacity(tris.len());
         let mut acc = 0.0f64;
         for t in &tris {
-            acc += 0.5 * ((t[1] - t[0]).cross(t[2] - t[0]).length() as f64);
-            cdf.push(acc as f32);
+            let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+            let c = e1.cross(e2);
+            let a = 0.5 * c.length() as f64;
+            if a > 0.0 {
+                acc += a;
+                cdf.push(acc as f32);
+                out.push([t[0], e1, e2, c.normalize()]);
+            }
         }
         if !(acc > 0.0) || !acc.is_finite() {
             anyhow::bail!("emitting surface has zero area");
         }
-        Ok(Emitter::Triangles { tris, cdf })
+        Ok(Emitter::Triangles { tris: out, cdf })
     }
 }
 
@@ -153,12 +197,10 @@ impl Light {
             Light::Area { emitter, area_m2, radiance, two_sided, .. } => {
                 let (q, n) = match emitter {
                     Emitter::Triangles { tris, cdf } => {
-                        let (i, ur) = sample_cdf(cdf, u.x);
+                        let (i, ur) = if cdf.len() == 1 { (0, u.x) } else { sample_cdf(cdf, u.x) };
                         let t = &tris[i];
                         let b = uniform_triangle(Vec2::new(ur, u.y));
-                        let q = t[0] + (t[1] - t[0]) * b.x + (t[2] - t[0]) * b.y;
-                        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
-                        (q, n)
+                        (t[0] + t[1] * b.x + t[2] * b.y, t[3])
                     }
                     Emitter::Sphere { center, radius } => {
                         let dc = *center - p;

@@ -8,6 +8,9 @@
 //! reports whether it is a delta lobe (no light sampling, no MIS), whether it transmits (the path
 //! changes side and medium) and the relative index of refraction it crossed.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec2, Vec3, Vec4};
@@ -54,6 +57,9 @@ pub struct BsdfSample {
     pub transmission: bool,
     /// Relative index of refraction η_t/η_i crossed by a transmission (1 for reflection).
     pub eta: f32,
+    /// The lobe depends on wavelength in direction (dispersion): the path keeps only its hero
+    /// wavelength from here on ([`SampledWavelengths::terminate_secondary`]).
+    pub terminate_secondary: bool,
 }
 
 impl Material {
@@ -134,7 +140,7 @@ impl Bsdf {
                 if pdf <= 0.0 {
                     return None;
                 }
-                Some(BsdfSample { wi, f: *r * FRAC_1_PI, pdf, delta: false, transmission: false, eta: 1.0 })
+                Some(BsdfSample { wi, f: *r * FRAC_1_PI, pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
             }
             Bsdf::Black => None,
         }

@@ -5,6 +5,9 @@
 //! independent of the thread that computes it. Warps map uniform `[0,1)²` samples to
 //! directions and points with known densities (per steradian or per unit area).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 

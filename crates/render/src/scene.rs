@@ -8,6 +8,9 @@
 //! range. Materials and objects refer to each other by name. Errors name the file, the line and
 //! column, and the field; unknown keys are rejected.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
+
 use crate::bvh::{Accel, Shape};
 use crate::camera::Camera;
 use crate::geometry::Sphere;
@@ -157,8 +160,10 @@ impl Scene {
     /// Index of the light chosen for next-event estimation with uniform `u`, and its probability.
     #[inline]
     pub fn pick_light(&self, u: f32) -> Option<(usize, f32)> {
-        if self.lights.is_empty() {
-            return None;
+        match self.lights.len() {
+            0 => return None,
+            1 => return Some((0, 1.0)),
+            _ => {}
         }
         let (i, _) = crate::sampling::sample_cdf(&self.light_cdf, u);
         Some((i, self.light_pmf[i]))
@@ -476,12 +481,12 @@ impl SpectrumCx<'_> {
 
 /// Reflectance spectrum (≤ 1 everywhere) for a linear-sRGB albedo.
 fn rgb_albedo(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
-    Ok(optics::spectrum::Spectrum::RgbAlbedo(optics::spectrum::RgbAlbedo::new(rgb)?))
+    Ok(optics::spectrum::Spectrum::RgbAlbedo(optics::spectrum::RgbAlbedo::new(rgb)))
 }
 
 /// Emission spectrum for a linear-sRGB radiance (D65 white for equal components).
 fn rgb_illuminant(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
-    Ok(optics::spectrum::Spectrum::RgbIlluminant(optics::spectrum::RgbIlluminant::new(rgb)?))
+    Ok(optics::spectrum::Spectrum::RgbIlluminant(optics::spectrum::RgbIlluminant::new(rgb)))
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -7,6 +7,9 @@
 //! tristimulus value (pbrt-v4/Mitsuba 3 convention, XYZ = ∫S·(x̄,ȳ,z̄)dλ / ∫ȳdλ) is
 //! (1/4) Σᵢ L(λᵢ)·(x̄,ȳ,z̄)(λᵢ) / (p(λᵢ)·∫ȳdλ), so spectral radiance 1 everywhere gives Y = 1.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 use glam::Vec4;
 use optics::spectrum::DenseSpectrum;
 use std::sync::OnceLock;
@@ -18,6 +21,7 @@ pub const LAMBDA_MIN_NM: f32 = 360.0;
 /// Longest wavelength sampled, nm.
 pub const LAMBDA_MAX_NM: f32 = 830.0;
 const N_BINS: usize = 470; // 1-nm bins of the sampling density
+const GUIDE: usize = 1024; // entries of the guide table for inverting the CDF
 
 /// A value per carried wavelength (radiance, throughput, reflectance…), SIMD-friendly.
 pub type SampledSpectrum = Vec4;
@@ -29,11 +33,19 @@ pub struct SampledWavelengths {
     pub lambda_nm: [f32; N_LAMBDA],
     /// Sampling density of each wavelength, per nm (0 for a terminated secondary wavelength).
     pub pdf_per_nm: Vec4,
+    /// Index of the 1-nm sample at or below each wavelength (0..=469), for fast table lookups.
+    index: [u16; N_LAMBDA],
+    /// Interpolation weight of the sample above.
+    frac: Vec4,
 }
 
 struct Tables {
     /// x̄, ȳ, z̄ at 1-nm spacing from 360 to 830 nm (471 samples each).
     cmf: [Vec<f32>; 3],
+    /// (x̄, ȳ, z̄, 0) per 1-nm sample, for the film's inner loop.
+    cmf4: Vec<Vec4>,
+    /// First bin whose upper CDF value exceeds k/GUIDE (a guide table for inversion).
+    guide: Vec<u16>,
     /// Sampling density per nm in each 1-nm bin.
     pdf: Vec<f32>,
     /// Cumulative distribution at the bin ends (471 entries, first 0, last 1).
@@ -70,7 +82,19 @@ fn tables() -> &'static Tables {
             cdf.push(acc as f32);
         }
         cdf[N_BINS] = 1.0;
-        Tables { cmf, pdf, cdf, inv_y_integral: (1.0 / optics::color::CIE_Y_INTEGRAL) as f32 }
+        let cmf4 = (0..n).map(|i| Vec4::new(cmf[0][i], cmf[1][i], cmf[2][i], 0.0)).collect();
+        let guide = (0..GUIDE)
+            .map(|k| {
+                let u = k as f32 / GUIDE as f32;
+                // first bin k with cdf[k + 1] > u
+                let mut b = 0usize;
+                while b + 1 < N_BINS && cdf[b + 1] <= u {
+                    b += 1;
+                }
+                b as u16
+            })
+            .collect();
+        Tables { cmf, cmf4, guide, pdf, cdf, inv_y_integral: (1.0 / optics::color::CIE_Y_INTEGRAL) as f32 }
     })
 }
 
@@ -98,46 +122,54 @@ pub fn wavelength_pdf(lambda_nm: f32) -> f32 {
     tables().pdf[(x as usize).min(N_BINS - 1)]
 }
 
+/// Wavelength (nm) and its 1-nm bin for a uniform `u`, by inverting the CDF with a guide table.
 #[inline]
-fn sample_one(u: f32) -> f32 {
-    let t = tables();
-    // first bin end with cdf > u
+fn sample_one(t: &Tables, u: f32) -> (f32, usize) {
     let cdf = &t.cdf;
-    let (mut lo, mut hi) = (1usize, N_BINS);
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if cdf[mid] <= u {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
+    let mut k = t.guide[((u * GUIDE as f32) as usize).min(GUIDE - 1)] as usize;
+    while k + 1 < N_BINS && cdf[k + 1] <= u {
+        k += 1;
     }
-    let k = lo - 1; // bin index
     let w = cdf[k + 1] - cdf[k];
-    let f = if w > 0.0 { ((u - cdf[k]) / w).clamp(0.0, 1.0) } else { 0.5 };
-    (LAMBDA_MIN_NM + k as f32 + f).min(LAMBDA_MAX_NM)
+    let f = if w > 0.0 { ((u - cdf[k]) / w).clamp(0.0, 0.999_999) } else { 0.5 };
+    (LAMBDA_MIN_NM + k as f32 + f, k)
 }
 
 impl SampledWavelengths {
     /// Hero-wavelength sample from one uniform number `u` ∈ [0,1).
     #[inline]
     pub fn sample(u: f32) -> SampledWavelengths {
+        let t = tables();
         let mut lambda_nm = [0f32; N_LAMBDA];
         let mut pdf = [0f32; N_LAMBDA];
+        let mut index = [0u16; N_LAMBDA];
+        let mut frac = [0f32; N_LAMBDA];
         for i in 0..N_LAMBDA {
             let mut ui = u + i as f32 / N_LAMBDA as f32;
             if ui >= 1.0 {
                 ui -= 1.0;
             }
-            lambda_nm[i] = sample_one(ui);
-            pdf[i] = wavelength_pdf(lambda_nm[i]);
+            let (l, k) = sample_one(t, ui);
+            lambda_nm[i] = l;
+            pdf[i] = t.pdf[k];
+            index[i] = k as u16;
+            frac[i] = l - (LAMBDA_MIN_NM + k as f32);
         }
-        SampledWavelengths { lambda_nm, pdf_per_nm: Vec4::from_array(pdf) }
+        SampledWavelengths { lambda_nm, pdf_per_nm: Vec4::from_array(pdf), index, frac: Vec4::from_array(frac) }
     }
 
-    /// A fixed set of wavelengths with unit densities (for tests and deterministic evaluation).
+    /// A fixed set of wavelengths (nm, within 360–830) with unit densities (for tests and
+    /// deterministic evaluation).
     pub fn fixed(lambda_nm: [f32; N_LAMBDA]) -> SampledWavelengths {
-        SampledWavelengths { lambda_nm, pdf_per_nm: Vec4::ONE }
+        let mut index = [0u16; N_LAMBDA];
+        let mut frac = [0f32; N_LAMBDA];
+        for i in 0..N_LAMBDA {
+            let x = (lambda_nm[i] - LAMBDA_MIN_NM).clamp(0.0, N_BINS as f32);
+            let k = (x as usize).min(N_BINS - 1);
+            index[i] = k as u16;
+            frac[i] = x - k as f32;
+        }
+        SampledWavelengths { lambda_nm, pdf_per_nm: Vec4::ONE, index, frac: Vec4::from_array(frac) }
     }
 
     /// Keep only the hero wavelength (after a wavelength-dependent event such as dispersion).
@@ -153,35 +185,37 @@ impl SampledWavelengths {
         self.pdf_per_nm.y == 0.0 && self.pdf_per_nm.z == 0.0 && self.pdf_per_nm.w == 0.0
     }
 
-    /// Evaluate a dense spectrum at the carried wavelengths.
+    /// Evaluate a dense spectrum at the carried wavelengths (linear between its 1-nm samples).
     #[inline]
     pub fn eval(&self, s: &DenseSpectrum) -> SampledSpectrum {
-        Vec4::new(
-            s.eval(self.lambda_nm[0]),
-            s.eval(self.lambda_nm[1]),
-            s.eval(self.lambda_nm[2]),
-            s.eval(self.lambda_nm[3]),
-        )
+        let v = s.samples();
+        if v.len() != N_BINS + 1 {
+            return Vec4::new(s.eval(self.lambda_nm[0]), s.eval(self.lambda_nm[1]), s.eval(self.lambda_nm[2]), s.eval(self.lambda_nm[3]));
+        }
+        let k = self.index.map(|k| k as usize);
+        let lo = Vec4::new(v[k[0]], v[k[1]], v[k[2]], v[k[3]]);
+        let hi = Vec4::new(v[k[0] + 1], v[k[1] + 1], v[k[2] + 1], v[k[3] + 1]);
+        lo + (hi - lo) * self.frac
     }
 
     /// CIE XYZ estimate (Y = 1 for spectral radiance 1) of spectral radiance `l` at these wavelengths.
     #[inline]
     pub fn to_xyz(&self, l: SampledSpectrum) -> [f32; 3] {
         let t = tables();
-        let la = l.to_array();
-        let pa = self.pdf_per_nm.to_array();
-        let mut xyz = [0f32; 3];
+        // Terminated secondary wavelengths have density 0 and contribute nothing.
+        let w = Vec4::select(self.pdf_per_nm.cmpgt(Vec4::ZERO), l / self.pdf_per_nm, Vec4::ZERO);
+        let w = w.to_array();
+        let f = self.frac.to_array();
+        let mut acc = Vec4::ZERO;
         for i in 0..N_LAMBDA {
-            if pa[i] > 0.0 && la[i] != 0.0 {
-                let c = cmf(self.lambda_nm[i]);
-                let w = la[i] / pa[i];
-                xyz[0] += c[0] * w;
-                xyz[1] += c[1] * w;
-                xyz[2] += c[2] * w;
+            if w[i] != 0.0 {
+                let k = self.index[i] as usize;
+                let (a, b) = (t.cmf4[k], t.cmf4[k + 1]);
+                acc += (a + (b - a) * f[i]) * w[i];
             }
         }
-        let k = t.inv_y_integral / N_LAMBDA as f32;
-        [xyz[0] * k, xyz[1] * k, xyz[2] * k]
+        let acc = acc * (t.inv_y_integral / N_LAMBDA as f32);
+        [acc.x, acc.y, acc.z]
     }
 }
 
@@ -255,5 +289,33 @@ mod tests {
         }
         let f = below as f64 / n as f64;
         assert!((f - expect).abs() < 4.0 * (expect * (1.0 - expect) / n as f64).sqrt(), "{f} vs {expect}");
+    }
+
+    #[test]
+    fn fast_lookups_match_the_dense_spectrum_and_cmf() {
+        let d = DenseSpectrum::from_fn(|l| (l / 100.0).sin() + 1.5);
+        let mut r = Pcg32::new(2, 9);
+        for _ in 0..2000 {
+            let wl = SampledWavelengths::sample(r.next_f32());
+            let v = wl.eval(&d).to_array();
+            for i in 0..N_LAMBDA {
+                assert!((v[i] - d.eval(wl.lambda_nm[i])).abs() < 1e-5);
+            }
+            // to_xyz equals the direct formula.
+            let l = Vec4::new(0.3, 1.0, 2.0, 0.5);
+            let got = wl.to_xyz(l);
+            let mut expect = [0f64; 3];
+            for i in 0..N_LAMBDA {
+                let c = cmf(wl.lambda_nm[i]);
+                for k in 0..3 {
+                    expect[k] += (l[i] * c[k] / wl.pdf_per_nm[i]) as f64 / optics::color::CIE_Y_INTEGRAL / 4.0;
+                }
+            }
+            for k in 0..3 {
+                assert!((got[k] as f64 - expect[k]).abs() < 1e-4 * expect[k].abs().max(1.0));
+            }
+            let f = SampledWavelengths::fixed(wl.lambda_nm);
+            assert!((f.eval(&d) - wl.eval(&d)).abs().max_element() < 1e-5);
+        }
     }
 }

@@ -60,6 +60,13 @@ fn exr_round_trip_is_bit_exact() {
     let path = dir.join("a.exr");
     write_image(&path, &img, 0.0).unwrap();
     assert_bit_exact(&img, &read_image(&path).unwrap());
+    // The file declares its primaries and white: sRGB / D65.
+    let meta = exr::meta::MetaData::read_from_file(&path, false).unwrap();
+    let chroma = meta.headers[0].shared_attributes.chromaticities.expect("chromaticities attribute");
+    assert_eq!((chroma.red.0, chroma.red.1), (0.64, 0.33));
+    assert_eq!((chroma.green.0, chroma.green.1), (0.30, 0.60));
+    assert_eq!((chroma.blue.0, chroma.blue.1), (0.15, 0.06));
+    assert_eq!((chroma.white.0, chroma.white.1), (0.3127, 0.3290));
 }
 
 #[test]
@@ -230,4 +237,26 @@ fn atomic_write_keeps_existing_file_when_writer_fails() {
     assert_eq!(tmp.file_name().unwrap().to_string_lossy(), format!("keep.png.tmp-{}", std::process::id()));
     assert_eq!(std::fs::read(&path).unwrap(), b"new");
     assert!(!tmp.exists());
+}
+
+#[test]
+fn exr_half_float_and_alpha_are_read() {
+    use exr::prelude::*;
+    let dir = temp_dir("exr-half");
+    let path = dir.join("half.exr");
+    // Half-float RGBA written by another tool's typical settings; values exactly representable.
+    let values = [0.5f32, 0.25, 2.0, 1024.0, 0.0, 0.125];
+    write_rgba_file(&path, 3, 2, |x, y| {
+        let v = values[y * 3 + x];
+        (f16::from_f32(v), f16::from_f32(v * 2.0), f16::from_f32(v / 4.0), f16::from_f32(1.0))
+    })
+    .unwrap();
+    let img = read_image(&path).unwrap();
+    assert_eq!((img.width, img.height), (3, 2));
+    for y in 0..2 {
+        for x in 0..3 {
+            let v = values[(y * 3 + x) as usize];
+            assert_eq!(img.get(x, y), [v, v * 2.0, v / 4.0]);
+        }
+    }
 }
