@@ -206,6 +206,25 @@ mod tests {
     }
 
     #[test]
+    fn to_image_converts_the_mean_xyz_to_linear_srgb() {
+        // D65 white with Y = 1 (XYZ 0.95047, 1, 1.08883, from the CIE 1931 2° whitepoint) is
+        // linear sRGB (1, 1, 1). Two passes at 1.5× and 0.5× average to it; the other pixel
+        // is black, and pixel order is kept (row-major in both).
+        let d65 = [0.95047f32, 1.0, 1.08883];
+        let mut film = Film::new(2, 1);
+        film.add_pass(&[[1.5 * d65[0], 1.5 * d65[1], 1.5 * d65[2]], [0.0; 3]]);
+        film.add_pass(&[[0.5 * d65[0], 0.5 * d65[1], 0.5 * d65[2]], [0.0; 3]]);
+        let img = film.to_image();
+        assert_eq!((img.width, img.height), (2, 1));
+        for c in 0..3 {
+            assert!((img.rgb[0][c] - 1.0).abs() < 2e-3, "white channel {c}: {}", img.rgb[0][c]);
+            assert_eq!(img.rgb[1][c], 0.0);
+        }
+        // Before any pass the image is black, not NaN.
+        assert!(Film::new(1, 1).to_image().rgb[0].iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
     fn from_sums_checks_sizes() {
         assert!(Film::from_sums(2, 2, vec![[0.0; 3]; 3], 1, 0).is_err());
         assert!(Film::from_sums(2, 2, vec![[f64::NAN, 0.0, 0.0]; 4], 1, 0).is_err());
