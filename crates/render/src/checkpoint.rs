@@ -73,6 +73,7 @@ fn kind_code(kind: IntegratorKind) -> u8 {
         IntegratorKind::Path => 0,
         IntegratorKind::Direct => 1,
         IntegratorKind::Ao => 2,
+        IntegratorKind::Volpath => 3,
     }
 }
 
@@ -81,6 +82,7 @@ fn kind_from_code(code: u8) -> Option<IntegratorKind> {
         0 => Some(IntegratorKind::Path),
         1 => Some(IntegratorKind::Direct),
         2 => Some(IntegratorKind::Ao),
+        3 => Some(IntegratorKind::Volpath),
         _ => None,
     }
 }
@@ -91,6 +93,7 @@ pub fn integrator_name(kind: IntegratorKind) -> &'static str {
         IntegratorKind::Path => "path",
         IntegratorKind::Direct => "direct",
         IntegratorKind::Ao => "ao",
+        IntegratorKind::Volpath => "volpath",
     }
 }
 

@@ -125,7 +125,8 @@ pub(crate) fn integrator_kind(text: &str) -> Result<IntegratorKind> {
         "path" => Ok(IntegratorKind::Path),
         "direct" => Ok(IntegratorKind::Direct),
         "ao" => Ok(IntegratorKind::Ao),
-        _ => bail!("--integrator must be path, direct or ao, got `{text}`"),
+        "volpath" => Ok(IntegratorKind::Volpath),
+        _ => bail!("--integrator must be path, volpath, direct or ao, got `{text}`"),
     }
 }
 
