@@ -60,7 +60,10 @@ pub fn glass(name: &str) -> Result<Sellmeier> {
             .and_then(|s| s.trim().parse::<f64>().ok())
             .with_context(|| format!("glass table row `{row_prefix}`: column {} is not a number", i + 1))
     };
-    Ok(Sellmeier { b: [num(1)?, num(2)?, num(3)?], c_um2: [num(4)?, num(5)?, num(6)?] })
+    Ok(Sellmeier {
+        b: [num(1)?, num(2)?, num(3)?],
+        c_um2: [num(4)?, num(5)?, num(6)?],
+    })
 }
 
 /// Measured complex refractive index n = η + i·k of a metal, linear in wavelength between samples.
@@ -74,9 +77,17 @@ impl ComplexIor {
     /// Builds the index from columns `wavelength_nm, eta, k` of a CSV text.
     pub fn from_csv(text: &str) -> Result<ComplexIor> {
         let (names, cols) = read_csv_columns(text)?;
-        let col = |n: &str| names.iter().position(|x| x == n).with_context(|| format!("CSV has no column `{n}`"));
+        let col = |n: &str| {
+            names
+                .iter()
+                .position(|x| x == n)
+                .with_context(|| format!("CSV has no column `{n}`"))
+        };
         let (ie, ik) = (col("eta")?, col("k")?);
-        Ok(ComplexIor { eta: Tabulated::new(cols[0].clone(), cols[ie].clone())?, k: Tabulated::new(cols[0].clone(), cols[ik].clone())? })
+        Ok(ComplexIor {
+            eta: Tabulated::new(cols[0].clone(), cols[ie].clone())?,
+            k: Tabulated::new(cols[0].clone(), cols[ik].clone())?,
+        })
     }
 
     /// (η, k) at `lambda_nm`, clamped to the end values outside the tabulated range.
@@ -104,7 +115,11 @@ pub const METAL_NAMES: &[&str] = &["au", "ag", "cu", "al", "cr"];
 /// Measured complex index of a bundled metal: `au`, `ag`, `cu`, `al`, `cr` (or `gold`, `silver`, …).
 pub fn metal(name: &str) -> Result<ComplexIor> {
     let key = name.to_ascii_lowercase();
-    let key = if key == "aluminum" { "aluminium".to_string() } else { key };
+    let key = if key == "aluminum" {
+        "aluminium".to_string()
+    } else {
+        key
+    };
     for (sym, long, text) in METALS {
         if key == *sym || key == *long {
             return ComplexIor::from_csv(text).with_context(|| format!("bundled table for metal `{sym}`"));

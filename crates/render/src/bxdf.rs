@@ -133,14 +133,30 @@ impl SmoothDielectric {
         if uc < r / (r + t) {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             let f = r / wi.z.abs();
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf: r / (r + t), delta: true, transmission: false, eta: 1.0, terminate_secondary: false })
+            Some(BsdfSample {
+                wi,
+                f: Vec4::splat(f),
+                pdf: r / (r + t),
+                delta: true,
+                transmission: false,
+                eta: 1.0,
+                terminate_secondary: false,
+            })
         } else {
             let (wi, etap) = refract(wo, Vec3::Z, self.eta)?;
             if wi.z == 0.0 || same_hemisphere(wo, wi) {
                 return None;
             }
             let f = t / wi.z.abs() / (etap * etap);
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf: t / (r + t), delta: true, transmission: true, eta: etap, terminate_secondary: false })
+            Some(BsdfSample {
+                wi,
+                f: Vec4::splat(f),
+                pdf: t / (r + t),
+                delta: true,
+                transmission: true,
+                eta: etap,
+                terminate_secondary: false,
+            })
         }
     }
 }
@@ -189,7 +205,9 @@ impl RoughDielectric {
 
     /// f(wo, wi) per steradian (radiance transport).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
-        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return Vec4::ZERO };
+        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else {
+            return Vec4::ZERO;
+        };
         let f = fresnel_dielectric(wo.dot(wm), self.eta);
         let d = self.distrib.d(wm);
         let g = self.distrib.g(wo, wi);
@@ -204,7 +222,9 @@ impl RoughDielectric {
 
     /// Density per steradian of [`RoughDielectric::sample`] producing `wi`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
+        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else {
+            return 0.0;
+        };
         let r = fresnel_dielectric(wo.dot(wm), self.eta);
         let t = 1.0 - r;
         let dv = self.distrib.d_visible(wo, wm);
@@ -235,7 +255,15 @@ impl RoughDielectric {
             if !(pdf > 0.0) {
                 return None;
             }
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
+            Some(BsdfSample {
+                wi,
+                f: Vec4::splat(f),
+                pdf,
+                delta: false,
+                transmission: false,
+                eta: 1.0,
+                terminate_secondary: false,
+            })
         } else {
             let (wi, etap) = refract(wo, wm, self.eta)?;
             if same_hemisphere(wo, wi) || wi.z == 0.0 {
@@ -243,12 +271,23 @@ impl RoughDielectric {
             }
             let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
             let pdf = dv * wi.dot(wm).abs() / denom * t / (r + t);
-            let f = t * self.distrib.d(wm) * self.distrib.g(wo, wi) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom)).abs()
+            let f = t
+                * self.distrib.d(wm)
+                * self.distrib.g(wo, wi)
+                * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom)).abs()
                 / (etap * etap);
             if !(pdf > 0.0) || !f.is_finite() {
                 return None;
             }
-            Some(BsdfSample { wi, f: Vec4::splat(f), pdf, delta: false, transmission: true, eta: etap, terminate_secondary: false })
+            Some(BsdfSample {
+                wi,
+                f: Vec4::splat(f),
+                pdf,
+                delta: false,
+                transmission: true,
+                eta: etap,
+                terminate_secondary: false,
+            })
         }
     }
 }
@@ -282,7 +321,15 @@ impl SmoothConductor {
         }
         let wi = Vec3::new(-wo.x, -wo.y, wo.z);
         let f = fresnel_conductor(wi.z, self.eta, self.k) / wi.z.abs();
-        Some(BsdfSample { wi, f, pdf: 1.0, delta: true, transmission: false, eta: 1.0, terminate_secondary: false })
+        Some(BsdfSample {
+            wi,
+            f,
+            pdf: 1.0,
+            delta: true,
+            transmission: false,
+            eta: 1.0,
+            terminate_secondary: false,
+        })
     }
 }
 
@@ -345,8 +392,17 @@ impl RoughConductor {
         if !(pdf > 0.0) {
             return None;
         }
-        let f = fresnel_conductor(wou.dot(wm), self.eta, self.k) * (self.distrib.d(wm) * self.distrib.g(wou, wiu) / (4.0 * wou.z * wiu.z));
-        Some(BsdfSample { wi: flip_z(wiu, flip), f, pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
+        let f = fresnel_conductor(wou.dot(wm), self.eta, self.k)
+            * (self.distrib.d(wm) * self.distrib.g(wou, wiu) / (4.0 * wou.z * wiu.z));
+        Some(BsdfSample {
+            wi: flip_z(wiu, flip),
+            f,
+            pdf,
+            delta: false,
+            transmission: false,
+            eta: 1.0,
+            terminate_secondary: false,
+        })
     }
 }
 
@@ -419,9 +475,19 @@ impl CoatingTable {
         let f_dr_in = optics::fresnel::fresnel_diffuse_reflectance(1.0 / eta as f64) as f32;
         if smooth {
             let e_avg = optics::fresnel::fresnel_diffuse_reflectance(eta as f64) as f32;
-            return CoatingTable { e, e_avg, f_dr_in, smooth_eta: Some(eta) };
+            return CoatingTable {
+                e,
+                e_avg,
+                f_dr_in,
+                smooth_eta: Some(eta),
+            };
         }
-        CoatingTable { e, e_avg: (2.0 * avg) as f32, f_dr_in, smooth_eta: None }
+        CoatingTable {
+            e,
+            e_avg: (2.0 * avg) as f32,
+            f_dr_in,
+            smooth_eta: None,
+        }
     }
 
     /// The (cached, process-lifetime) table for coating roughness `alpha` and index `eta`.
@@ -430,7 +496,8 @@ impl CoatingTable {
         let key = (alpha.to_bits(), eta.to_bits());
         let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
         let map = guard.get_or_insert_with(HashMap::new);
-        map.entry(key).or_insert_with(|| Box::leak(Box::new(CoatingTable::compute(alpha, eta))))
+        map.entry(key)
+            .or_insert_with(|| Box::leak(Box::new(CoatingTable::compute(alpha, eta))))
     }
 }
 
@@ -450,7 +517,12 @@ pub struct CoatedDiffuse {
 impl CoatedDiffuse {
     /// Build the lobe (looks up or computes the coating table; isotropic α).
     pub fn new(albedo: Vec4, eta: f32, alpha: f32) -> CoatedDiffuse {
-        CoatedDiffuse { albedo, eta, distrib: TrowbridgeReitz::isotropic(alpha), table: CoatingTable::get(alpha, eta) }
+        CoatedDiffuse {
+            albedo,
+            eta,
+            distrib: TrowbridgeReitz::isotropic(alpha),
+            table: CoatingTable::get(alpha, eta),
+        }
     }
 
     #[inline]
@@ -485,7 +557,8 @@ impl CoatedDiffuse {
     #[inline]
     fn spec_rough(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
         let wm = (wo + wi).normalize();
-        let f = fresnel_dielectric(wo.dot(wm), self.eta) * self.distrib.d(wm) * self.distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
+        let f = fresnel_dielectric(wo.dot(wm), self.eta) * self.distrib.d(wm) * self.distrib.g(wo, wi)
+            / (4.0 * wo.z * wi.z);
         let pdf = self.distrib.d_visible(wo, wm) / (4.0 * wo.dot(wm));
         (f, pdf)
     }
@@ -531,7 +604,15 @@ impl CoatedDiffuse {
             if self.smooth() {
                 let wi = Vec3::new(-wou.x, -wou.y, wou.z);
                 let f = fresnel_dielectric(wou.z, self.eta) / wi.z;
-                return Some(BsdfSample { wi: flip_z(wi, flip), f: Vec4::splat(f), pdf: ps, delta: true, transmission: false, eta: 1.0, terminate_secondary: false });
+                return Some(BsdfSample {
+                    wi: flip_z(wi, flip),
+                    f: Vec4::splat(f),
+                    pdf: ps,
+                    delta: true,
+                    transmission: false,
+                    eta: 1.0,
+                    terminate_secondary: false,
+                });
             }
             let wm = self.distrib.sample_visible_normal(wou, u);
             reflect(wou, wm)
@@ -545,6 +626,14 @@ impl CoatedDiffuse {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample { wi: flip_z(wiu, flip), f: self.eval(wou, wiu), pdf, delta: false, transmission: false, eta: 1.0, terminate_secondary: false })
+        Some(BsdfSample {
+            wi: flip_z(wiu, flip),
+            f: self.eval(wou, wiu),
+            pdf,
+            delta: false,
+            transmission: false,
+            eta: 1.0,
+            terminate_secondary: false,
+        })
     }
 }

@@ -220,6 +220,17 @@ impl Bsdf {
         }
     }
 
+    /// This BSDF for a hit on the front face (`front_face`: the side the geometric normal points
+    /// to), else [`Bsdf::from_inside`].
+    #[inline]
+    pub fn facing(self, front_face: bool) -> Bsdf {
+        if front_face {
+            self
+        } else {
+            self.from_inside()
+        }
+    }
+
     /// True when the BSDF was evaluated at the hero wavelength only (dispersive dielectric): the
     /// secondary wavelengths must be terminated before it is used for light sampling (see
     /// [`Material::bsdf_at`]); its samples also carry `terminate_secondary`.

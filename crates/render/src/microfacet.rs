@@ -47,7 +47,10 @@ fn cos2_phi(w: Vec3, sin2_theta: f32) -> f32 {
 impl TrowbridgeReitz {
     /// Isotropic distribution with roughness `alpha`.
     pub fn isotropic(alpha: f32) -> TrowbridgeReitz {
-        TrowbridgeReitz { alpha_x: alpha, alpha_y: alpha }
+        TrowbridgeReitz {
+            alpha_x: alpha,
+            alpha_y: alpha,
+        }
     }
 
     /// True when both α are below [`SMOOTH_ALPHA`] (use the delta lobe).
@@ -121,7 +124,11 @@ impl TrowbridgeReitz {
         let vh = Vec3::new(self.alpha_x * w.x, self.alpha_y * w.y, w.z).normalize();
         // Orthonormal basis around vh (t1 horizontal).
         let len2 = vh.x * vh.x + vh.y * vh.y;
-        let t1 = if len2 > 1e-14 { Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt() } else { Vec3::X };
+        let t1 = if len2 > 1e-14 {
+            Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt()
+        } else {
+            Vec3::X
+        };
         let t2 = vh.cross(t1);
         // Uniform point on the unit disk, then squash the half of it hidden by the projected
         // hemisphere towards the visible half (scale by (1 + vh.z)/2 along t2).
@@ -174,7 +181,10 @@ mod tests {
     #[test]
     fn projected_area_is_one() {
         for (ax, ay) in [(0.1f32, 0.1f32), (0.5, 0.5), (0.2, 0.7), (1.0, 1.0)] {
-            let d = TrowbridgeReitz { alpha_x: ax, alpha_y: ay };
+            let d = TrowbridgeReitz {
+                alpha_x: ax,
+                alpha_y: ay,
+            };
             // substitute t = tan θ to resolve the narrow peak: dω = sinθ dθ dφ, θ = atan t
             let (nt, np) = (4000, 256);
             let tmax = 2000.0f64;
@@ -188,7 +198,11 @@ mod tests {
                 let dth = dt / (1.0 + t * t);
                 for j in 0..np {
                     let ph = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-                    let m = Vec3::new((th.sin() * ph.cos()) as f32, (th.sin() * ph.sin()) as f32, th.cos() as f32);
+                    let m = Vec3::new(
+                        (th.sin() * ph.cos()) as f32,
+                        (th.sin() * ph.sin()) as f32,
+                        th.cos() as f32,
+                    );
                     sum += d.d(m) as f64 * th.cos() * th.sin() * dth * 2.0 * std::f64::consts::PI / np as f64;
                 }
             }
@@ -201,8 +215,16 @@ mod tests {
     #[test]
     fn visible_projected_area_is_cos_theta() {
         for (ax, ay) in [(0.2f32, 0.2f32), (0.6, 0.6), (0.15, 0.5), (1.0, 1.0)] {
-            let d = TrowbridgeReitz { alpha_x: ax, alpha_y: ay };
-            for w in [Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.3, 0.8, 0.3), Vec3::new(-0.9, 0.3, 0.15)] {
+            let d = TrowbridgeReitz {
+                alpha_x: ax,
+                alpha_y: ay,
+            };
+            for w in [
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(0.6, 0.0, 0.8),
+                Vec3::new(0.3, 0.8, 0.3),
+                Vec3::new(-0.9, 0.3, 0.15),
+            ] {
                 let w = w.normalize();
                 let (nt, np) = (3000, 512);
                 let tmax = 1000.0f64;
@@ -214,7 +236,11 @@ mod tests {
                     let th = t.atan();
                     for j in 0..np {
                         let ph = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-                        let m = Vec3::new((th.sin() * ph.cos()) as f32, (th.sin() * ph.sin()) as f32, th.cos() as f32);
+                        let m = Vec3::new(
+                            (th.sin() * ph.cos()) as f32,
+                            (th.sin() * ph.sin()) as f32,
+                            th.cos() as f32,
+                        );
                         let wm = w.dot(m).max(0.0) as f64;
                         sum += d.d(m) as f64 * wm * th.sin() * dth * 2.0 * std::f64::consts::PI / np as f64;
                     }
@@ -228,7 +254,10 @@ mod tests {
     /// Sampled visible normals are unit, on the upper side and never back-facing to w.
     #[test]
     fn visible_normals_face_the_viewer() {
-        let d = TrowbridgeReitz { alpha_x: 0.3, alpha_y: 0.6 };
+        let d = TrowbridgeReitz {
+            alpha_x: 0.3,
+            alpha_y: 0.6,
+        };
         let mut r = Pcg32::new(3, 4);
         for _ in 0..10_000 {
             let w = crate::sampling::uniform_sphere(r.next_2d());

@@ -394,7 +394,15 @@ fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &Range<usize>
             }
         }
         let d = sp.resolve(v, &f(name), SpectrumUse::Emission)?;
-        Ok(d)
+        // A table that does not cover 360–830 nm is extended with its end values (an index is
+        // never 0), instead of the zero that spectra take outside their range.
+        let x = d.samples().to_vec();
+        match (x.iter().position(|&y| y > 0.0), x.iter().rposition(|&y| y > 0.0)) {
+            (Some(a), Some(b)) if a > 0 || b + 1 < x.len() => {
+                Ok(DenseSpectrum::from_fn(move |l| x[((l - 360.0).round().max(0.0) as usize).clamp(a, b)] as f64))
+            }
+            _ => Ok(d),
+        }
     };
     match kind {
         "dielectric" | "rough_dielectric" => {
