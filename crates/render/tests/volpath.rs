@@ -326,3 +326,45 @@ fn milk_glass_scene_media() {
         }
     }
 }
+
+/// The three ways of naming skim milk agree: `milk = { fat_percent = 0.1 }`, `preset = "Skim Milk"`
+/// and the generic recipe `media/skim-milk.toml` (which restates the milk model as particles) give
+/// the same σ_s, σ_a and g; `phase = "hg"` keeps the coefficients and the Mie g.
+#[test]
+fn milk_recipe_and_preset_agree() {
+    let media_dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../media"));
+    let load = |medium: &str| {
+        let text = format!(
+            r#"
+[camera]
+eye = [0, 0, -5]
+look_at = [0, 0, 0]
+vfov_deg = 30
+[materials.m]
+type = "interface"
+[[objects]]
+name = "milk"
+material = "m"
+sphere = {{ center = [0, 0, 0], radius = 1 }}
+medium = {medium}
+"#
+        );
+        let s = Scene::from_toml_str(&text, "test.toml", media_dir).unwrap_or_else(|e| panic!("{medium}: {e:#}"));
+        s.media[0].clone()
+    };
+    let milk = load("{ milk = { fat_percent = 0.1, protein_percent = 3.4, pressure_mpa = 20 } }");
+    let preset = load(r#"{ preset = "Skim Milk" }"#);
+    let recipe = load(r#"{ recipe = "skim-milk.toml" }"#);
+    let hg = load(r#"{ preset = "skim milk", phase = "hg" }"#);
+    for l in [400.0f32, 500.0, 550.0, 650.0, 750.0] {
+        let (ss, sa, g) = (milk.sigma_s_per_m.eval(l), milk.sigma_a_per_m.eval(l), milk.g_at(l));
+        for (name, m) in [("preset", &preset), ("recipe", &recipe), ("hg", &hg)] {
+            let close = |a: f32, b: f32, tol: f32| (a - b).abs() <= tol * b.abs().max(1e-6);
+            assert!(close(m.sigma_s_per_m.eval(l), ss, 2e-3), "{name} σ_s at {l}: {} vs {ss}", m.sigma_s_per_m.eval(l));
+            assert!(close(m.sigma_a_per_m.eval(l), sa, 2e-2), "{name} σ_a at {l}: {} vs {sa}", m.sigma_a_per_m.eval(l));
+            assert!((m.g_at(l) - g).abs() < 5e-3, "{name} g at {l}: {} vs {g}", m.g_at(l));
+        }
+    }
+    assert!(matches!(milk.phase, render::medium::PhaseModel::Tabulated { .. }));
+    assert!(matches!(hg.phase, render::medium::PhaseModel::HenyeyGreenstein { .. }));
+}
