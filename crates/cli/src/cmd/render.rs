@@ -56,13 +56,13 @@ pub struct Args {
     /// Seed of the random sequence; independent runs to merge need different seeds [default: 0].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub seed: Option<String>,
-    /// Light-transport estimator: path, direct or ao [default: path].
+    /// Light-transport estimator: path, direct or ao [default: the scene's `[integrator]`, else path].
     #[arg(long, value_name = "path|direct|ao")]
     pub integrator: Option<String>,
-    /// Longest path in bounces [default: 8].
+    /// Longest path in bounces [default: the scene's, else 8].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub max_depth: Option<String>,
-    /// Russian roulette starts at this bounce [default: 5].
+    /// Russian roulette starts at this bounce [default: the scene's, else 5].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub rr_depth: Option<String>,
     /// Write the accumulator here every few seconds, at the end and on Ctrl-C (atomically).
