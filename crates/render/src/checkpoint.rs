@@ -216,37 +216,7 @@ impl Checkpoint {
 
     /// Serialise to the binary format described in the module documentation.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let id = &self.identity;
-        let n = self.film.pixel_count();
-        let mut b = Vec::with_capacity(128 + id.scene_name.len() + 24 * self.runs.len() + 24 * n);
-        b.extend_from_slice(MAGIC);
-        b.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
-        b.extend_from_slice(&id.width.to_le_bytes());
-        b.extend_from_slice(&id.height.to_le_bytes());
-        b.extend_from_slice(&id.scene_hash.to_le_bytes());
-        b.extend_from_slice(&(id.scene_name.len() as u32).to_le_bytes());
-        b.extend_from_slice(id.scene_name.as_bytes());
-        b.push(kind_code(id.settings.kind));
-        b.extend_from_slice(&id.settings.max_depth.to_le_bytes());
-        b.extend_from_slice(&id.settings.rr_depth.to_le_bytes());
-        b.extend_from_slice(&self.target_spp.unwrap_or(0).to_le_bytes());
-        b.extend_from_slice(&self.film.samples_per_pixel().to_le_bytes());
-        b.extend_from_slice(&self.film.rejected_samples().to_le_bytes());
-        b.extend_from_slice(&(self.runs.len() as u32).to_le_bytes());
-        for r in &self.runs {
-            b.extend_from_slice(&r.seed.to_le_bytes());
-            b.extend_from_slice(&r.first_pass.to_le_bytes());
-            b.extend_from_slice(&r.passes.to_le_bytes());
-        }
-        for s in self.film.sums() {
-            for v in s {
-                b.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        let mut h = Fnv1a64::new();
-        h.write(&b);
-        b.extend_from_slice(&h.finish().to_le_bytes());
-        b
+        encode(&self.identity, self.target_spp, &self.runs, &self.film)
     }
 
     /// Parse the binary format; errors say which field is wrong (without the file name).
@@ -319,11 +289,14 @@ impl Checkpoint {
 
     /// Write atomically (temporary name, then rename): a failed write leaves any old file intact.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let bytes = self.to_bytes();
-        crate::image_io::write_atomic(path, |tmp| {
-            std::fs::write(tmp, &bytes).with_context(|| format!("cannot write {}", tmp.display()))
-        })
-        .with_context(|| format!("{}: cannot write checkpoint", path.display()))
+        write_bytes(path, &self.to_bytes())
+    }
+
+    /// Write the checkpoint of a single run of `seed` (passes `0..film.samples_per_pixel()`)
+    /// atomically, without copying the film.
+    pub fn write_single_run(path: &Path, identity: &RenderIdentity, seed: u64, target_spp: Option<u64>, film: &Film) -> Result<()> {
+        let runs = [Run { seed, first_pass: 0, passes: film.samples_per_pixel() }];
+        write_bytes(path, &encode(identity, target_spp, &runs, film))
     }
 
     /// Read a checkpoint; errors name the file.
@@ -413,6 +386,47 @@ impl Checkpoint {
         }
         Ok(merged)
     }
+}
+
+/// Serialise to the binary format described in the module documentation.
+fn encode(id: &RenderIdentity, target_spp: Option<u64>, runs: &[Run], film: &Film) -> Vec<u8> {
+    let n = film.pixel_count();
+    let mut b = Vec::with_capacity(128 + id.scene_name.len() + 24 * runs.len() + 24 * n);
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+    b.extend_from_slice(&id.width.to_le_bytes());
+    b.extend_from_slice(&id.height.to_le_bytes());
+    b.extend_from_slice(&id.scene_hash.to_le_bytes());
+    b.extend_from_slice(&(id.scene_name.len() as u32).to_le_bytes());
+    b.extend_from_slice(id.scene_name.as_bytes());
+    b.push(kind_code(id.settings.kind));
+    b.extend_from_slice(&id.settings.max_depth.to_le_bytes());
+    b.extend_from_slice(&id.settings.rr_depth.to_le_bytes());
+    b.extend_from_slice(&target_spp.unwrap_or(0).to_le_bytes());
+    b.extend_from_slice(&film.samples_per_pixel().to_le_bytes());
+    b.extend_from_slice(&film.rejected_samples().to_le_bytes());
+    b.extend_from_slice(&(runs.len() as u32).to_le_bytes());
+    for r in runs {
+        b.extend_from_slice(&r.seed.to_le_bytes());
+        b.extend_from_slice(&r.first_pass.to_le_bytes());
+        b.extend_from_slice(&r.passes.to_le_bytes());
+    }
+    for s in film.sums() {
+        for v in s {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let mut h = Fnv1a64::new();
+    h.write(&b);
+    b.extend_from_slice(&h.finish().to_le_bytes());
+    b
+}
+
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    crate::image_io::write_atomic(path, |tmp| {
+        std::fs::write(tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))
+    })
+    .with_context(|| format!("{}: cannot write checkpoint", path.display()))
 }
 
 #[cfg(test)]

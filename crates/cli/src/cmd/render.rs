@@ -318,8 +318,7 @@ pub fn run(args: Args) -> Result<()> {
 
     let save = |film: &Film| -> Result<()> {
         if let Some(path) = &checkpoint_path {
-            let ck = Checkpoint::single_run(identity.clone(), seed, target_spp, film.clone());
-            ck.write(path)?;
+            Checkpoint::write_single_run(path, &identity, seed, target_spp, film)?;
         }
         Ok(())
     };
