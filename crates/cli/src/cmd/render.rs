@@ -331,6 +331,7 @@ pub fn run(args: Args) -> Result<()> {
     let progress = Progress::new(stop, start_spp, args.quiet);
     let mut pass_buffer = vec![[0.0f32; 3]; pixels as usize];
     let mut last_save = Instant::now();
+    let mut save_warned = false;
     let mut pass = first_pass;
     pool.install(|| -> Result<()> {
         loop {
@@ -346,7 +347,14 @@ pub fn run(args: Args) -> Result<()> {
             pass += 1;
             progress.update(&film, start, start_spp, pixels);
             if checkpoint_path.is_some() && last_save.elapsed() >= interval {
-                save(&film)?;
+                // A failed periodic save (full disk, lost mount) must not end the render: warn
+                // once, keep rendering, and try again at the next interval and at the end.
+                if let Err(e) = save(&film) {
+                    if !save_warned {
+                        progress.suspend(|| eprintln!("lucent: warning: {e:#}"));
+                        save_warned = true;
+                    }
+                }
                 last_save = Instant::now();
             }
         }
@@ -356,9 +364,11 @@ pub fn run(args: Args) -> Result<()> {
     let elapsed = start.elapsed().as_secs_f64();
     let was_interrupted = interrupted.load(Ordering::SeqCst);
 
-    // ---- Save: checkpoint first (the work), then the images. ----
-    save(&film)?;
-    let written = write_outputs(&film, &outs, exposure)?;
+    // ---- Save: checkpoint first (the work), then the images, even if the checkpoint failed. ----
+    let saved = save(&film);
+    let written = write_outputs(&film, &outs, exposure);
+    saved?;
+    let written = written?;
     if !args.quiet {
         let new_samples = (film.samples_per_pixel() - start_spp) as f64 * pixels as f64;
         let rate = if elapsed > 0.0 { new_samples / elapsed / 1e6 } else { 0.0 };
@@ -431,6 +441,11 @@ impl Progress {
                 self.bar.set_position(elapsed.as_millis() as u64);
             }
         }
+    }
+
+    /// Run `f` (which prints) with the bar cleared.
+    fn suspend(&self, f: impl FnOnce()) {
+        self.bar.suspend(f)
     }
 
     fn finish(&self) {
