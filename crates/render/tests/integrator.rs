@@ -384,3 +384,47 @@ fn render_pass_is_deterministic_whatever_the_thread_count() {
     render_pass(&s, &st, 99, 4, &mut c);
     assert!(a != c, "another pass gives other samples");
 }
+
+#[test]
+fn furnace_camera_inside_an_emitting_lambertian_cube() {
+    // The closed-sphere furnace with a triangle mesh: a cube of 12 triangles, all emitting L_e
+    // (two-sided) with albedo ρ, seen from inside → L_e/(1−ρ). Exercises area sampling of a
+    // multi-triangle emitter (CDF over triangles, pdf 1/A) and its MIS weights.
+    let (rho, le) = (0.6f64, 0.8f64);
+    let c = |x: i32, y: i32, z: i32| format!("[{x}, {y}, {z}]");
+    let quads = [
+        [c(0, 0, 0), c(1, 0, 0), c(1, 1, 0), c(0, 1, 0)],
+        [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)],
+        [c(0, 0, 0), c(0, 1, 0), c(0, 1, 1), c(0, 0, 1)],
+        [c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)],
+        [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)],
+        [c(0, 1, 0), c(1, 1, 0), c(1, 1, 1), c(0, 1, 1)],
+    ];
+    let quads: Vec<String> = quads.iter().map(|q| format!("[{}]", q.join(", "))).collect();
+    let s = scene(&format!(
+        r#"
+        [camera]
+        eye = [0.3, 0.6, 0.4]
+        look_at = [0.9, 0.5, 0.6]
+        vfov_deg = 70
+        width = 12
+        height = 12
+        [materials.wall]
+        type = "lambertian"
+        albedo = {rho}
+        [[objects]]
+        name = "box"
+        material = "wall"
+        quads = [{}]
+        [[lights]]
+        type = "area"
+        object = "box"
+        radiance = {le}
+        two_sided = true
+        "#,
+        quads.join(", ")
+    ));
+    let st = settings(IntegratorKind::Path, 100_000, 5);
+    let (m, se) = region_stats(&s, &st, 81, 64, 1, |_, _| true);
+    assert_close("cube", m, se, le / (1.0 - rho) * y_of_one(), 4.5);
+}
