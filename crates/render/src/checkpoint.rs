@@ -354,37 +354,74 @@ impl Checkpoint {
     /// Merge checkpoints of independent runs of the same render: sums and sample counts add,
     /// so each run is weighted by its number of samples. Refuses checkpoints of another scene,
     /// resolution or integrator than the first, and runs that repeat passes of the same seed.
+    /// (To merge many large checkpoints without holding them all in memory, use [`Merger`].)
     pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint> {
-        let Some(((first_path, first), rest)) = parts.split_first() else {
-            bail!("nothing to merge: no checkpoints given");
-        };
-        let mut merged = first.clone();
-        merged.target_spp = None;
-        let mut origin: Vec<(Run, &Path)> = first.runs.iter().map(|r| (*r, first_path.as_path())).collect();
-        for (path, c) in rest {
-            c.check_matches(path, &first.identity)
-                .with_context(|| format!("cannot merge with {}", first_path.display()))?;
-            for run in &c.runs {
-                if let Some((other, other_path)) = origin.iter().find(|(o, _)| o.overlaps(run)) {
-                    bail!(
-                        "{}: seed {} passes {}..{} were already merged from {} (seed {} passes {}..{}): \
-                         the same seed gives the same samples; render each part with its own --seed",
-                        path.display(),
-                        run.seed,
-                        run.first_pass,
-                        run.end_pass(),
-                        other_path.display(),
-                        other.seed,
-                        other.first_pass,
-                        other.end_pass()
-                    );
-                }
-                origin.push((*run, path.as_path()));
-            }
-            merged.film.add_film(&c.film)?;
-            merged.runs.extend_from_slice(&c.runs);
+        let mut m = Merger::new();
+        for (path, c) in parts {
+            m.add(path, c.clone())?;
         }
-        Ok(merged)
+        m.finish()
+    }
+}
+
+/// Merges checkpoints one at a time, so that only the running total and one part are in memory.
+#[derive(Debug, Default)]
+pub struct Merger {
+    merged: Option<(PathBuf, Checkpoint)>,
+    origin: Vec<(Run, PathBuf)>,
+}
+
+impl Merger {
+    /// An empty merge.
+    pub fn new() -> Merger {
+        Merger::default()
+    }
+
+    /// Add the checkpoint read from `path` (the path names it in errors).
+    pub fn add(&mut self, path: &Path, part: Checkpoint) -> Result<()> {
+        if let Some((first_path, merged)) = &self.merged {
+            part.check_matches(path, &merged.identity)
+                .with_context(|| format!("cannot merge with {}", first_path.display()))?;
+        }
+        for (i, run) in part.runs.iter().enumerate() {
+            let earlier = self.origin.iter().map(|(r, p)| (r, p.as_path()));
+            let within = part.runs[..i].iter().map(|r| (r, path));
+            if let Some((other, other_path)) = earlier.chain(within).find(|(o, _)| o.overlaps(run)) {
+                bail!(
+                    "{}: seed {} passes {}..{} were already merged from {} (seed {} passes {}..{}): \
+                     the same seed gives the same samples; render each part with its own --seed",
+                    path.display(),
+                    run.seed,
+                    run.first_pass,
+                    run.end_pass(),
+                    other_path.display(),
+                    other.seed,
+                    other.first_pass,
+                    other.end_pass()
+                );
+            }
+        }
+        self.origin.extend(part.runs.iter().map(|r| (*r, path.to_path_buf())));
+        match &mut self.merged {
+            None => {
+                let mut first = part;
+                first.target_spp = None;
+                self.merged = Some((path.to_path_buf(), first));
+            }
+            Some((_, merged)) => {
+                merged.film.add_film(&part.film)?;
+                merged.runs.extend_from_slice(&part.runs);
+            }
+        }
+        Ok(())
+    }
+
+    /// The merged checkpoint; an error if nothing was added.
+    pub fn finish(self) -> Result<Checkpoint> {
+        match self.merged {
+            Some((_, c)) => Ok(c),
+            None => bail!("nothing to merge: no checkpoints given"),
+        }
     }
 }
 
@@ -561,5 +598,10 @@ mod tests {
         let err = format!("{:#}", Checkpoint::merge(&[("a".into(), a), ("o.ckpt".into(), other)]).unwrap_err());
         assert!(err.contains("o.ckpt") && err.contains("another scene"), "{err}");
         assert!(Checkpoint::merge(&[]).is_err());
+        // Overlap inside one part (a hand-made or corrupted merged checkpoint) is caught as well.
+        let mut twice = Checkpoint::single_run(identity(b"s", 1, 1), 8, None, film_with(1, 1, &[1.0, 2.0]));
+        twice.runs = vec![Run { seed: 8, first_pass: 0, passes: 1 }, Run { seed: 8, first_pass: 0, passes: 1 }];
+        let err = Checkpoint::merge(&[("t.ckpt".into(), twice)]).unwrap_err().to_string();
+        assert!(err.contains("t.ckpt") && err.contains("seed 8"), "{err}");
     }
 }
