@@ -368,3 +368,30 @@ medium = {medium}
     assert!(matches!(milk.phase, render::medium::PhaseModel::Tabulated { .. }));
     assert!(matches!(hg.phase, render::medium::PhaseModel::HenyeyGreenstein { .. }));
 }
+
+/// Presets that are not milk-model names come from the measured tables (Narasimhan et al. 2006,
+/// RGB as in pbrt/Mitsuba): "Regular Milk" has σ_s ≈ its red/green/blue values at long/middle/short
+/// wavelengths (smooth uplift, so only roughly) and g from the table.
+#[test]
+fn measured_media_presets() {
+    let text = r#"
+[camera]
+eye = [0, 0, -5]
+look_at = [0, 0, 0]
+vfov_deg = 30
+[materials.m]
+type = "interface"
+[[objects]]
+material = "m"
+sphere = { center = [0, 0, 0], radius = 1 }
+medium = { preset = "Regular Milk" }
+"#;
+    let s = scene(text);
+    let m = &s.media[0];
+    let mm = optics::bssrdf::find_medium("Regular Milk").unwrap();
+    let max = mm.sigma_s_per_m.iter().cloned().fold(0.0, f64::max) as f32;
+    let ss = m.sigma_s_per_m.max_value();
+    assert!((ss - max).abs() < 0.1 * max, "{ss} vs {max}");
+    let g = m.g_at(550.0) as f64;
+    assert!((g - mm.g[1]).abs() < 0.1, "{g} vs {:?}", mm.g);
+}
