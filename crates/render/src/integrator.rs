@@ -36,6 +36,8 @@ pub enum IntegratorKind {
     Direct,
     /// Ambient occlusion by cosine-weighted hemisphere sampling.
     Ao,
+    /// Volumetric path tracing through homogeneous media (see [`crate::volpath`]).
+    Volpath,
 }
 
 /// Settings of an integrator (Mitsuba's defaults for `path`: 8 bounces, Russian roulette from the 5th).
@@ -62,7 +64,8 @@ impl std::str::FromStr for IntegratorKind {
             "path" => Ok(IntegratorKind::Path),
             "direct" => Ok(IntegratorKind::Direct),
             "ao" => Ok(IntegratorKind::Ao),
-            _ => anyhow::bail!("unknown integrator `{s}` (path, direct, ao)"),
+            "volpath" => Ok(IntegratorKind::Volpath),
+            _ => anyhow::bail!("unknown integrator `{s}` (path, volpath, direct, ao)"),
         }
     }
 }
@@ -97,7 +100,11 @@ pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32
         }
         kind => {
             let mut wl = SampledWavelengths::sample(u_lambda);
-            let l = if kind == IntegratorKind::Path { li_path(scene, settings, ray, &mut wl, rng) } else { li_direct(scene, ray, &wl, rng) };
+            let l = match kind {
+                IntegratorKind::Path => li_path(scene, settings, ray, &mut wl, rng),
+                IntegratorKind::Volpath => crate::volpath::li_volpath(scene, settings, ray, &mut wl, rng),
+                _ => li_direct(scene, ray, &wl, rng),
+            };
             wl.to_xyz(l)
         }
     };

@@ -21,3 +21,4 @@ pub mod compare;
 pub mod slab;
 pub mod microfacet;
 pub mod bxdf;
+pub mod volpath;

@@ -36,6 +36,8 @@ pub struct ObjectInfo {
     pub material: u32,
     /// Index into [`Scene::lights`] when the object is an area light.
     pub light: Option<u32>,
+    /// Index into [`Scene::media`] of the medium inside this (closed) object, if it bounds one.
+    pub interior_medium: Option<u32>,
 }
 
 /// Everything a render needs: camera, geometry with its acceleration structure, materials, lights.
@@ -58,6 +60,11 @@ pub struct Scene {
     pub light_cdf: Vec<f32>,
     /// Index of the environment light, if any (rays that escape see it).
     pub environment: Option<u32>,
+    /// Homogeneous participating media (object interiors and the global medium).
+    pub media: Vec<crate::medium::HomogeneousMedium>,
+    /// Index into `media` of the medium filling space outside every medium-bounding object
+    /// (the camera's medium), if any.
+    pub global_medium: Option<u32>,
     /// Integrator settings given in the scene file (defaults: path, 8, 5).
     pub integrator: IntegratorSettings,
     /// Ambient-occlusion ray length in metres (infinite by default).
@@ -232,6 +239,8 @@ struct SceneDesc {
     objects: Vec<Spanned<ObjectDesc>>,
     #[serde(default)]
     lights: Vec<Spanned<LightDesc>>,
+    /// Global medium (see `medium_desc`).
+    medium: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -298,6 +307,8 @@ struct ObjectDesc {
     quads: Option<Vec<[[f64; 3]; 4]>>,
     sphere: Option<SphereDesc>,
     transform: Option<TransformDesc>,
+    /// Medium inside the object (its mesh must be closed).
+    medium: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -442,6 +453,8 @@ enum SpectrumUse {
     Albedo,
     /// Emission: values ≥ 0; `rgb` uses the illuminant uplift.
     Emission,
+    /// Coefficients (σ_a, σ_s): values ≥ 0; `rgb` is max(r,g,b) × the bounded reflectance uplift of rgb/max.
+    Coefficient,
 }
 
 struct SpectrumCx<'a> {
@@ -557,6 +570,14 @@ impl SpectrumCx<'_> {
                         }
                         let s = rgb_albedo(rgb).map_err(|e| self.cx.err(span, &format!("{field}.rgb"), e))?;
                         Ok(Box::new(move |l| s.eval(l) * scale))
+                    }
+                    SpectrumUse::Coefficient => {
+                        let m = rgb.iter().cloned().fold(0.0f64, f64::max);
+                        if m == 0.0 {
+                            return Ok(Box::new(|_| 0.0));
+                        }
+                        let s = rgb_albedo([rgb[0] / m, rgb[1] / m, rgb[2] / m]).map_err(|e| self.cx.err(span, &format!("{field}.rgb"), e))?;
+                        Ok(Box::new(move |l| s.eval(l) * m * scale))
                     }
                     SpectrumUse::Emission => {
                         let s = rgb_illuminant(rgb).map_err(|e| self.cx.err(span, &format!("{field}.rgb"), e))?;
@@ -718,7 +739,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         let span = m.span();
         let m = m.get_ref();
         let field = format!("materials.{name}");
-        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black") {
+        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null") {
             for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
                 if present {
                     return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
@@ -729,6 +750,13 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
             "lambertian" | "diffuse" => {
                 let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
                 Material::lambertian(sp.resolve(albedo, &format!("{field}.albedo"), SpectrumUse::Albedo)?)
+            }
+            "interface" | "null" => {
+                if m.albedo.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.albedo"), format!("not allowed for an {} material", m.kind)));
+                }
+                // Index-matched boundary of a medium: a dielectric of relative index 1 (pass-through).
+                Material::dielectric(DenseSpectrum::from_fn(|_| 1.0), crate::microfacet::TrowbridgeReitz::isotropic(0.0))
             }
             "black" => {
                 if m.albedo.is_some() {
@@ -741,7 +769,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type `{other}` (known: lambertian, black, dielectric, rough_dielectric, conductor, rough_conductor, plastic)"),
+                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic)"),
                 ))
             }
         };
@@ -752,6 +780,14 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     // Objects.
     let mut shapes = Vec::new();
     let mut objects: Vec<ObjectInfo> = Vec::new();
+    let mut media = Vec::new();
+    let global_medium = match &desc.medium {
+        Some(v) => {
+            media.push(medium_desc(cx, &sp, v, "medium", unit_m)?);
+            Some(0u32)
+        }
+        None => None,
+    };
     for (k, o) in desc.objects.iter().enumerate() {
         let span = o.span();
         let o = o.get_ref();
@@ -824,10 +860,31 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
             if mesh.indices.is_empty() {
                 return Err(cx.err(&span, &field, "mesh has no triangles"));
             }
+            if o.medium.is_some() {
+                // A medium boundary must be closed; orient it outwards (the front face is the outside).
+                let volume = crate::medium::closed_mesh_volume(&mesh).map_err(|e| cx.err(&span, &format!("{field}.medium"), format!("boundary is not a closed mesh: {e:#}")))?;
+                if volume < 0.0 {
+                    for t in mesh.indices.iter_mut() {
+                        t.swap(1, 2);
+                    }
+                    if let Some(ns) = mesh.normals.as_mut() {
+                        for n in ns.iter_mut() {
+                            *n = -*n;
+                        }
+                    }
+                }
+            }
             Shape::Mesh(mesh)
         };
+        let interior_medium = match &o.medium {
+            Some(v) => {
+                media.push(medium_desc(cx, &sp, v, &format!("{field}.medium"), unit_m)?);
+                Some((media.len() - 1) as u32)
+            }
+            None => None,
+        };
         shapes.push(shape);
-        objects.push(ObjectInfo { name, material, light: None });
+        objects.push(ObjectInfo { name, material, light: None, interior_medium });
     }
 
     // Lights.
@@ -1013,7 +1070,8 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 "path" => IntegratorKind::Path,
                 "direct" => IntegratorKind::Direct,
                 "ao" => IntegratorKind::Ao,
-                other => return Err(cx.err(&span, "integrator.type", format!("unknown integrator `{other}` (path, direct, ao)"))),
+                "volpath" => IntegratorKind::Volpath,
+                other => return Err(cx.err(&span, "integrator.type", format!("unknown integrator `{other}` (path, volpath, direct, ao)"))),
             };
         }
         if let Some(d) = i.max_depth {
@@ -1066,6 +1124,8 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         light_pmf,
         light_cdf,
         environment,
+        media,
+        global_medium,
         integrator,
         ao_distance_m,
         ray_epsilon_m,
@@ -1073,4 +1133,115 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         source: cx.file.to_string(),
         content_hash: hash.0,
     })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Media
+
+const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase"];
+
+/// Milk presets (fat wt-%, protein wt-%, homogenisation pressure MPa) for `medium = { preset = … }`.
+pub const MILK_PRESETS: &[(&str, f64, f64, f64)] =
+    &[("Skim Milk", 0.1, 3.4, 20.0), ("Low-fat Milk", 1.5, 3.4, 20.0), ("Whole Milk", 3.5, 3.4, 20.0)];
+
+/// Wavelengths (nm) at which the renderer evaluates the milk model (those of its input tables).
+pub fn milk_wavelengths_nm() -> Vec<f64> {
+    (0..17).map(|k| 375.0 + 25.0 * k as f64).collect()
+}
+
+/// Parse a `medium = { … }` value (see docs/scene-format.md); errors name the field.
+fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
+    use crate::medium::{from_bulk, HomogeneousMedium, PhaseModel};
+    let span = v.span();
+    let t = v.get_ref().as_table().ok_or_else(|| cx.err(&span, field, "expected a table such as { sigma_a_per_mm = 0.01, sigma_s_per_mm = 1, g = 0 } or { milk = { ... } }"))?;
+    for k in t.keys() {
+        if !MEDIUM_KEYS.contains(&k.as_str()) {
+            return Err(cx.err(&span, field, format!("unknown key `{k}`, expected one of {MEDIUM_KEYS:?}")));
+        }
+    }
+    let f = |k: &str| format!("{field}.{k}");
+    let kinds: Vec<&str> = ["sigma_a_per_mm", "milk", "recipe", "preset"].into_iter().filter(|k| t.contains_key(*k)).collect();
+    if kinds.len() != 1 {
+        return Err(cx.err(&span, field, format!("give exactly one of sigma_a_per_mm/sigma_s_per_mm/g, milk, recipe, preset (got {kinds:?})")));
+    }
+    let use_table = match t.get("phase") {
+        None => true,
+        Some(toml::Value::String(p)) if p == "mie" || p == "tabulated" => true,
+        Some(toml::Value::String(p)) if p == "hg" => false,
+        Some(_) => return Err(cx.err(&span, &f("phase"), "must be \"mie\" (tabulated, default) or \"hg\" (Henyey–Greenstein with the Mie g)")),
+    };
+    let num = |tab: &toml::value::Table, key: &str, path: &str| -> Result<f64> {
+        let x = tab.get(key).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "missing"))?;
+        as_f64(x).filter(|x| x.is_finite()).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "must be a number"))
+    };
+    let milk = |fat: f64, protein: f64, pressure: f64, path: &str| -> Result<HomogeneousMedium> {
+        optics::milk::validate(fat, protein, pressure).map_err(|e| cx.err(&span, path, format!("{e:#}")))?;
+        let l = milk_wavelengths_nm();
+        let opts = optics::media::BulkOptions { phase_angles: if use_table { 181 } else { 0 } };
+        let b = optics::milk::milk_properties_with(fat, protein, pressure, &l, &opts).map_err(|e| cx.err(&span, path, format!("{e:#}")))?;
+        from_bulk(field, &b, use_table).map_err(|e| cx.err(&span, path, format!("{e:#}")))
+    };
+    match kinds[0] {
+        "sigma_a_per_mm" => {
+            if t.contains_key("phase") {
+                return Err(cx.err(&span, &f("phase"), "only with milk, recipe or preset (give g here)"));
+            }
+            let per_mm_to_per_m = 1000.0; // m⁻¹ per mm⁻¹ (coefficients are in mm⁻¹ whatever the scene unit)
+            let _ = unit_m;
+            let sigma = |key: &str| -> Result<optics::spectrum::DenseSpectrum> {
+                let val = t.get(key).ok_or_else(|| cx.err(&span, &f(key), "missing"))?;
+                let d = sp.resolve(&Spanned::new(span.clone(), val.clone()), &f(key), SpectrumUse::Coefficient)?;
+                Ok(optics::spectrum::DenseSpectrum::from_fn(|l| d.eval(l as f32) as f64 * per_mm_to_per_m))
+            };
+            let sigma_a = sigma("sigma_a_per_mm")?;
+            let sigma_s = sigma("sigma_s_per_mm")?;
+            let g = match t.get("g") {
+                None => 0.0,
+                Some(x) => as_f64(x).ok_or_else(|| cx.err(&span, &f("g"), "must be a number"))?,
+            };
+            if !(g.abs() < 1.0) {
+                return Err(cx.err(&span, &f("g"), format!("must lie in (-1, 1), got {g}")));
+            }
+            let phase = PhaseModel::HenyeyGreenstein { g: optics::spectrum::DenseSpectrum::from_fn(|_| g) };
+            HomogeneousMedium::new(field, sigma_a, sigma_s, phase).map_err(|e| cx.err(&span, field, format!("{e:#}")))
+        }
+        "milk" => {
+            for k in ["sigma_s_per_mm", "g"] {
+                if t.contains_key(k) {
+                    return Err(cx.err(&span, &f(k), "not allowed with milk"));
+                }
+            }
+            let m = t["milk"].as_table().ok_or_else(|| cx.err(&span, &f("milk"), "expected { fat_percent = …, protein_percent = …, pressure_mpa = … }"))?;
+            for k in m.keys() {
+                if !["fat_percent", "protein_percent", "pressure_mpa"].contains(&k.as_str()) {
+                    return Err(cx.err(&span, &f("milk"), format!("unknown key `{k}` (fat_percent, protein_percent, pressure_mpa)")));
+                }
+            }
+            let path = f("milk");
+            let fat = num(m, "fat_percent", &path)?;
+            let protein = if m.contains_key("protein_percent") { num(m, "protein_percent", &path)? } else { 3.4 };
+            let pressure = if m.contains_key("pressure_mpa") { num(m, "pressure_mpa", &path)? } else { 20.0 };
+            milk(fat, protein, pressure, &path)
+        }
+        "preset" => {
+            let name = t["preset"].as_str().ok_or_else(|| cx.err(&span, &f("preset"), "must be a name"))?;
+            let Some(&(_, fat, protein, pressure)) = MILK_PRESETS.iter().find(|p| p.0.eq_ignore_ascii_case(name)) else {
+                let known: Vec<&str> = MILK_PRESETS.iter().map(|p| p.0).collect();
+                return Err(cx.err(&span, &f("preset"), format!("unknown preset `{name}` (known: {known:?})")));
+            };
+            milk(fat, protein, pressure, &f("preset"))
+        }
+        _ => {
+            let rel = t["recipe"].as_str().ok_or_else(|| cx.err(&span, &f("recipe"), "must be a file name"))?;
+            let text = sp.files.read_text(rel).map_err(|e| cx.err(&span, &f("recipe"), format!("{e:#}")))?;
+            sp.hash.borrow_mut().write(text.as_bytes());
+            let recipe = optics::media::Recipe::from_toml(&text).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))?;
+            let mut recipe = recipe;
+            if use_table && recipe.phase_angles == 0 {
+                recipe.phase_angles = 181;
+            }
+            let b = recipe.bulk_properties(None).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))?;
+            from_bulk(field, &b, use_table).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))
+        }
+    }
 }
