@@ -278,6 +278,8 @@ struct MaterialDesc {
     k: Option<Spanned<toml::Value>>,
     roughness: Option<Spanned<toml::Value>>,
     alpha: Option<Spanned<toml::Value>>,
+    /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
+    subsurface: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -764,12 +766,22 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 }
                 Material::Black
             }
+            "translucent" => {
+                let sub = m.subsurface.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.subsurface"), "missing (a translucent material needs subsurface = { ... })"))?;
+                let ior = match &m.ior {
+                    None => None,
+                    Some(v) => Some(as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &format!("{field}.ior"), "must be a number"))?),
+                };
+                let t = crate::subsurface::translucent_from_toml(ior, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
+                Material::Translucent(std::sync::Arc::new(t))
+            }
+            _ if m.subsurface.is_some() => return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", m.kind))),
             "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
             other => {
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic)"),
+                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic, translucent)"),
                 ))
             }
         };
@@ -860,9 +872,11 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
             if mesh.indices.is_empty() {
                 return Err(cx.err(&span, &field, "mesh has no triangles"));
             }
-            if o.medium.is_some() {
-                // A medium boundary must be closed; orient it outwards (the front face is the outside).
-                let volume = crate::medium::closed_mesh_volume(&mesh).map_err(|e| cx.err(&span, &format!("{field}.medium"), format!("boundary is not a closed mesh: {e:#}")))?;
+            let translucent = matches!(materials[material as usize], Material::Translucent(_));
+            if o.medium.is_some() || translucent {
+                // A medium boundary (or translucent object) must be closed; orient it outwards (the front face is the outside).
+                let what = if translucent { "material (translucent)" } else { "medium" };
+                let volume = crate::medium::closed_mesh_volume(&mesh).map_err(|e| cx.err(&span, &format!("{field}.{what}"), format!("boundary is not a closed mesh: {e:#}")))?;
                 if volume < 0.0 {
                     for t in mesh.indices.iter_mut() {
                         t.swap(1, 2);
