@@ -748,6 +748,9 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 }
             }
         }
+        if m.subsurface.is_some() && m.kind != "translucent" {
+            return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", m.kind)));
+        }
         let mat = match m.kind.as_str() {
             "lambertian" | "diffuse" => {
                 let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
@@ -775,7 +778,6 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 let t = crate::subsurface::translucent_from_toml(ior, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
                 Material::Translucent(std::sync::Arc::new(t))
             }
-            _ if m.subsurface.is_some() => return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", m.kind))),
             "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
             other => {
                 return Err(cx.err(
