@@ -1,1 +1,554 @@
-//! (to be written)
+//! Checkpoints: the film's sums and counts with everything needed to resume or merge a render.
+//!
+//! Binary format, version 1, all integers and floats little-endian:
+//! ```text
+//! magic      8 bytes  "LUCENTCK"
+//! version    u32      1
+//! width      u32      pixels
+//! height     u32      pixels
+//! scene_hash u64      FNV-1a 64 of scene content hash + resolution + integrator settings (see scene_hash)
+//! scene      u32 length + UTF-8   what was rendered (file path or "built-in Cornell box"), for messages
+//! integrator u8 kind (0 path, 1 direct, 2 ao), u32 max_depth, u32 rr_depth
+//! target_spp u64      samples per pixel the run was asked for (0: none, e.g. --time)
+//! spp        u64      samples per pixel accumulated
+//! rejected   u64      non-finite samples counted as zero
+//! runs       u32 count, then per run: seed u64, first_pass u64, passes u64
+//! sums       width*height*3 f64, row-major XYZ sums
+//! checksum   u64      FNV-1a 64 of every byte before it
+//! ```
+//! A single render's checkpoint holds one run (seed, passes 0..n): resuming continues at pass n.
+//! A merged checkpoint holds several runs; runs of the same seed must cover disjoint pass ranges,
+//! because a pass is a deterministic function of (seed, pass): overlapping ranges would count
+//! the very same samples twice.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+
+use crate::film::Film;
+use crate::integrator::{IntegratorKind, IntegratorSettings};
+use crate::scene::Scene;
+
+const MAGIC: &[u8; 8] = b"LUCENTCK";
+/// Version of the checkpoint format written by this build.
+pub const CHECKPOINT_VERSION: u32 = 1;
+
+/// FNV-1a, 64 bit: a stable hash (unlike std's randomised one) for scene identity and checksums.
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv1a64(u64);
+
+impl Default for Fnv1a64 {
+    fn default() -> Self {
+        Fnv1a64(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a64 {
+    /// A fresh hasher at the FNV offset basis.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Feed bytes.
+    pub fn write(&mut self, bytes: &[u8]) {
+        let mut h = self.0;
+        for &b in bytes {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self.0 = h;
+    }
+    /// Feed a length-prefixed byte string (so that concatenations cannot collide).
+    pub fn write_field(&mut self, bytes: &[u8]) {
+        self.write(&(bytes.len() as u64).to_le_bytes());
+        self.write(bytes);
+    }
+    /// The hash so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+fn kind_code(kind: IntegratorKind) -> u8 {
+    match kind {
+        IntegratorKind::Path => 0,
+        IntegratorKind::Direct => 1,
+        IntegratorKind::Ao => 2,
+        IntegratorKind::Volpath => 3,
+    }
+}
+
+fn kind_from_code(code: u8) -> Option<IntegratorKind> {
+    match code {
+        0 => Some(IntegratorKind::Path),
+        1 => Some(IntegratorKind::Direct),
+        2 => Some(IntegratorKind::Ao),
+        3 => Some(IntegratorKind::Volpath),
+        _ => None,
+    }
+}
+
+/// Name of an integrator as the CLI spells it.
+pub fn integrator_name(kind: IntegratorKind) -> &'static str {
+    match kind {
+        IntegratorKind::Path => "path",
+        IntegratorKind::Direct => "direct",
+        IntegratorKind::Ao => "ao",
+        IntegratorKind::Volpath => "volpath",
+    }
+}
+
+/// Stable identity of a render: FNV-1a 64 of the scene's content hash
+/// ([`Scene::content_hash`]: scene text and every file it reads), the resolution in pixels and
+/// the integrator settings. Two runs with the same hash sample the same image, so their
+/// checkpoints can be resumed or merged.
+pub fn scene_hash(scene_content_hash: u64, width: u32, height: u32, settings: &IntegratorSettings) -> u64 {
+    let mut h = Fnv1a64::new();
+    h.write_field(b"lucent render identity v1");
+    h.write(&scene_content_hash.to_le_bytes());
+    h.write(&width.to_le_bytes());
+    h.write(&height.to_le_bytes());
+    h.write(&[kind_code(settings.kind)]);
+    h.write(&settings.max_depth.to_le_bytes());
+    h.write(&settings.rr_depth.to_le_bytes());
+    h.finish()
+}
+
+/// One contiguous run of passes of one seed: passes `first_pass .. first_pass + passes`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    /// Seed of the random sequence (`--seed`).
+    pub seed: u64,
+    /// First pass index rendered.
+    pub first_pass: u64,
+    /// Number of passes rendered (samples per pixel contributed).
+    pub passes: u64,
+}
+
+impl Run {
+    /// Index of the pass after the last one of this run.
+    pub fn end_pass(&self) -> u64 {
+        self.first_pass + self.passes
+    }
+    fn overlaps(&self, other: &Run) -> bool {
+        self.seed == other.seed && self.first_pass < other.end_pass() && other.first_pass < self.end_pass()
+    }
+}
+
+/// What a checkpoint must match to be resumed or merged with a render.
+#[derive(Clone, Debug)]
+pub struct RenderIdentity {
+    /// [`scene_hash`] of the render.
+    pub scene_hash: u64,
+    /// Human-readable scene name, for messages (file path or "built-in Cornell box").
+    pub scene_name: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Integrator and its settings.
+    pub settings: IntegratorSettings,
+}
+
+impl RenderIdentity {
+    /// Identity of a render of a scene with content hash `scene_content_hash` at `width`×`height` with `settings`.
+    pub fn new(scene_content_hash: u64, scene_name: &str, width: u32, height: u32, settings: &IntegratorSettings) -> Self {
+        RenderIdentity {
+            scene_hash: scene_hash(scene_content_hash, width, height, settings),
+            scene_name: scene_name.to_string(),
+            width,
+            height,
+            settings: settings.clone(),
+        }
+    }
+
+    /// Identity of a render of `scene` (at its current resolution) with `settings`.
+    pub fn of_scene(scene: &Scene, settings: &IntegratorSettings) -> Self {
+        let (w, h) = scene.resolution();
+        RenderIdentity::new(scene.content_hash(), &scene.source, w, h, settings)
+    }
+}
+
+fn describe_settings(s: &IntegratorSettings) -> String {
+    format!("{} (max depth {}, roulette from {})", integrator_name(s.kind), s.max_depth, s.rr_depth)
+}
+
+/// Accumulated state of one render (or a merge of several): film, identity, runs.
+#[derive(Clone, Debug)]
+pub struct Checkpoint {
+    /// What was rendered.
+    pub identity: RenderIdentity,
+    /// Samples per pixel the run was asked for (`--spp`), if any.
+    pub target_spp: Option<u64>,
+    /// The runs whose samples the film holds.
+    pub runs: Vec<Run>,
+    /// The accumulated sums and counts.
+    pub film: Film,
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+        if self.bytes.len() - self.pos < n {
+            bail!("truncated: file ends inside `{what}` at byte {}", self.pos);
+        }
+        let s = &self.bytes[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn u8(&mut self, what: &str) -> Result<u8> {
+        Ok(self.take(1, what)?[0])
+    }
+    fn u32(&mut self, what: &str) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn u64(&mut self, what: &str) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+}
+
+impl Checkpoint {
+    /// A checkpoint of a single run of `seed` whose film holds passes `0..film.samples_per_pixel()`.
+    pub fn single_run(identity: RenderIdentity, seed: u64, target_spp: Option<u64>, film: Film) -> Checkpoint {
+        let runs = vec![Run { seed, first_pass: 0, passes: film.samples_per_pixel() }];
+        Checkpoint { identity, target_spp, runs, film }
+    }
+
+    /// Serialise to the binary format described in the module documentation.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let id = &self.identity;
+        let n = self.film.pixel_count();
+        let mut b = Vec::with_capacity(128 + id.scene_name.len() + 24 * self.runs.len() + 24 * n);
+        b.extend_from_slice(MAGIC);
+        b.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+        b.extend_from_slice(&id.width.to_le_bytes());
+        b.extend_from_slice(&id.height.to_le_bytes());
+        b.extend_from_slice(&id.scene_hash.to_le_bytes());
+        b.extend_from_slice(&(id.scene_name.len() as u32).to_le_bytes());
+        b.extend_from_slice(id.scene_name.as_bytes());
+        b.push(kind_code(id.settings.kind));
+        b.extend_from_slice(&id.settings.max_depth.to_le_bytes());
+        b.extend_from_slice(&id.settings.rr_depth.to_le_bytes());
+        b.extend_from_slice(&self.target_spp.unwrap_or(0).to_le_bytes());
+        b.extend_from_slice(&self.film.samples_per_pixel().to_le_bytes());
+        b.extend_from_slice(&self.film.rejected_samples().to_le_bytes());
+        b.extend_from_slice(&(self.runs.len() as u32).to_le_bytes());
+        for r in &self.runs {
+            b.extend_from_slice(&r.seed.to_le_bytes());
+            b.extend_from_slice(&r.first_pass.to_le_bytes());
+            b.extend_from_slice(&r.passes.to_le_bytes());
+        }
+        for s in self.film.sums() {
+            for v in s {
+                b.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        let mut h = Fnv1a64::new();
+        h.write(&b);
+        b.extend_from_slice(&h.finish().to_le_bytes());
+        b
+    }
+
+    /// Parse the binary format; errors say which field is wrong (without the file name).
+    pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint> {
+        if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+            bail!("not a lucent checkpoint (bad magic bytes)");
+        }
+        if bytes.len() < MAGIC.len() + 4 + 8 {
+            bail!("truncated checkpoint ({} bytes)", bytes.len());
+        }
+        let (body, tail) = bytes.split_at(bytes.len() - 8);
+        let mut r = Reader { bytes: body, pos: MAGIC.len() };
+        let version = r.u32("version")?;
+        if version != CHECKPOINT_VERSION {
+            bail!("checkpoint format version {version}, this lucent reads version {CHECKPOINT_VERSION}");
+        }
+        let mut h = Fnv1a64::new();
+        h.write(body);
+        if h.finish() != u64::from_le_bytes(tail.try_into().unwrap()) {
+            bail!("checksum mismatch: the checkpoint is truncated or corrupted");
+        }
+        let width = r.u32("width")?;
+        let height = r.u32("height")?;
+        if width == 0 || height == 0 {
+            bail!("bad resolution {width}×{height}");
+        }
+        let scene_hash = r.u64("scene_hash")?;
+        let name_len = r.u32("scene name length")? as usize;
+        let scene_name = std::str::from_utf8(r.take(name_len, "scene name")?)
+            .context("scene name is not UTF-8")?
+            .to_string();
+        let code = r.u8("integrator")?;
+        let kind = kind_from_code(code).with_context(|| format!("unknown integrator code {code}"))?;
+        let max_depth = r.u32("max_depth")?;
+        let rr_depth = r.u32("rr_depth")?;
+        let target = r.u64("target_spp")?;
+        let spp = r.u64("spp")?;
+        let rejected = r.u64("rejected")?;
+        let n_runs = r.u32("runs")? as usize;
+        let mut runs = Vec::with_capacity(n_runs.min(1 << 16));
+        for _ in 0..n_runs {
+            let seed = r.u64("run seed")?;
+            let first_pass = r.u64("run first_pass")?;
+            let passes = r.u64("run passes")?;
+            runs.push(Run { seed, first_pass, passes });
+        }
+        if runs.iter().map(|r| r.passes).sum::<u64>() != spp {
+            bail!("runs add up to {} samples per pixel but the film holds {spp}", runs.iter().map(|r| r.passes).sum::<u64>());
+        }
+        let n = width as usize * height as usize;
+        if body.len() - r.pos != n * 24 {
+            bail!("expected {} bytes of sums for {width}×{height} pixels, found {}", n * 24, body.len() - r.pos);
+        }
+        let sums: Vec<[f64; 3]> = body[r.pos..]
+            .chunks_exact(24)
+            .map(|c| {
+                let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
+                [f(0), f(1), f(2)]
+            })
+            .collect();
+        let film = Film::from_sums(width, height, sums, spp, rejected)?;
+        let settings = IntegratorSettings { kind, max_depth, rr_depth };
+        Ok(Checkpoint {
+            identity: RenderIdentity { scene_hash, scene_name, width, height, settings },
+            target_spp: (target > 0).then_some(target),
+            runs,
+            film,
+        })
+    }
+
+    /// Write atomically (temporary name, then rename): a failed write leaves any old file intact.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let bytes = self.to_bytes();
+        crate::image_io::write_atomic(path, |tmp| {
+            std::fs::write(tmp, &bytes).with_context(|| format!("cannot write {}", tmp.display()))
+        })
+        .with_context(|| format!("{}: cannot write checkpoint", path.display()))
+    }
+
+    /// Read a checkpoint; errors name the file.
+    pub fn read(path: &Path) -> Result<Checkpoint> {
+        let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read checkpoint", path.display()))?;
+        Checkpoint::from_bytes(&bytes).with_context(|| format!("{}: bad checkpoint", path.display()))
+    }
+
+    /// Refuse (with an error naming `path`) a checkpoint of another scene, resolution or integrator.
+    pub fn check_matches(&self, path: &Path, expected: &RenderIdentity) -> Result<()> {
+        let id = &self.identity;
+        let file = path.display();
+        if (id.width, id.height) != (expected.width, expected.height) {
+            bail!(
+                "{file}: checkpoint is {}×{} pixels, this render is {}×{}",
+                id.width,
+                id.height,
+                expected.width,
+                expected.height
+            );
+        }
+        let (a, b) = (&id.settings, &expected.settings);
+        if (a.kind, a.max_depth, a.rr_depth) != (b.kind, b.max_depth, b.rr_depth) {
+            bail!(
+                "{file}: checkpoint was rendered with integrator {}, this render uses {}",
+                describe_settings(a),
+                describe_settings(b)
+            );
+        }
+        if id.scene_hash != expected.scene_hash {
+            bail!(
+                "{file}: checkpoint is of another scene ({}, hash {:016x}), not {} (hash {:016x})",
+                id.scene_name,
+                id.scene_hash,
+                expected.scene_name,
+                expected.scene_hash
+            );
+        }
+        Ok(())
+    }
+
+    /// Seed and next pass index to continue this checkpoint; only a single run's checkpoint
+    /// can be resumed (`path` is for the error message).
+    pub fn resume_point(&self, path: &Path) -> Result<(u64, u64)> {
+        match self.runs.as_slice() {
+            [run] => Ok((run.seed, run.end_pass())),
+            runs => bail!(
+                "{}: checkpoint holds {} merged runs; only a single run's checkpoint can be resumed",
+                path.display(),
+                runs.len()
+            ),
+        }
+    }
+
+    /// Merge checkpoints of independent runs of the same render: sums and sample counts add,
+    /// so each run is weighted by its number of samples. Refuses checkpoints of another scene,
+    /// resolution or integrator than the first, and runs that repeat passes of the same seed.
+    pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint> {
+        let Some(((first_path, first), rest)) = parts.split_first() else {
+            bail!("nothing to merge: no checkpoints given");
+        };
+        let mut merged = first.clone();
+        merged.target_spp = None;
+        let mut origin: Vec<(Run, &Path)> = first.runs.iter().map(|r| (*r, first_path.as_path())).collect();
+        for (path, c) in rest {
+            c.check_matches(path, &first.identity)
+                .with_context(|| format!("cannot merge with {}", first_path.display()))?;
+            for run in &c.runs {
+                if let Some((other, other_path)) = origin.iter().find(|(o, _)| o.overlaps(run)) {
+                    bail!(
+                        "{}: seed {} passes {}..{} were already merged from {} (seed {} passes {}..{}): \
+                         the same seed gives the same samples; render each part with its own --seed",
+                        path.display(),
+                        run.seed,
+                        run.first_pass,
+                        run.end_pass(),
+                        other_path.display(),
+                        other.seed,
+                        other.first_pass,
+                        other.end_pass()
+                    );
+                }
+                origin.push((*run, path.as_path()));
+            }
+            merged.film.add_film(&c.film)?;
+            merged.runs.extend_from_slice(&c.runs);
+        }
+        Ok(merged)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(kind: IntegratorKind) -> IntegratorSettings {
+        IntegratorSettings { kind, max_depth: 8, rr_depth: 5 }
+    }
+
+    fn identity(scene: &[u8], w: u32, h: u32) -> RenderIdentity {
+        let mut f = Fnv1a64::new();
+        f.write(scene);
+        RenderIdentity::new(f.finish(), "test.toml", w, h, &settings(IntegratorKind::Path))
+    }
+
+    fn film_with(w: u32, h: u32, values: &[f32]) -> Film {
+        let mut f = Film::new(w, h);
+        for &v in values {
+            let pass: Vec<[f32; 3]> = (0..(w * h)).map(|i| [v + i as f32, 2.0 * v, 0.1 * v]).collect();
+            f.add_pass(&pass);
+        }
+        f
+    }
+
+    #[test]
+    fn fnv1a_matches_published_test_vectors() {
+        // Reference values from the FNV test suite (Fowler/Noll/Vo, isthe.com/chongo/tech/comp/fnv).
+        let h = |s: &[u8]| {
+            let mut f = Fnv1a64::new();
+            f.write(s);
+            f.finish()
+        };
+        assert_eq!(h(b""), 0xcbf29ce484222325);
+        assert_eq!(h(b"a"), 0xaf63dc4c8601ec8c);
+        assert_eq!(h(b"foobar"), 0x85944171f73967e8);
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let film = film_with(3, 2, &[0.1, 0.7, 1.0 / 3.0]);
+        let c = Checkpoint::single_run(identity(b"scene", 3, 2), 42, Some(16), film.clone());
+        let back = Checkpoint::from_bytes(&c.to_bytes()).unwrap();
+        assert_eq!(back.film, film);
+        assert_eq!(back.runs, vec![Run { seed: 42, first_pass: 0, passes: 3 }]);
+        assert_eq!(back.target_spp, Some(16));
+        assert_eq!(back.identity.scene_hash, c.identity.scene_hash);
+        assert_eq!(back.identity.scene_name, "test.toml");
+        assert_eq!(back.resume_point(Path::new("x")).unwrap(), (42, 3));
+    }
+
+    #[test]
+    fn corrupted_or_truncated_bytes_are_refused() {
+        let c = Checkpoint::single_run(identity(b"scene", 2, 2), 1, None, film_with(2, 2, &[1.0]));
+        let mut bytes = c.to_bytes();
+        assert!(Checkpoint::from_bytes(&bytes[..bytes.len() - 9]).is_err());
+        let k = bytes.len() / 2;
+        bytes[k] ^= 1;
+        let err = Checkpoint::from_bytes(&bytes).unwrap_err().to_string();
+        assert!(err.contains("checksum"), "{err}");
+        assert!(Checkpoint::from_bytes(b"PNG not a checkpoint").is_err());
+    }
+
+    #[test]
+    fn file_round_trip_and_errors_name_the_file() {
+        let dir = std::env::temp_dir().join(format!("lucent-ckpt-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.ckpt");
+        let c = Checkpoint::single_run(identity(b"scene", 2, 2), 7, None, film_with(2, 2, &[1.0, 2.0]));
+        c.write(&path).unwrap();
+        let back = Checkpoint::read(&path).unwrap();
+        assert_eq!(back.film, c.film);
+        std::fs::write(dir.join("bad.ckpt"), b"garbage").unwrap();
+        let err = format!("{:#}", Checkpoint::read(&dir.join("bad.ckpt")).unwrap_err());
+        assert!(err.contains("bad.ckpt"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn checkpoint_of_another_scene_resolution_or_integrator_is_refused() {
+        let c = Checkpoint::single_run(identity(b"scene A", 2, 2), 1, None, film_with(2, 2, &[1.0]));
+        let p = Path::new("runs/a.ckpt");
+        assert!(c.check_matches(p, &identity(b"scene A", 2, 2)).is_ok());
+        let err = c.check_matches(p, &identity(b"scene B", 2, 2)).unwrap_err().to_string();
+        assert!(err.contains("runs/a.ckpt") && err.contains("another scene"), "{err}");
+        let err = c.check_matches(p, &identity(b"scene A", 4, 2)).unwrap_err().to_string();
+        assert!(err.contains("runs/a.ckpt") && err.contains("2×2"), "{err}");
+        let ao = RenderIdentity { settings: settings(IntegratorKind::Ao), ..identity(b"scene A", 2, 2) };
+        let err = c.check_matches(p, &ao).unwrap_err().to_string();
+        assert!(err.contains("integrator"), "{err}");
+        // The hash itself separates scenes, resolutions and integrator settings.
+        let s = settings(IntegratorKind::Path);
+        let base = scene_hash(1, 2, 2, &s);
+        assert_ne!(base, scene_hash(2, 2, 2, &s));
+        assert_ne!(base, scene_hash(1, 2, 3, &s));
+        assert_ne!(base, scene_hash(1, 3, 2, &s));
+        assert_ne!(base, scene_hash(1, 2, 2, &settings(IntegratorKind::Direct)));
+        assert_ne!(base, scene_hash(1, 2, 2, &IntegratorSettings { max_depth: 9, ..s.clone() }));
+        assert_ne!(base, scene_hash(1, 2, 2, &IntegratorSettings { rr_depth: 4, ..s.clone() }));
+        assert_eq!(base, scene_hash(1, 2, 2, &s));
+    }
+
+    #[test]
+    fn merge_weights_by_sample_count() {
+        // Seed 1: 3 samples of 1, seed 2: 1 sample of 5 → per-pixel mean (3 + 5)/4 = 2 in Y/2.
+        let a = Checkpoint::single_run(identity(b"s", 1, 1), 1, Some(3), film_with(1, 1, &[1.0, 1.0, 1.0]));
+        let b = Checkpoint::single_run(identity(b"s", 1, 1), 2, Some(1), film_with(1, 1, &[5.0]));
+        let m = Checkpoint::merge(&[("a".into(), a), ("b".into(), b)]).unwrap();
+        assert_eq!(m.film.samples_per_pixel(), 4);
+        assert_eq!(m.film.mean_xyz(0)[1], 2.0 * 2.0);
+        assert_eq!(m.runs.len(), 2);
+        assert_eq!(m.target_spp, None);
+        assert!(m.resume_point(Path::new("m")).is_err());
+        // And the merged checkpoint survives a round trip.
+        let back = Checkpoint::from_bytes(&m.to_bytes()).unwrap();
+        assert_eq!(back.film, m.film);
+        assert_eq!(back.runs, m.runs);
+    }
+
+    #[test]
+    fn merge_refuses_repeated_seed_and_other_scenes() {
+        let a = Checkpoint::single_run(identity(b"s", 1, 1), 1, None, film_with(1, 1, &[1.0, 2.0]));
+        let same_seed = Checkpoint::single_run(identity(b"s", 1, 1), 1, None, film_with(1, 1, &[1.0]));
+        let err = Checkpoint::merge(&[("a.ckpt".into(), a.clone()), ("b.ckpt".into(), same_seed)]).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("b.ckpt") && msg.contains("a.ckpt") && msg.contains("seed 1"), "{msg}");
+        // Same seed, disjoint passes: independent samples, accepted.
+        let mut later = Checkpoint::single_run(identity(b"s", 1, 1), 1, None, film_with(1, 1, &[3.0]));
+        later.runs[0].first_pass = 2;
+        assert!(Checkpoint::merge(&[("a".into(), a.clone()), ("c".into(), later)]).is_ok());
+        let other = Checkpoint::single_run(identity(b"t", 1, 1), 2, None, film_with(1, 1, &[1.0]));
+        let err = format!("{:#}", Checkpoint::merge(&[("a".into(), a), ("o.ckpt".into(), other)]).unwrap_err());
+        assert!(err.contains("o.ckpt") && err.contains("another scene"), "{err}");
+        assert!(Checkpoint::merge(&[]).is_err());
+    }
+}

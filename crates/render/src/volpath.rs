@@ -17,7 +17,8 @@
 //! the hero). It stays unbiased and bounded when σ_t differs by orders of magnitude between the
 //! carried wavelengths: a wavelength whose own free flights would rarely end where the hero's do
 //! is down-weighted, not blown up. Real collisions always scatter, weighted by σ_s/σ_t (no
-//! absorption events: better for albedo near 1); Russian roulette on the throughput ends paths.
+//! absorption events: better for albedo near 1); Russian roulette on the throughput (pbrt-v4's
+//! rule: continue with probability min(1, max throughput)) ends paths.
 //! Common factors of `beta` and `r_u` cancel, so after each event both are divided by mean(r_u)
 //! (no overflow for e^{(σ₀−σ_i)t}). Once a dispersive interface has terminated the secondary
 //! wavelengths, the hero alone is estimated: divisor r_u₀ instead of the mean. Direction pdfs in
@@ -365,18 +366,23 @@ pub fn li_volpath(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl
     l
 }
 
-/// Russian roulette on the effective throughput once the path has `rr_depth` segments.
+/// Russian roulette on the effective throughput once the path has `rr_depth` segments, as in
+/// pbrt-v4: a path whose largest throughput m is below 1 continues with probability m (and is
+/// divided by it); paths with m ≥ 1 always continue, so dense media with albedo near 1 are not
+/// cut short by roulette (only by `max_depth`) and surviving weights never exceed 1.
 #[inline]
 fn roulette(beta: &mut Vec4, depth: u32, settings: &IntegratorSettings, wl: &SampledWavelengths, rng: &mut Pcg32) -> bool {
     if depth < settings.rr_depth {
         return true;
     }
     let m = if wl.secondary_terminated() { beta.x } else { beta.max_element() };
-    let q = m.min(0.95);
-    if !(rng.next_f32() < q) {
+    if m >= 1.0 {
+        return true;
+    }
+    if !(rng.next_f32() < m) {
         return false;
     }
-    *beta /= q;
+    *beta /= m;
     true
 }
 

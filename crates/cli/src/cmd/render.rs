@@ -1,7 +1,86 @@
-//! `lucent render` (to be written).
+//! `lucent render`: progressive spectral rendering with checkpoints, resume and several outputs.
+//!
+//! Numbers are taken as text and checked here, so that a bad value (`--spp -5`, `--time 0`)
+//! gives a one-line error naming the option instead of a usage screen.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use render::checkpoint::{Checkpoint, RenderIdentity};
+use render::film::Film;
+use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
+use render::scene::Scene;
+
+/// Samples per image aimed at when neither `--spp` nor `--time` is given: 2^24 ≈ 16.8 million,
+/// i.e. 64 spp at the Cornell box's 512×512 (about 11 s on 2 cores at ~1.5 Msamples/s).
+pub const DEFAULT_SAMPLES_PER_IMAGE: u64 = 1 << 24;
+
+/// Default samples per pixel: the power of two nearest below `DEFAULT_SAMPLES_PER_IMAGE / pixels`, at least 1.
+pub fn default_spp(pixels: u64) -> u64 {
+    let spp = (DEFAULT_SAMPLES_PER_IMAGE / pixels.max(1)).max(1);
+    1 << (63 - spp.leading_zeros())
+}
+/// Image written when no `--out` is given.
+pub const DEFAULT_OUT: &str = "lucent.png";
+/// Exit status after Ctrl-C (128 + SIGINT), once the checkpoint and images are written.
+pub const EXIT_INTERRUPTED: i32 = 130;
 
 #[derive(clap::Args, Debug, Default)]
-pub struct Args {}
+pub struct Args {
+    /// Scene file (TOML, see docs/scene-format.md); the built-in measured Cornell box when omitted.
+    #[arg(value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
+    /// Samples per pixel in total, including those of a resumed checkpoint [default: 2^24 samples / pixels, as a power of two: 64 at 512×512].
+    #[arg(long, value_name = "N", allow_hyphen_values = true, conflicts_with = "time")]
+    pub spp: Option<String>,
+    /// Render for this many seconds of wall-clock time instead of a sample count.
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    pub time: Option<String>,
+    /// Output image; .png (sRGB, for looking), .exr or .pfm (linear, for measuring). Repeatable [default: lucent.png].
+    #[arg(long, value_name = "FILE")]
+    pub out: Vec<PathBuf>,
+    /// Image width in pixels (the scene's when omitted; height follows the aspect ratio if only one is given).
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    pub width: Option<String>,
+    /// Image height in pixels.
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    pub height: Option<String>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub threads: Option<String>,
+    /// Seed of the random sequence; independent runs to merge need different seeds [default: 0].
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub seed: Option<String>,
+    /// Light-transport estimator: path, direct or ao [default: path].
+    #[arg(long, value_name = "path|direct|ao")]
+    pub integrator: Option<String>,
+    /// Longest path in bounces [default: 8].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub max_depth: Option<String>,
+    /// Russian roulette starts at this bounce [default: 5].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub rr_depth: Option<String>,
+    /// Write the accumulator here every few seconds, at the end and on Ctrl-C (atomically).
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+    /// Continue the render saved in this checkpoint (and keep checkpointing to it unless --checkpoint says otherwise).
+    #[arg(long, value_name = "FILE")]
+    pub resume: Option<PathBuf>,
+    /// Seconds between checkpoint writes [default: 5].
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    pub checkpoint_interval: Option<String>,
+    /// Exposure in stops for PNG outputs (EXR and PFM stay unscaled linear radiance) [default: 0].
+    #[arg(long, value_name = "STOPS", allow_hyphen_values = true)]
+    pub exposure: Option<String>,
+    /// No progress bar and no summary line.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
 
 impl Args {
     /// What `lucent` with no arguments does: the built-in Cornell box to `lucent.png`.
@@ -10,6 +89,353 @@ impl Args {
     }
 }
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`lucent render` is not implemented yet")
+/// Parse a whole number ≥ 1 given to `option`.
+pub(crate) fn positive_u64(option: &str, text: &str) -> Result<u64> {
+    match text.trim().parse::<i128>() {
+        Ok(v) if v >= 1 && v <= u64::MAX as i128 => Ok(v as u64),
+        Ok(v) => bail!("{option} must be a whole number ≥ 1, got {v}"),
+        Err(_) => bail!("{option} must be a whole number ≥ 1, got `{text}`"),
+    }
+}
+
+fn positive_u32(option: &str, text: &str) -> Result<u32> {
+    let v = positive_u64(option, text)?;
+    u32::try_from(v).with_context(|| format!("{option} is too large: {v}"))
+}
+
+fn any_u64(option: &str, text: &str) -> Result<u64> {
+    text.trim().parse::<u64>().with_context(|| format!("{option} must be a whole number ≥ 0, got `{text}`"))
+}
+
+fn any_u32(option: &str, text: &str) -> Result<u32> {
+    text.trim().parse::<u32>().with_context(|| format!("{option} must be a whole number ≥ 0, got `{text}`"))
+}
+
+/// Parse a finite real number given to `option`.
+pub(crate) fn finite_f64(option: &str, text: &str) -> Result<f64> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => bail!("{option} must be a finite number, got `{text}`"),
+    }
+}
+
+/// Parse the integrator name of `--integrator`.
+pub(crate) fn integrator_kind(text: &str) -> Result<IntegratorKind> {
+    match text.trim().to_ascii_lowercase().as_str() {
+        "path" => Ok(IntegratorKind::Path),
+        "direct" => Ok(IntegratorKind::Direct),
+        "ao" => Ok(IntegratorKind::Ao),
+        "volpath" => Ok(IntegratorKind::Volpath),
+        _ => bail!("--integrator must be path, volpath, direct or ao, got `{text}`"),
+    }
+}
+
+/// Check before any rendering that every output can be written: known extension, existing folder.
+pub(crate) fn check_outputs(outs: &[PathBuf]) -> Result<()> {
+    for out in outs {
+        render::image_io::Format::from_path(out).with_context(|| format!("--out {}", out.display()))?;
+        check_parent_dir(out, "--out")?;
+    }
+    Ok(())
+}
+
+/// The folder a file will be written into must exist.
+pub(crate) fn check_parent_dir(path: &Path, option: &str) -> Result<()> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        bail!("{option} {}: folder {} does not exist", path.display(), parent.display());
+    }
+    if path.is_dir() {
+        bail!("{option} {}: is a folder", path.display());
+    }
+    Ok(())
+}
+
+/// Write the film's image to every output; returns their absolute paths.
+pub(crate) fn write_outputs(film: &Film, outs: &[PathBuf], exposure_stops: f32) -> Result<Vec<PathBuf>> {
+    let image = film.to_image();
+    let mut written = Vec::with_capacity(outs.len());
+    for out in outs {
+        render::image_io::write_image(out, &image, exposure_stops)?;
+        written.push(std::path::absolute(out).unwrap_or_else(|_| out.clone()));
+    }
+    Ok(written)
+}
+
+/// When the render stops.
+#[derive(Clone, Copy, Debug)]
+enum Stop {
+    /// After this many samples per pixel in total.
+    Spp(u64),
+    /// After this much wall-clock time in this session.
+    Time(Duration),
+}
+
+pub fn run(args: Args) -> Result<()> {
+    // ---- Parse and check everything before rendering anything. ----
+    let stop_arg = match (&args.spp, &args.time) {
+        (Some(s), _) => Some(Stop::Spp(positive_u64("--spp", s)?)),
+        (None, Some(t)) => {
+            let secs = finite_f64("--time", t)?;
+            if secs <= 0.0 || secs > 1e9 {
+                bail!("--time must be a number of seconds > 0, got `{t}`");
+            }
+            Some(Stop::Time(Duration::from_secs_f64(secs)))
+        }
+        (None, None) => None,
+    };
+    let width_arg = args.width.as_deref().map(|w| positive_u32("--width", w)).transpose()?;
+    let height_arg = args.height.as_deref().map(|h| positive_u32("--height", h)).transpose()?;
+    let threads = args.threads.as_deref().map(|t| positive_u64("--threads", t)).transpose()?;
+    if let Some(t) = threads {
+        if t > 4096 {
+            bail!("--threads must be at most 4096, got {t}");
+        }
+    }
+    let seed_arg = args.seed.as_deref().map(|s| any_u64("--seed", s)).transpose()?;
+    let kind_arg = args.integrator.as_deref().map(integrator_kind).transpose()?;
+    let max_depth_arg = args.max_depth.as_deref().map(|d| any_u32("--max-depth", d)).transpose()?;
+    let rr_depth_arg = args.rr_depth.as_deref().map(|d| any_u32("--rr-depth", d)).transpose()?;
+    let exposure = match args.exposure.as_deref() {
+        Some(e) => {
+            let v = finite_f64("--exposure", e)?;
+            if v.abs() > 64.0 {
+                bail!("--exposure must be between -64 and 64 stops, got {v}");
+            }
+            v as f32
+        }
+        None => 0.0,
+    };
+    let interval = match args.checkpoint_interval.as_deref() {
+        Some(s) => {
+            let v = finite_f64("--checkpoint-interval", s)?;
+            if v <= 0.0 || v > 1e9 {
+                bail!("--checkpoint-interval must be a number of seconds > 0, got `{s}`");
+            }
+            Duration::from_secs_f64(v)
+        }
+        None => Duration::from_secs(5),
+    };
+    let outs = if args.out.is_empty() { vec![PathBuf::from(DEFAULT_OUT)] } else { args.out.clone() };
+    check_outputs(&outs)?;
+    let checkpoint_path = args.checkpoint.clone().or_else(|| args.resume.clone());
+    if let Some(c) = &checkpoint_path {
+        check_parent_dir(c, "--checkpoint")?;
+        if outs.iter().any(|o| o == c) {
+            bail!("--checkpoint {} is also given as --out", c.display());
+        }
+    }
+
+    // The checkpoint to resume, read first: it supplies defaults (resolution, integrator).
+    let resumed = match &args.resume {
+        Some(p) => Some(Checkpoint::read(p)?),
+        None => None,
+    };
+
+    // ---- The scene and the render's identity. ----
+    let mut scene = match &args.scene {
+        Some(path) => Scene::load(path)?,
+        None => Scene::cornell_box(),
+    };
+    let scene_name = match &args.scene {
+        Some(path) => path.display().to_string(),
+        None => "built-in Cornell box".to_string(),
+    };
+    let (w0, h0) = scene.resolution();
+    let (width, height) = match (width_arg, height_arg, &resumed) {
+        (Some(w), Some(h), _) => (w, h),
+        (Some(w), None, _) => (w, ((w as f64 * h0 as f64 / w0 as f64).round() as u32).max(1)),
+        (None, Some(h), _) => (((h as f64 * w0 as f64 / h0 as f64).round() as u32).max(1), h),
+        (None, None, Some(c)) => (c.identity.width, c.identity.height),
+        (None, None, None) => (w0, h0),
+    };
+    if width as u64 * height as u64 > 1 << 28 {
+        bail!("--width × --height = {width}×{height} pixels is too large");
+    }
+    scene.set_resolution(width, height);
+    // Integrator: the flags, else the checkpoint being resumed, else the scene file's.
+    let base = match &resumed {
+        Some(c) => c.identity.settings.clone(),
+        None => scene.integrator.clone(),
+    };
+    let settings = IntegratorSettings {
+        kind: kind_arg.unwrap_or(base.kind),
+        max_depth: max_depth_arg.unwrap_or(base.max_depth),
+        rr_depth: rr_depth_arg.unwrap_or(base.rr_depth),
+    };
+    let mut identity = RenderIdentity::of_scene(&scene, &settings);
+    identity.scene_name = scene_name.clone();
+
+    // ---- Starting point: fresh, or where the checkpoint stopped. ----
+    let (seed, first_pass, film, stored_target) = match (&args.resume, resumed) {
+        (Some(path), Some(c)) => {
+            c.check_matches(path, &identity)?;
+            let (seed, next_pass) = c.resume_point(path)?;
+            if let Some(s) = seed_arg {
+                if s != seed {
+                    bail!("{}: checkpoint was rendered with --seed {seed}, not {s}", path.display());
+                }
+            }
+            (seed, next_pass, c.film, c.target_spp)
+        }
+        _ => (seed_arg.unwrap_or(0), 0, Film::new(width, height), None),
+    };
+    let stop = match (stop_arg, stored_target) {
+        (Some(s), _) => s,
+        (None, Some(t)) => Stop::Spp(t),
+        (None, None) if args.resume.is_some() => {
+            bail!("{}: checkpoint of a --time run: give --spp or --time to continue", args.resume.as_ref().unwrap().display())
+        }
+        (None, None) => Stop::Spp(default_spp(width as u64 * height as u64)),
+    };
+    let target_spp = match stop {
+        Stop::Spp(n) => Some(n),
+        Stop::Time(_) => None,
+    };
+
+    // ---- Ctrl-C: finish the pass, save, exit 130. A second Ctrl-C quits at once. ----
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupted.clone();
+        // Failing to install the handler (already installed, e.g. in tests) only loses the nicety.
+        let _ = ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                std::process::exit(EXIT_INTERRUPTED);
+            }
+        });
+    }
+
+    let pool = {
+        let mut b = rayon::ThreadPoolBuilder::new();
+        if let Some(t) = threads {
+            b = b.num_threads(t as usize);
+        }
+        b.build().context("cannot start worker threads")?
+    };
+    let n_threads = pool.current_num_threads();
+
+    let save = |film: &Film| -> Result<()> {
+        if let Some(path) = &checkpoint_path {
+            let ck = Checkpoint::single_run(identity.clone(), seed, target_spp, film.clone());
+            ck.write(path)?;
+        }
+        Ok(())
+    };
+
+    // ---- Render. ----
+    let start = Instant::now();
+    let start_spp = film.samples_per_pixel();
+    let mut film = film;
+    let pixels = width as u64 * height as u64;
+    let progress = Progress::new(stop, start_spp, args.quiet);
+    let mut pass_buffer = vec![[0.0f32; 3]; pixels as usize];
+    let mut last_save = Instant::now();
+    let mut pass = first_pass;
+    pool.install(|| -> Result<()> {
+        loop {
+            let done = match stop {
+                Stop::Spp(n) => film.samples_per_pixel() >= n,
+                Stop::Time(t) => start.elapsed() >= t,
+            };
+            if done || interrupted.load(Ordering::SeqCst) {
+                break;
+            }
+            render_pass(&scene, &settings, seed, pass, &mut pass_buffer);
+            film.add_pass(&pass_buffer);
+            pass += 1;
+            progress.update(&film, start, start_spp, pixels);
+            if checkpoint_path.is_some() && last_save.elapsed() >= interval {
+                save(&film)?;
+                last_save = Instant::now();
+            }
+        }
+        Ok(())
+    })?;
+    progress.finish();
+    let elapsed = start.elapsed().as_secs_f64();
+    let was_interrupted = interrupted.load(Ordering::SeqCst);
+
+    // ---- Save: checkpoint first (the work), then the images. ----
+    save(&film)?;
+    let written = write_outputs(&film, &outs, exposure)?;
+    if !args.quiet {
+        let new_samples = (film.samples_per_pixel() - start_spp) as f64 * pixels as f64;
+        let rate = if elapsed > 0.0 { new_samples / elapsed / 1e6 } else { 0.0 };
+        eprintln!(
+            "lucent: {} at {width}×{height}, {} spp ({}, seed {seed}) in {elapsed:.1} s: {rate:.2} Msamples/s on {n_threads} threads",
+            scene_name,
+            film.samples_per_pixel(),
+            render::checkpoint::integrator_name(settings.kind),
+        );
+        if film.rejected_samples() > 0 {
+            eprintln!("lucent: warning: {} non-finite samples were counted as zero", film.rejected_samples());
+        }
+        if let Some(c) = &checkpoint_path {
+            eprintln!("lucent: checkpoint {}", std::path::absolute(c).unwrap_or_else(|_| c.clone()).display());
+        }
+    }
+    for w in &written {
+        println!("wrote {}", w.display());
+    }
+    if was_interrupted {
+        eprintln!("lucent: interrupted; continue with --resume {}", match &checkpoint_path {
+            Some(c) => c.display().to_string(),
+            None => "(no --checkpoint given: progress not saved)".to_string(),
+        });
+        std::process::exit(EXIT_INTERRUPTED);
+    }
+    Ok(())
+}
+
+/// Progress bar on stderr, shown once a render has run for a second (hidden when stderr is not a terminal).
+struct Progress {
+    bar: ProgressBar,
+    stop: Stop,
+    shown: AtomicBool,
+    quiet: bool,
+}
+
+impl Progress {
+    fn new(stop: Stop, start_spp: u64, quiet: bool) -> Progress {
+        let (len, template) = match stop {
+            Stop::Spp(n) => (n, "{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} spp  {msg}  {eta} left"),
+            Stop::Time(t) => (t.as_millis() as u64, "{spinner} {elapsed_precise} [{bar:30}] {msg}  {eta} left"),
+        };
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
+        if let Ok(style) = ProgressStyle::with_template(template) {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        if let Stop::Spp(_) = stop {
+            bar.set_position(start_spp);
+            bar.reset_eta();
+        }
+        Progress { bar, stop, shown: AtomicBool::new(false), quiet }
+    }
+
+    fn update(&self, film: &Film, start: Instant, start_spp: u64, pixels: u64) {
+        let elapsed = start.elapsed();
+        if !self.quiet && !self.shown.load(Ordering::Relaxed) && elapsed >= Duration::from_secs(1) {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+            self.shown.store(true, Ordering::Relaxed);
+        }
+        let spp = film.samples_per_pixel();
+        let rate = (spp - start_spp) as f64 * pixels as f64 / elapsed.as_secs_f64().max(1e-9);
+        match self.stop {
+            Stop::Spp(_) => {
+                self.bar.set_message(format!("{:.2} Msamples/s", rate / 1e6));
+                self.bar.set_position(spp);
+            }
+            Stop::Time(_) => {
+                self.bar.set_message(format!("{spp} spp  {:.2} Msamples/s", rate / 1e6));
+                self.bar.set_position(elapsed.as_millis() as u64);
+            }
+        }
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
 }
