@@ -892,6 +892,9 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
             }
             Shape::Mesh(mesh)
         };
+        if matches!(&materials[material as usize], Material::Translucent(t) if t.from_medium) && o.medium.is_none() {
+            return Err(cx.err(&span, &format!("{field}.medium"), "missing (its translucent material takes the coefficients from the object's medium)"));
+        }
         let interior_medium = match &o.medium {
             Some(v) => {
                 media.push(medium_desc(cx, &sp, v, &format!("{field}.medium"), unit_m)?);

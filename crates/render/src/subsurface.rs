@@ -70,6 +70,9 @@ pub struct Translucent {
     pub points_per_pass: usize,
     /// Rejection control on (acceptance e^{−σ_tr,min d}); off: every point is accepted.
     pub rejection_control: bool,
+    /// Take σ_s, σ_a and g from the object's interior `medium` instead (the same coefficients
+    /// volumetric path tracing uses; the spectra above are then unused).
+    pub from_medium: bool,
 }
 
 impl Translucent {
@@ -79,7 +82,7 @@ impl Translucent {
         if !(eta > 0.0) || !eta.is_finite() {
             bail!("ior must be positive and finite, got {eta}");
         }
-        let t = Translucent { eta, model, sigma_s_per_m, sigma_a_per_m, g, points_per_pass: DEFAULT_POINTS_PER_PASS, rejection_control: true };
+        let t = Translucent { eta, model, sigma_s_per_m, sigma_a_per_m, g, points_per_pass: DEFAULT_POINTS_PER_PASS, rejection_control: true, from_medium: false };
         for l in (360..=830).step_by(5) {
             let p = t.properties(l as f32);
             p.validate().with_context(|| format!("at {l} nm"))?;
@@ -136,7 +139,7 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 /// `ior` is the material's index (a preset's own η is used when `ior` is absent).
 /// Errors name the key (relative to the table).
 pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Translucent> {
-    const KEYS: &[&str] = &["model", "preset", "milk", "sigma_s_per_mm", "sigma_a_per_mm", "g", "points_per_pass", "rejection_control"];
+    const KEYS: &[&str] = &["model", "from_medium", "preset", "milk", "sigma_s_per_mm", "sigma_a_per_mm", "g", "points_per_pass", "rejection_control"];
     let t = table.as_table().ok_or_else(|| anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}"))?;
     for k in t.keys() {
         if !KEYS.contains(&k.as_str()) {
@@ -148,9 +151,9 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         None => DipoleModel::Directional,
         Some(v) => v.as_str().ok_or_else(|| anyhow!("subsurface.model: expected \"standard\" or \"directional\""))?.parse().context("subsurface.model")?,
     };
-    let kinds: Vec<&str> = ["preset", "milk", "sigma_s_per_mm"].into_iter().filter(|k| t.contains_key(*k)).collect();
+    let kinds: Vec<&str> = ["from_medium", "preset", "milk", "sigma_s_per_mm"].into_iter().filter(|k| t.contains_key(*k)).collect();
     if kinds.len() != 1 {
-        bail!("subsurface: give exactly one of preset, milk, sigma_s_per_mm/sigma_a_per_mm/g (got {kinds:?})");
+        bail!("subsurface: give exactly one of from_medium, preset, milk, sigma_s_per_mm/sigma_a_per_mm/g (got {kinds:?})");
     }
     let eta_of = |default: f64| -> Result<f32> {
         let e = ior.unwrap_or(default);
@@ -160,6 +163,15 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         Ok(e as f32)
     };
     let mut mat = match kinds[0] {
+        "from_medium" => {
+            if t["from_medium"].as_bool() != Some(true) {
+                bail!("subsurface.from_medium: must be true (leave it out otherwise)");
+            }
+            // Placeholder coefficients, replaced by the object's medium when the cloud is built.
+            let mut m = Translucent::constant(eta_of(1.3)?, model, 1.0, 0.0, 0.0)?;
+            m.from_medium = true;
+            m
+        }
         "preset" => {
             let name = t["preset"].as_str().ok_or_else(|| anyhow!("subsurface.preset: expected a name such as \"marble\""))?;
             let m = optics::bssrdf::find_medium(name).ok_or_else(|| anyhow!("subsurface.preset: unknown medium `{name}` (see optics::bssrdf presets of Jensen 2001 / Narasimhan 2006)"))?;
@@ -523,7 +535,45 @@ fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBD
     (lanes, if smin.is_finite() { smin } else { 0.0 })
 }
 
+/// Mean cosine of a medium's phase function at `lambda_nm`.
+fn phase_g(phase: &crate::medium::PhaseModel, lambda_nm: f32) -> f64 {
+    use crate::medium::PhaseModel;
+    match phase {
+        PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm) as f64,
+        PhaseModel::Tabulated { lambda_nm: ls, tables } => {
+            if tables.is_empty() {
+                return 0.0;
+            }
+            let k = ls.partition_point(|&l| l <= lambda_nm);
+            if k == 0 {
+                tables[0].g()
+            } else if k >= ls.len() {
+                tables[ls.len() - 1].g()
+            } else {
+                let f = ((lambda_nm - ls[k - 1]) / (ls[k] - ls[k - 1])) as f64;
+                tables[k - 1].g() * (1.0 - f) + tables[k].g() * f
+            }
+        }
+    }
+}
+
+/// The material with its coefficients taken from the object's medium when `from_medium`.
+fn effective_material(scene: &Scene, t: &Translucent, object: usize) -> Translucent {
+    let mut t = t.clone();
+    if t.from_medium {
+        if let Some(mi) = scene.objects[object].interior_medium {
+            let m = &scene.media[mi as usize];
+            t.sigma_s_per_m = m.sigma_s_per_m.clone();
+            t.sigma_a_per_m = m.sigma_a_per_m.clone();
+            let phase = &m.phase;
+            t.g = DenseSpectrum::from_fn(|l| phase_g(phase, l as f32));
+        }
+    }
+    t
+}
+
 fn build_cloud(scene: &Scene, settings: &IntegratorSettings, t: &Translucent, object: usize, wl: &SampledWavelengths, seed: u64, pass: u64) -> ObjectCloud {
+    let t = &effective_material(scene, t, object);
     let (lanes, sigma_tr_min) = lane_models(t, wl);
     let shape = scene.accel.shape(object as u32);
     let sampler = SurfaceSampler::new(shape);
