@@ -116,7 +116,7 @@ pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j:
             };
             let l = match kind {
                 IntegratorKind::Path => match sss {
-                    Some(p) => li_path_mode(scene, settings, ray, &mut wl, rng, SubsurfaceMode::Bssrdf(p)),
+                    Some(p) => li_path_mode(scene, settings, ray, &mut wl, rng, SubsurfaceMode::Bssrdf(p), 0.0),
                     None => li_path(scene, settings, ray, &mut wl, rng),
                 },
                 IntegratorKind::Volpath => crate::volpath::li_volpath(scene, settings, ray, &mut wl, rng),
@@ -204,16 +204,19 @@ fn sample_one_light(scene: &Scene, s: &Shading, wo: Vec3, bsdf: &Bsdf, wl: &Samp
 /// `wl` may lose its secondary wavelengths on the way (dispersion): convert the result with the
 /// `wl` as it is on return.
 pub fn li_path(scene: &Scene, settings: &IntegratorSettings, ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
-    li_path_mode(scene, settings, ray, wl, rng, SubsurfaceMode::Dielectric)
+    li_path_mode(scene, settings, ray, wl, rng, SubsurfaceMode::Dielectric, 0.0)
 }
 
 /// [`li_path`] with a choice of how translucent materials are treated (see [`SubsurfaceMode`]).
-pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32, sss: SubsurfaceMode) -> SampledSpectrum {
+/// `first_pdf` > 0: `ray` was sampled with this density per steradian from a point that also
+/// sampled the lights, so emission found by the first segment is MIS-weighted against light
+/// sampling (power heuristic); 0: no MIS on the first segment (camera rays).
+pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32, sss: SubsurfaceMode, first_pdf: f32) -> SampledSpectrum {
     let mut l = Vec4::ZERO;
     let mut beta = Vec4::ONE;
     let mut depth = 0u32; // segments traced so far
-    let mut prev_pdf = 0.0f32; // BSDF density of the last direction (per sr)
-    let mut prev_delta = true; // camera ray or specular bounce: no MIS on emission
+    let mut prev_pdf = first_pdf; // BSDF density of the last direction (per sr)
+    let mut prev_delta = !(first_pdf > 0.0); // camera ray or specular bounce: no MIS on emission
     let mut prev_p = ray.o;
     loop {
         let hit = scene.accel.intersect(&ray);

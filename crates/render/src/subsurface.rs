@@ -78,11 +78,26 @@ pub struct Translucent {
 impl Translucent {
     /// A translucent material from spectra; checks η > 0 and that every wavelength gives valid
     /// optical properties (α' ∈ [0, 1], finite non-negative coefficients).
-    pub fn new(eta: f32, model: DipoleModel, sigma_s_per_m: DenseSpectrum, sigma_a_per_m: DenseSpectrum, g: DenseSpectrum) -> Result<Translucent> {
+    pub fn new(
+        eta: f32,
+        model: DipoleModel,
+        sigma_s_per_m: DenseSpectrum,
+        sigma_a_per_m: DenseSpectrum,
+        g: DenseSpectrum,
+    ) -> Result<Translucent> {
         if !(eta > 0.0) || !eta.is_finite() {
             bail!("ior must be positive and finite, got {eta}");
         }
-        let t = Translucent { eta, model, sigma_s_per_m, sigma_a_per_m, g, points_per_pass: DEFAULT_POINTS_PER_PASS, rejection_control: true, from_medium: false };
+        let t = Translucent {
+            eta,
+            model,
+            sigma_s_per_m,
+            sigma_a_per_m,
+            g,
+            points_per_pass: DEFAULT_POINTS_PER_PASS,
+            rejection_control: true,
+            from_medium: false,
+        };
         for l in (360..=830).step_by(5) {
             let p = t.properties(l as f32);
             p.validate().with_context(|| format!("at {l} nm"))?;
@@ -94,7 +109,13 @@ impl Translucent {
     }
 
     /// Constant coefficients (m⁻¹) at every wavelength.
-    pub fn constant(eta: f32, model: DipoleModel, sigma_s_per_m: f64, sigma_a_per_m: f64, g: f64) -> Result<Translucent> {
+    pub fn constant(
+        eta: f32,
+        model: DipoleModel,
+        sigma_s_per_m: f64,
+        sigma_a_per_m: f64,
+        g: f64,
+    ) -> Result<Translucent> {
         Translucent::new(
             eta,
             model,
@@ -139,8 +160,20 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 /// `ior` is the material's index (a preset's own η is used when `ior` is absent).
 /// Errors name the key (relative to the table).
 pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Translucent> {
-    const KEYS: &[&str] = &["model", "from_medium", "preset", "milk", "sigma_s_per_mm", "sigma_a_per_mm", "g", "points_per_pass", "rejection_control"];
-    let t = table.as_table().ok_or_else(|| anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}"))?;
+    const KEYS: &[&str] = &[
+        "model",
+        "from_medium",
+        "preset",
+        "milk",
+        "sigma_s_per_mm",
+        "sigma_a_per_mm",
+        "g",
+        "points_per_pass",
+        "rejection_control",
+    ];
+    let t = table.as_table().ok_or_else(|| {
+        anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
+    })?;
     for k in t.keys() {
         if !KEYS.contains(&k.as_str()) {
             bail!("subsurface: unknown key `{k}` (expected one of {KEYS:?})");
@@ -149,9 +182,16 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
     let num = |v: &toml::Value| -> Option<f64> { v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) };
     let model: DipoleModel = match t.get("model") {
         None => DipoleModel::Directional,
-        Some(v) => v.as_str().ok_or_else(|| anyhow!("subsurface.model: expected \"standard\" or \"directional\""))?.parse().context("subsurface.model")?,
+        Some(v) => v
+            .as_str()
+            .ok_or_else(|| anyhow!("subsurface.model: expected \"standard\" or \"directional\""))?
+            .parse()
+            .context("subsurface.model")?,
     };
-    let kinds: Vec<&str> = ["from_medium", "preset", "milk", "sigma_s_per_mm"].into_iter().filter(|k| t.contains_key(*k)).collect();
+    let kinds: Vec<&str> = ["from_medium", "preset", "milk", "sigma_s_per_mm"]
+        .into_iter()
+        .filter(|k| t.contains_key(*k))
+        .collect();
     if kinds.len() != 1 {
         bail!("subsurface: give exactly one of from_medium, preset, milk, sigma_s_per_mm/sigma_a_per_mm/g (got {kinds:?})");
     }
@@ -173,7 +213,9 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             m
         }
         "preset" => {
-            let name = t["preset"].as_str().ok_or_else(|| anyhow!("subsurface.preset: expected a name such as \"marble\""))?;
+            let name = t["preset"]
+                .as_str()
+                .ok_or_else(|| anyhow!("subsurface.preset: expected a name such as \"marble\""))?;
             let m = optics::bssrdf::find_medium(name).ok_or_else(|| anyhow!("subsurface.preset: unknown medium `{name}` (see optics::bssrdf presets of Jensen 2001 / Narasimhan 2006)"))?;
             Translucent::new(
                 eta_of(m.eta)?,
@@ -185,7 +227,9 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             .context("subsurface.preset")?
         }
         "milk" => {
-            let m = t["milk"].as_table().ok_or_else(|| anyhow!("subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"))?;
+            let m = t["milk"]
+                .as_table()
+                .ok_or_else(|| anyhow!("subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"))?;
             let get = |k: &str, d: Option<f64>| -> Result<f64> {
                 match m.get(k) {
                     Some(v) => num(v).ok_or_else(|| anyhow!("subsurface.milk.{k}: must be a number")),
@@ -200,14 +244,31 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             let tab = |v: &[f64]| -> Result<DenseSpectrum> {
                 let s = optics::spectrum::Tabulated::new(lambda.clone(), v.to_vec())?;
                 let (lo, hi) = (v[0], v[v.len() - 1]);
-                Ok(DenseSpectrum::from_fn(move |l| if l < 375.0 { lo } else if l > 775.0 { hi } else { s.eval(l) }))
+                Ok(DenseSpectrum::from_fn(move |l| {
+                    if l < 375.0 {
+                        lo
+                    } else if l > 775.0 {
+                        hi
+                    } else {
+                        s.eval(l)
+                    }
+                }))
             };
-            Translucent::new(eta_of(1.345)?, model, tab(&b.sigma_s_per_m)?, tab(&b.sigma_a_per_m)?, tab(&b.g)?).context("subsurface.milk")?
+            Translucent::new(
+                eta_of(1.345)?,
+                model,
+                tab(&b.sigma_s_per_m)?,
+                tab(&b.sigma_a_per_m)?,
+                tab(&b.g)?,
+            )
+            .context("subsurface.milk")?
         }
         _ => {
             let coef = |k: &str, scale: f64, default: Option<f64>| -> Result<DenseSpectrum> {
                 match t.get(k) {
-                    None => default.map(|d| DenseSpectrum::from_fn(move |_| d)).ok_or_else(|| anyhow!("subsurface.{k}: missing")),
+                    None => default
+                        .map(|d| DenseSpectrum::from_fn(move |_| d))
+                        .ok_or_else(|| anyhow!("subsurface.{k}: missing")),
                     Some(v) => {
                         if let Some(x) = num(v) {
                             if !x.is_finite() {
@@ -219,7 +280,11 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
                             if xs.len() != 3 || a.len() != 3 || xs.iter().any(|x| !x.is_finite()) {
                                 bail!("subsurface.{k}: expected a number or [r, g, b]");
                             }
-                            Ok(rgb_coefficients_to_spectrum([xs[0] * scale, xs[1] * scale, xs[2] * scale]))
+                            Ok(rgb_coefficients_to_spectrum([
+                                xs[0] * scale,
+                                xs[1] * scale,
+                                xs[2] * scale,
+                            ]))
                         } else {
                             bail!("subsurface.{k}: expected a number or [r, g, b]")
                         }
@@ -233,11 +298,16 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         }
     };
     if let Some(v) = t.get("points_per_pass") {
-        let n = v.as_integer().filter(|n| *n >= 1 && *n <= 1 << 24).ok_or_else(|| anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216"))?;
+        let n = v
+            .as_integer()
+            .filter(|n| *n >= 1 && *n <= 1 << 24)
+            .ok_or_else(|| anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216"))?;
         mat.points_per_pass = n as usize;
     }
     if let Some(v) = t.get("rejection_control") {
-        mat.rejection_control = v.as_bool().ok_or_else(|| anyhow!("subsurface.rejection_control: expected true or false"))?;
+        mat.rejection_control = v
+            .as_bool()
+            .ok_or_else(|| anyhow!("subsurface.rejection_control: expected true or false"))?;
     }
     Ok(mat)
 }
@@ -331,7 +401,10 @@ pub enum SubsurfaceMode<'a> {
 
 /// Whether `scene` has any translucent object.
 pub fn scene_has_translucent(scene: &Scene) -> bool {
-    scene.objects.iter().any(|o| matches!(scene.materials[o.material as usize], Material::Translucent(_)))
+    scene
+        .objects
+        .iter()
+        .any(|o| matches!(scene.materials[o.material as usize], Material::Translucent(_)))
 }
 
 /// Area-uniform point sampler over one shape.
@@ -346,7 +419,12 @@ struct SurfaceSampler<'a> {
 impl<'a> SurfaceSampler<'a> {
     fn new(shape: &'a Shape) -> SurfaceSampler<'a> {
         match shape {
-            Shape::Sphere(s) => SurfaceSampler { shape, cdf: Vec::new(), area: 4.0 * std::f32::consts::PI * s.radius * s.radius, orient: 1.0 },
+            Shape::Sphere(s) => SurfaceSampler {
+                shape,
+                cdf: Vec::new(),
+                area: 4.0 * std::f32::consts::PI * s.radius * s.radius,
+                orient: 1.0,
+            },
             Shape::Mesh(m) => {
                 let mut acc = 0.0f64;
                 let mut vol = 0.0f64;
@@ -357,7 +435,12 @@ impl<'a> SurfaceSampler<'a> {
                     let [a, b, c] = m.triangle(i);
                     vol += a.as_dvec3().dot(b.as_dvec3().cross(c.as_dvec3()));
                 }
-                SurfaceSampler { shape, cdf, area: acc as f32, orient: if vol < 0.0 { -1.0 } else { 1.0 } }
+                SurfaceSampler {
+                    shape,
+                    cdf,
+                    area: acc as f32,
+                    orient: if vol < 0.0 { -1.0 } else { 1.0 },
+                }
             }
         }
     }
@@ -433,9 +516,18 @@ impl SubsurfacePass {
     }
 
     /// [`SubsurfacePass::radiance`] with the query's statistics.
-    pub fn radiance_stats(&self, object: u32, xo: Vec3, no: Vec3, wo: Vec3, rng: &mut Pcg32) -> (SampledSpectrum, QueryStats) {
+    pub fn radiance_stats(
+        &self,
+        object: u32,
+        xo: Vec3,
+        no: Vec3,
+        wo: Vec3,
+        rng: &mut Pcg32,
+    ) -> (SampledSpectrum, QueryStats) {
         let mut st = QueryStats::default();
-        let Some(Some(c)) = self.clouds.get(object as usize) else { return (Vec4::ZERO, st) };
+        let Some(Some(c)) = self.clouds.get(object as usize) else {
+            return (Vec4::ZERO, st);
+        };
         let cos_o = wo.dot(no);
         if !(cos_o > 0.0) || c.points.is_empty() {
             return (Vec4::ZERO, st);
@@ -458,7 +550,11 @@ impl SubsurfacePass {
             sp -= 1;
             let node = &c.nodes[stack[sp] as usize];
             st.nodes += 1;
-            let q = if c.rejection_control { (-sigma * box_distance(&node.bounds, xo)).exp() } else { 1.0 };
+            let q = if c.rejection_control {
+                (-sigma * box_distance(&node.bounds, xo)).exp()
+            } else {
+                1.0
+            };
             if !(q > 0.0) {
                 continue;
             }
@@ -468,7 +564,11 @@ impl SubsurfacePass {
                 let (start, end) = (node.start as usize, node.end as usize);
                 if q >= 1.0 {
                     for pt in &c.points[start..end] {
-                        let p = if c.rejection_control { (-sigma * pt.p.distance(xo)).exp() } else { 1.0 };
+                        let p = if c.rejection_control {
+                            (-sigma * pt.p.distance(xo)).exp()
+                        } else {
+                            1.0
+                        };
                         if p > 0.0 && (p >= 1.0 || rng.next_f32() < p) {
                             eval(pt, p, &mut st);
                         }
@@ -502,12 +602,23 @@ impl SubsurfacePass {
         }
         let t21 = fresnel_t(cos_o, c.eta);
         let scale = t21 as f64 / c.m as f64;
-        (Vec4::new((sum[0] * scale) as f32, (sum[1] * scale) as f32, (sum[2] * scale) as f32, (sum[3] * scale) as f32), st)
+        (
+            Vec4::new(
+                (sum[0] * scale) as f32,
+                (sum[1] * scale) as f32,
+                (sum[2] * scale) as f32,
+                (sum[3] * scale) as f32,
+            ),
+            st,
+        )
     }
 
     /// Number of stored points of `object` (0 if not translucent).
     pub fn point_count(&self, object: u32) -> usize {
-        self.clouds.get(object as usize).and_then(|c| c.as_ref()).map_or(0, |c| c.points.len())
+        self.clouds
+            .get(object as usize)
+            .and_then(|c| c.as_ref())
+            .map_or(0, |c| c.points.len())
     }
 }
 
@@ -572,7 +683,15 @@ fn effective_material(scene: &Scene, t: &Translucent, object: usize) -> Transluc
     t
 }
 
-fn build_cloud(scene: &Scene, settings: &IntegratorSettings, t: &Translucent, object: usize, wl: &SampledWavelengths, seed: u64, pass: u64) -> ObjectCloud {
+fn build_cloud(
+    scene: &Scene,
+    settings: &IntegratorSettings,
+    t: &Translucent,
+    object: usize,
+    wl: &SampledWavelengths,
+    seed: u64,
+    pass: u64,
+) -> ObjectCloud {
     let t = &effective_material(scene, t, object);
     let (lanes, sigma_tr_min) = lane_models(t, wl);
     let shape = scene.accel.shape(object as u32);
@@ -589,9 +708,25 @@ fn build_cloud(scene: &Scene, settings: &IntegratorSettings, t: &Translucent, ob
                 let (p, n) = sampler.sample(&mut rng);
                 let d_local = cosine_hemisphere(rng.next_2d());
                 let wi = Frame::from_normal(n).to_world(d_local).normalize();
-                let ray = Ray { o: p + n * eps, d: wi, t_min: 0.0, t_max: f32::INFINITY };
+                let ray = Ray {
+                    o: p + n * eps,
+                    d: wi,
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                // Light sample (next-event estimation), MIS-weighted against the cosine direction.
+                let light = sample_light_at(scene, p, n, wl, &mut rng, t.eta, area);
+                let cos_pdf = d_local.z * std::f32::consts::FRAC_1_PI;
                 let mut wl_path = *wl;
-                let mut li = crate::integrator::li_path_mode(scene, settings, ray, &mut wl_path, &mut rng, SubsurfaceMode::ReflectOnly);
+                let mut li = crate::integrator::li_path_mode(
+                    scene,
+                    settings,
+                    ray,
+                    &mut wl_path,
+                    &mut rng,
+                    SubsurfaceMode::ReflectOnly,
+                    cos_pdf,
+                );
                 if wl_path.secondary_terminated() {
                     li = Vec4::new(li.x * N_LAMBDA as f32, 0.0, 0.0, 0.0);
                 }
@@ -599,15 +734,59 @@ fn build_cloud(scene: &Scene, settings: &IntegratorSettings, t: &Translucent, ob
                     li = Vec4::ZERO;
                 }
                 let lt = li * (fresnel_t(d_local.z, t.eta) * std::f32::consts::PI * area);
-                CloudPoint { p, n, wi, lt }
+                [Some(CloudPoint { p, n, wi, lt }), light]
             })
+            .flat_map_iter(|pair| pair.into_iter().flatten())
             .filter(|c| c.lt != Vec4::ZERO)
             .collect()
     } else {
         Vec::new()
     };
     let nodes = build_tree(&mut points);
-    ObjectCloud { lanes, eta: t.eta, sigma_tr_min, rejection_control: t.rejection_control, m, points, nodes }
+    ObjectCloud {
+        lanes,
+        eta: t.eta,
+        sigma_tr_min,
+        rejection_control: t.rejection_control,
+        m,
+        points,
+        nodes,
+    }
+}
+
+/// Next-event estimation at cloud point `p` (outward normal `n`): one light sample, MIS-weighted
+/// (power heuristic) against the cosine sampling of the traced direction; returns the stored
+/// entry L_t = T12 · L_e · cos θ · w / pdf · A (with the light's direction) or `None`.
+fn sample_light_at(
+    scene: &Scene,
+    p: Vec3,
+    n: Vec3,
+    wl: &SampledWavelengths,
+    rng: &mut Pcg32,
+    eta: f32,
+    area: f32,
+) -> Option<CloudPoint> {
+    let u_pick = rng.next_f32();
+    let u = rng.next_2d();
+    let (idx, pmf) = scene.pick_light(u_pick)?;
+    let ls = scene.lights[idx].sample_li(p, u, wl)?;
+    let cos = ls.wi.dot(n);
+    if !(ls.pdf > 0.0) || !(cos > 0.0) || ls.li == Vec4::ZERO {
+        return None;
+    }
+    let eps = scene.ray_epsilon_m;
+    let t_max = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) - 2.0 * eps } else { f32::INFINITY };
+    if t_max > 0.0 && scene.accel.occluded(&Ray { o: p + n * eps, d: ls.wi, t_min: 0.0, t_max }) {
+        return None;
+    }
+    let light_pdf = pmf * ls.pdf;
+    let w = if ls.delta {
+        1.0
+    } else {
+        crate::sampling::power_heuristic(1.0, light_pdf, 1.0, cos * std::f32::consts::FRAC_1_PI)
+    };
+    let lt = ls.li * (fresnel_t(cos, eta) * cos * w / light_pdf * area);
+    lt.is_finite().then_some(CloudPoint { p, n, wi: ls.wi, lt })
 }
 
 /// kd-tree over the points (median split on the longest axis); reorders `points` so every node
@@ -615,10 +794,17 @@ fn build_cloud(scene: &Scene, settings: &IntegratorSettings, t: &Translucent, ob
 fn build_tree(points: &mut [CloudPoint]) -> Vec<Node> {
     let mut nodes = Vec::with_capacity(2 * points.len() / LEAF_SIZE + 1);
     let bounds = |pts: &[CloudPoint]| pts.iter().fold(Aabb::EMPTY, |b, c| b.grow(c.p));
-    nodes.push(Node { bounds: bounds(points), start: 0, end: points.len() as u32, left: 0 });
+    nodes.push(Node {
+        bounds: bounds(points),
+        start: 0,
+        end: points.len() as u32,
+        left: 0,
+    });
     let mut todo = vec![0usize];
     while let Some(ni) = todo.pop() {
-        let Node { bounds: b, start, end, .. } = nodes[ni];
+        let Node {
+            bounds: b, start, end, ..
+        } = nodes[ni];
         let n = (end - start) as usize;
         if n <= LEAF_SIZE {
             continue;
@@ -629,8 +815,18 @@ fn build_tree(points: &mut [CloudPoint]) -> Vec<Node> {
         slice.select_nth_unstable_by(mid, |a, c| a.p[axis].total_cmp(&c.p[axis]));
         let left = nodes.len();
         let m = start + mid as u32;
-        nodes.push(Node { bounds: bounds(&points[start as usize..m as usize]), start, end: m, left: 0 });
-        nodes.push(Node { bounds: bounds(&points[m as usize..end as usize]), start: m, end, left: 0 });
+        nodes.push(Node {
+            bounds: bounds(&points[start as usize..m as usize]),
+            start,
+            end: m,
+            left: 0,
+        });
+        nodes.push(Node {
+            bounds: bounds(&points[m as usize..end as usize]),
+            start: m,
+            end,
+            left: 0,
+        });
         nodes[ni].left = left as u32;
         todo.push(left);
         todo.push(left + 1);
