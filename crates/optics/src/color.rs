@@ -2,6 +2,9 @@
 //! the pbrt-v4 / Mitsuba 3 normalisation XYZ = ∫S (x̄, ȳ, z̄) dλ / ∫ȳ dλ, XYZ ↔ linear sRGB (D65),
 //! chromaticity xy and the sRGB transfer curve (IEC 61966-2-1).
 
+// NaN-rejecting comparisons (`!(x > 0.0)`) are deliberate.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 use crate::spectrum::{LAMBDA_MIN_NM, N_DENSE};
 use std::sync::OnceLock;
 
@@ -14,7 +17,8 @@ fn cmf_table() -> &'static [[f64; 3]] {
     static T: OnceLock<Vec<[f64; 3]>> = OnceLock::new();
     T.get_or_init(|| {
         let text = include_str!("../data/cie/cie1931_2deg_xyz_1nm.csv");
-        let (_, cols) = crate::spectrum::read_csv_columns(text).expect("embedded CIE table is valid");
+        let (_, cols) =
+            crate::spectrum::read_csv_columns(text).expect("embedded CIE table is valid");
         assert_eq!(cols[0].len(), N_DENSE, "embedded CIE table has 471 rows");
         (0..N_DENSE)
             .map(|i| {
@@ -68,7 +72,8 @@ const fn xy_to_xyz_y1(xy: [f64; 2]) -> [f64; 3] {
 }
 
 const fn det3(m: [[f64; 3]; 3]) -> f64 {
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
@@ -144,7 +149,11 @@ pub fn xyz_to_xy(xyz: [f64; 3]) -> [f64; 2] {
 
 /// sRGB transfer curve (IEC 61966-2-1): linear [0, 1] → encoded [0, 1]; input clamped to [0, 1].
 pub fn srgb_encode(linear: f64) -> f64 {
-    let v = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
+    let v = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
     if v <= 0.003_130_8 {
         12.92 * v
     } else {
@@ -154,7 +163,11 @@ pub fn srgb_encode(linear: f64) -> f64 {
 
 /// Inverse sRGB transfer curve: encoded [0, 1] → linear [0, 1]; input clamped to [0, 1].
 pub fn srgb_decode(encoded: f64) -> f64 {
-    let v = if encoded.is_nan() { 0.0 } else { encoded.clamp(0.0, 1.0) };
+    let v = if encoded.is_nan() {
+        0.0
+    } else {
+        encoded.clamp(0.0, 1.0)
+    };
     if v <= 0.040_45 {
         v / 12.92
     } else {

@@ -10,6 +10,9 @@
 //! Gauss–Newton solve so that the reflectance lit by D65 reproduces the requested linear-sRGB
 //! colour. Grey inputs (r = g = b) give exactly the constant spectrum r.
 
+// NaN-rejecting comparisons (`!(x > 0.0)`) are deliberate.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 use anyhow::{bail, Context, Result};
 use std::sync::OnceLock;
 
@@ -69,7 +72,12 @@ impl Tabulated {
         let idx = names
             .iter()
             .position(|n| n == value_column)
-            .with_context(|| format!("CSV has no column '{value_column}' (columns: {})", names.join(", ")))?;
+            .with_context(|| {
+                format!(
+                    "CSV has no column '{value_column}' (columns: {})",
+                    names.join(", ")
+                )
+            })?;
         if idx == 0 {
             bail!("CSV column '{value_column}' is the wavelength column");
         }
@@ -132,10 +140,19 @@ pub fn read_csv_columns(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
                 }
                 for (j, f) in fields.iter().enumerate() {
                     let v: f64 = f.parse().with_context(|| {
-                        format!("CSV line {}, column '{}': '{}' is not a number", lineno + 1, n[j], f)
+                        format!(
+                            "CSV line {}, column '{}': '{}' is not a number",
+                            lineno + 1,
+                            n[j],
+                            f
+                        )
                     })?;
                     if !v.is_finite() {
-                        bail!("CSV line {}, column '{}': value is not finite", lineno + 1, n[j]);
+                        bail!(
+                            "CSV line {}, column '{}': value is not finite",
+                            lineno + 1,
+                            n[j]
+                        );
                     }
                     cols[j].push(v);
                 }
@@ -143,7 +160,7 @@ pub fn read_csv_columns(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
         }
     }
     let names = names.context("CSV has no header row")?;
-    if cols.first().map_or(true, |c| c.is_empty()) {
+    if cols.first().is_none_or(|c| c.is_empty()) {
         bail!("CSV has a header but no data rows");
     }
     Ok((names, cols))
@@ -196,7 +213,10 @@ impl Spectrum {
         match self {
             Spectrum::Constant(c) => *c,
             Spectrum::Tabulated(t) => t.eval(lambda_nm),
-            Spectrum::Blackbody { temperature_k, scale } => scale * planck_normalized(lambda_nm, *temperature_k),
+            Spectrum::Blackbody {
+                temperature_k,
+                scale,
+            } => scale * planck_normalized(lambda_nm, *temperature_k),
             Spectrum::RgbAlbedo(a) => a.eval(lambda_nm),
             Spectrum::RgbIlluminant(i) => i.eval(lambda_nm),
         }
@@ -243,7 +263,10 @@ impl DenseSpectrum {
 
     /// Largest sample.
     pub fn max_value(&self) -> f32 {
-        self.samples.iter().copied().fold(f32::NEG_INFINITY, f32::max)
+        self.samples
+            .iter()
+            .copied()
+            .fold(f32::NEG_INFINITY, f32::max)
     }
 }
 
@@ -281,9 +304,15 @@ impl RgbAlbedo {
     pub fn new(rgb: [f64; 3]) -> Self {
         let c = rgb.map(|v| if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) });
         if c[0] == c[1] && c[1] == c[2] {
-            return RgbAlbedo { coeffs: [0.0; 3], constant: Some(c[0]) };
+            return RgbAlbedo {
+                coeffs: [0.0; 3],
+                constant: Some(c[0]),
+            };
         }
-        RgbAlbedo { coeffs: fit_sigmoid(c), constant: None }
+        RgbAlbedo {
+            coeffs: fit_sigmoid(c),
+            constant: None,
+        }
     }
 
     /// Reflectance at `lambda_nm`, in [0, 1].
@@ -317,9 +346,15 @@ impl RgbIlluminant {
         let c = rgb.map(|v| if v.is_nan() || v < 0.0 { 0.0 } else { v });
         let scale = c[0].max(c[1]).max(c[2]);
         if !(scale > 0.0) || !scale.is_finite() {
-            return RgbIlluminant { shape: RgbAlbedo::new([0.0; 3]), scale: 0.0 };
+            return RgbIlluminant {
+                shape: RgbAlbedo::new([0.0; 3]),
+                scale: 0.0,
+            };
         }
-        RgbIlluminant { shape: RgbAlbedo::new(c.map(|v| v / scale)), scale }
+        RgbIlluminant {
+            shape: RgbAlbedo::new(c.map(|v| v / scale)),
+            scale,
+        }
     }
 
     /// Spectral radiance (relative) at `lambda_nm`.
@@ -386,7 +421,9 @@ fn rgb_weights() -> &'static [[f64; 3]] {
 /// in steps (homotopy), which keeps each solve in its basin of convergence.
 fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
     let w = rgb_weights();
-    let ts: Vec<f64> = (0..N_DENSE).map(|i| t_of(LAMBDA_MIN_NM + i as f64)).collect();
+    let ts: Vec<f64> = (0..N_DENSE)
+        .map(|i| t_of(LAMBDA_MIN_NM + i as f64))
+        .collect();
     // Residual and Jacobian of rgb(c) − target.
     let eval = |c: [f64; 3], tgt: [f64; 3]| -> ([f64; 3], [[f64; 3]; 3]) {
         let mut f = [0.0; 3];
@@ -412,7 +449,11 @@ fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
     let mean = (target[0] + target[1] + target[2]) / 3.0;
     let mean = mean.clamp(1e-4, 1.0 - 1e-4);
     // Grey start: sigmoid(c2) = mean ⇒ c2 = (2m − 1)/(2√(m(1−m))).
-    let mut c = [0.0, 0.0, (2.0 * mean - 1.0) / (2.0 * (mean * (1.0 - mean)).sqrt())];
+    let mut c = [
+        0.0,
+        0.0,
+        (2.0 * mean - 1.0) / (2.0 * (mean * (1.0 - mean)).sqrt()),
+    ];
     let grey = [mean; 3];
     const STEPS: usize = 8;
     for step in 1..=STEPS {
@@ -423,7 +464,7 @@ fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
         let (mut f, mut j) = eval(c, tgt);
         let mut err = f.iter().map(|v| v * v).sum::<f64>();
         for _ in 0..iters {
-            if err < 1e-20 {
+            if err < if step == STEPS { 1e-24 } else { 1e-10 } {
                 break;
             }
             // Levenberg–Marquardt step: (JᵀJ + λ diag) δ = −Jᵀf.
@@ -471,7 +512,8 @@ fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
 /// Solves a 3×3 linear system by Cramer's rule; None when singular.
 fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
     let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     };
     let d = det(a);

@@ -40,8 +40,14 @@ fn fresnel_moment_fits_match_numerical_integration() {
         let eta = 0.6 + i as f64 * 0.02;
         let c1 = moment_numerical(1, eta);
         let c2 = moment_numerical(2, eta);
-        assert!((c1 - fresnel_moment(1, 1.0 / eta)).abs() < 1e-8, "eta {eta}");
-        assert!((c2 - fresnel_moment(2, 1.0 / eta)).abs() < 1e-8, "eta {eta}");
+        assert!(
+            (c1 - fresnel_moment(1, 1.0 / eta)).abs() < 1e-8,
+            "eta {eta}"
+        );
+        assert!(
+            (c2 - fresnel_moment(2, 1.0 / eta)).abs() < 1e-8,
+            "eta {eta}"
+        );
         let e1 = (two_c1(eta) - 2.0 * c1).abs();
         let e2 = (three_c2(eta) - 3.0 * c2).abs();
         worst = (worst.0.max(e1), worst.1.max(e2));
@@ -54,10 +60,23 @@ fn fresnel_moment_fits_match_numerical_integration() {
         } else {
             (1.5e-3, 4e-3)
         };
-        assert!(e1 < t1, "2C1({eta}): fit {} vs {} (numerical)", two_c1(eta), 2.0 * c1);
-        assert!(e2 < t2, "3C2({eta}): fit {} vs {} (numerical)", three_c2(eta), 3.0 * c2);
+        assert!(
+            e1 < t1,
+            "2C1({eta}): fit {} vs {} (numerical)",
+            two_c1(eta),
+            2.0 * c1
+        );
+        assert!(
+            e2 < t2,
+            "3C2({eta}): fit {} vs {} (numerical)",
+            three_c2(eta),
+            3.0 * c2
+        );
     }
-    eprintln!("max |fit - numerical|: 2C1 {:.2e}, 3C2 {:.2e}", worst.0, worst.1);
+    eprintln!(
+        "max |fit - numerical|: 2C1 {:.2e}, 3C2 {:.2e}",
+        worst.0, worst.1
+    );
     // Boundary terms of the directional dipole at η = 1 (index-matched): no reflection, so
     // C_φ = 1/4, C_E = 1/2, A = 1.
     assert!((c_phi(1.0) - 0.25).abs() < 2e-3 && (c_e(1.0) - 0.5).abs() < 5e-3);
@@ -72,15 +91,28 @@ fn diffuse_fresnel_reflectance_fit() {
     for i in 0..=10 {
         let eta = 1.0 + i as f64 * 0.1;
         let num = 2.0 * moment_numerical(1, eta);
-        assert!((fdr_egan_hilgeman(eta) - num).abs() < 6e-3, "eta {eta}: {} vs {num}", fdr_egan_hilgeman(eta));
+        assert!(
+            (fdr_egan_hilgeman(eta) - num).abs() < 6e-3,
+            "eta {eta}: {} vs {num}",
+            fdr_egan_hilgeman(eta)
+        );
     }
     let num = 2.0 * moment_numerical(1, 1.3);
     let a_num = (1.0 + num) / (1.0 - num);
-    assert!((a_standard(1.3) - a_num).abs() < 0.01, "{} vs {a_num}", a_standard(1.3));
+    assert!(
+        (a_standard(1.3) - a_num).abs() < 0.01,
+        "{} vs {a_num}",
+        a_standard(1.3)
+    );
 }
 
 fn props(eta: f64, sigma_s_per_mm: f64, sigma_a_per_mm: f64, g: f64) -> OpticalProperties {
-    OpticalProperties { eta, sigma_s_per_m: sigma_s_per_mm * 1e3, sigma_a_per_m: sigma_a_per_mm * 1e3, g }
+    OpticalProperties {
+        eta,
+        sigma_s_per_m: sigma_s_per_mm * 1e3,
+        sigma_a_per_m: sigma_a_per_mm * 1e3,
+        g,
+    }
 }
 
 /// ∫R_d(r) 2πr dr equals the closed form (α'/2)(1 + e^{−(4/3)A√(3(1−α'))})e^{−√(3(1−α'))} to
@@ -89,12 +121,22 @@ fn props(eta: f64, sigma_s_per_mm: f64, sigma_a_per_mm: f64, g: f64) -> OpticalP
 fn standard_dipole_integral_equals_closed_form() {
     let mut worst = 0.0f64;
     for &eta in &[1.0, 1.3, 1.5, 0.8] {
-        for &(s, a) in &[(1.0, 0.001), (1.0, 0.1), (0.5, 0.5), (2.0, 0.0), (0.01, 1.0), (100.0, 0.3)] {
+        for &(s, a) in &[
+            (1.0, 0.001),
+            (1.0, 0.1),
+            (0.5, 0.5),
+            (2.0, 0.0),
+            (0.01, 1.0),
+            (100.0, 0.3),
+        ] {
             let d = StandardDipole::new(&props(eta, s, a, 0.0)).unwrap();
             let num = d.rd_numerical();
             let cf = d.rd_closed_form();
             worst = worst.max((num - cf).abs());
-            assert!((num - cf).abs() < 1e-4, "eta {eta} s {s} a {a}: {num} vs {cf}");
+            assert!(
+                (num - cf).abs() < 1e-4,
+                "eta {eta} s {s} a {a}: {num} vs {cf}"
+            );
         }
     }
     eprintln!("standard dipole: max |numerical - closed form| = {worst:.2e}");
@@ -119,14 +161,20 @@ fn standard_dipole_similarity() {
 /// depends on rounding of the tabulated coefficients).
 #[test]
 fn jensen_2001_published_reflectances() {
-    let published = [("Apple", [0.85, 0.84, 0.53]), ("Potato", [0.77, 0.62, 0.21])];
+    let published = [
+        ("Apple", [0.85, 0.84, 0.53]),
+        ("Potato", [0.77, 0.62, 0.21]),
+    ];
     for (name, rd) in published {
         let m = find_medium(name).unwrap();
         for c in 0..3 {
             let d = StandardDipole::new(&m.channel(c)).unwrap();
             let cf = d.rd_closed_form();
             let num = d.rd_numerical();
-            eprintln!("{name} channel {c}: closed form {cf:.4}, numerical {num:.4}, published {}", rd[c]);
+            eprintln!(
+                "{name} channel {c}: closed form {cf:.4}, numerical {num:.4}, published {}",
+                rd[c]
+            );
             assert!((cf - rd[c]).abs() < 0.01, "{name} {c}: {cf} vs {}", rd[c]);
             assert!((num - cf).abs() < 1e-4);
         }
@@ -140,7 +188,14 @@ fn jensen_2001_published_reflectances() {
         }
     }
     let sp = find_medium("spectralon").unwrap();
-    assert!((StandardDipole::new(&sp.channel(1)).unwrap().rd_closed_form() - 1.0).abs() < 1e-12);
+    assert!(
+        (StandardDipole::new(&sp.channel(1))
+            .unwrap()
+            .rd_closed_form()
+            - 1.0)
+            .abs()
+            < 1e-12
+    );
 }
 
 #[test]
@@ -210,34 +265,44 @@ fn directional_dipole_is_invariant_under_rigid_motion() {
         let r = rotate(q, p);
         [r[0] + t[0], r[1] + t[1], r[2] + t[2]]
     };
-    let moved = m.sd(mv([0.0; 3]), rotate(q, ni), rotate(q, wi), mv(xo), rotate(q, no));
+    let moved = m.sd(
+        mv([0.0; 3]),
+        rotate(q, ni),
+        rotate(q, wi),
+        mv(xo),
+        rotate(q, no),
+    );
     assert!((moved / base - 1.0).abs() < 1e-10, "{moved} vs {base}");
 }
 
 /// Normal incidence on a plane: the 2-D Cartesian integral of π S_d over the plane (the general
-/// 3-D code path, all azimuths) equals the radial integral.
+/// 3-D code path, all azimuths; midpoint rule on 40 000 × 8 nodes) equals the adaptive radial
+/// integral to 2e-5, so the CLI's `rd` meets its 1e-4 accuracy target.
 #[test]
 fn directional_dipole_plane_integral_two_ways() {
-    let m = DirectionalDipole::new(&props(1.3, 1.0, 0.01, 0.0)).unwrap();
-    let radial = m.rd_numerical();
-    let n = [0.0, 0.0, 1.0];
-    // Polar grid with azimuths offset so that no sample lies on the axes; r = L u/(1-u).
-    let l = 1e-3;
-    let (nu, nphi) = (4000, 16);
-    let mut sum = 0.0;
-    for i in 0..nu {
-        let u = (i as f64 + 0.5) / nu as f64;
-        let r = l * u / (1.0 - u);
-        let jac = l / ((1.0 - u) * (1.0 - u)) / nu as f64;
-        for j in 0..nphi {
-            let phi = (j as f64 + 0.37) / nphi as f64 * 2.0 * std::f64::consts::PI;
-            let xo = [r * phi.cos(), r * phi.sin(), 0.0];
-            sum += std::f64::consts::PI * m.sd([0.0; 3], n, n, xo, n) * r * jac * 2.0 * std::f64::consts::PI
-                / nphi as f64;
+    use std::f64::consts::PI;
+    // α' = 0.99 (η = 1.3) and α' = 0.5 (η = 1.5, where clamping at 0 can act), L = 1 mm.
+    for &(eta, ss, sa) in &[(1.3, 1.0, 0.01), (1.5, 1.0, 1.0)] {
+        let m = DirectionalDipole::new(&props(eta, ss, sa, 0.0)).unwrap();
+        let radial = m.rd_numerical();
+        let n = [0.0, 0.0, 1.0];
+        // Polar grid with azimuths offset so that no sample lies on the axes; r = L u/(1-u).
+        let l = 1e-3;
+        let (nu, nphi) = (40000, 8);
+        let mut sum = 0.0;
+        for i in 0..nu {
+            let u = (i as f64 + 0.5) / nu as f64;
+            let r = l * u / (1.0 - u);
+            let jac = l / ((1.0 - u) * (1.0 - u)) / nu as f64;
+            for j in 0..nphi {
+                let phi = (j as f64 + 0.37) / nphi as f64 * 2.0 * PI;
+                let xo = [r * phi.cos(), r * phi.sin(), 0.0];
+                sum += PI * m.sd([0.0; 3], n, n, xo, n) * r * jac * 2.0 * PI / nphi as f64;
+            }
         }
+        eprintln!("directional rd (eta {eta}): radial {radial:.7}, polar grid {sum:.7}");
+        assert!((sum - radial).abs() < 2e-5, "{sum} vs {radial}");
     }
-    eprintln!("directional rd: radial {radial:.6}, polar grid {sum:.6}");
-    assert!((sum - radial).abs() < 1e-3, "{sum} vs {radial}");
 }
 
 /// Deterministic xorshift64* generator.
@@ -309,7 +374,12 @@ fn dipoles_against_monte_carlo() {
     for (i, &(albedo, tol)) in [(0.99, 0.04), (0.9, 0.12)].iter().enumerate() {
         let eta = 1.3;
         let (mc, se) = mc_half_space(eta, albedo, 200_000, 12345 + i as u64);
-        let p = OpticalProperties { eta, sigma_s_per_m: albedo * 1e3, sigma_a_per_m: (1.0 - albedo) * 1e3, g: 0.0 };
+        let p = OpticalProperties {
+            eta,
+            sigma_s_per_m: albedo * 1e3,
+            sigma_a_per_m: (1.0 - albedo) * 1e3,
+            g: 0.0,
+        };
         let dd = DirectionalDipole::new(&p).unwrap();
         let dd_out = dd.rd_numerical() * 4.0 * c_phi(1.0 / eta);
         let sd = StandardDipole::new(&p).unwrap().rd_closed_form();
@@ -318,7 +388,10 @@ fn dipoles_against_monte_carlo() {
             (sd / mc - 1.0) * 100.0,
             (dd_out / mc - 1.0) * 100.0
         );
-        assert!((sd - mc).abs() < tol * mc + 4.0 * se, "alpha' {albedo}: {sd} vs MC {mc} ± {se}");
+        assert!(
+            (sd - mc).abs() < tol * mc + 4.0 * se,
+            "alpha' {albedo}: {sd} vs MC {mc} ± {se}"
+        );
     }
 }
 
@@ -337,13 +410,106 @@ fn directional_dipole_infinite_medium_term_closed_forms() {
         let n = [0.0, 0.0, 1.0];
         let (d, st, cp, ce, nn) = (m.props.d_m, m.props.sigma_tr_per_m, m.c_phi, m.c_e, m.norm);
         let c = 0.7e-3;
-        let real = integrate_plane(|r| m.sd_prime([r, 0.0, 0.0], [0.0, 0.0, -1.0], (r * r + c * c).sqrt(), n), c);
-        let real_cf = 2.0 * pi * nn * (cp * (-st * c).exp() / (st * d) + 3.0 * d * ce * (-st * c).exp() / c);
-        assert!((real / real_cf - 1.0).abs() < 1e-8, "real: {real} vs {real_cf}");
+        let real = integrate_plane(
+            |r| m.sd_prime([r, 0.0, 0.0], [0.0, 0.0, -1.0], (r * r + c * c).sqrt(), n),
+            c,
+        );
+        let real_cf =
+            2.0 * pi * nn * (cp * (-st * c).exp() / (st * d) + 3.0 * d * ce * (-st * c).exp() / c);
+        assert!(
+            (real / real_cf - 1.0).abs() < 1e-8,
+            "real: {real} vs {real_cf}"
+        );
         let b = 2.0 * m.a * m.d_e_m;
-        let virt = integrate_plane(|r| m.sd_prime([r, 0.0, -b], [0.0, 0.0, 1.0], (r * r + b * b).sqrt(), n), b);
+        let virt = integrate_plane(
+            |r| m.sd_prime([r, 0.0, -b], [0.0, 0.0, 1.0], (r * r + b * b).sqrt(), n),
+            b,
+        );
         let e = (-st * b).exp();
-        let virt_cf = 2.0 * pi * nn * (cp * e / (st * d) - 3.0 * cp * e - ce * e * (1.0 - 3.0 * d * st));
-        assert!((virt / virt_cf - 1.0).abs() < 1e-8, "virtual: {virt} vs {virt_cf}");
+        let virt_cf =
+            2.0 * pi * nn * (cp * e / (st * d) - 3.0 * cp * e - ce * e * (1.0 - 3.0 * d * st));
+        assert!(
+            (virt / virt_cf - 1.0).abs() < 1e-8,
+            "virtual: {virt} vs {virt_cf}"
+        );
     }
+}
+
+/// Refraction into the medium obeys Snell's law (sin θ_t = sin θ_i / η), gives a unit vector
+/// pointing inwards, and S_d is finite and ≥ 0 for random front- and back-lit configurations.
+#[test]
+fn directional_dipole_refraction_and_positivity() {
+    let m = DirectionalDipole::new(&props(1.4, 1.5, 0.02, 0.3)).unwrap();
+    let mut rng = Rng(99);
+    let unit = |rng: &mut Rng| {
+        let z = 2.0 * rng.next() - 1.0;
+        let phi = 2.0 * std::f64::consts::PI * rng.next();
+        let s = (1.0 - z * z).sqrt();
+        [s * phi.cos(), s * phi.sin(), z]
+    };
+    for _ in 0..2000 {
+        let ni = unit(&mut rng);
+        let mut wi = unit(&mut rng);
+        let c = wi[0] * ni[0] + wi[1] * ni[1] + wi[2] * ni[2];
+        if c < 0.0 {
+            wi = wi.map(|v| -v);
+        }
+        let c = c.abs();
+        let w12 = m.refract_in(wi, ni);
+        let len = (w12[0] * w12[0] + w12[1] * w12[1] + w12[2] * w12[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-12);
+        let ct = -(w12[0] * ni[0] + w12[1] * ni[1] + w12[2] * ni[2]);
+        assert!(ct > 0.0);
+        let (si, st) = (
+            (1.0 - c * c).max(0.0).sqrt(),
+            (1.0 - ct * ct).max(0.0).sqrt(),
+        );
+        assert!((st - si / 1.4).abs() < 1e-12, "{st} vs {}", si / 1.4);
+        let xo = unit(&mut rng).map(|v| v * 2e-3 * rng.next());
+        let no = unit(&mut rng);
+        let s = m.sd([0.0; 3], ni, wi, xo, no);
+        assert!(s.is_finite() && s >= 0.0, "{s}");
+    }
+    // Coincident points: the modified normal falls back to nᵢ; the value is finite and positive.
+    let n = [0.0, 0.0, 1.0];
+    let s0 = m.sd([0.0; 3], n, n, [0.0; 3], n);
+    assert!(s0.is_finite() && s0 > 0.0);
+}
+
+/// Two independent transcriptions of Narasimhan et al. 2006 agree: σ_s(1 − g) and σ_a of our preset
+/// table (from Mitsuba 0.5) against pbrt-v3's reduced table, within 2 % (Sprite's tiny σ_s within
+/// 4 %, rounding of 1e-4 values), for all 35 media and channels.
+#[test]
+fn narasimhan_presets_match_pbrt_reduced_table() {
+    let text = include_str!("../data/media/narasimhan2006_media_reduced_pbrt3.csv");
+    let mut rows = 0;
+    for line in text
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .skip(1)
+    {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let v: Vec<f64> = f[1..].iter().map(|x| x.parse().unwrap()).collect();
+        let m = find_medium(f[0]).unwrap_or_else(|| panic!("{} missing", f[0]));
+        let tol = if f[0] == "Sprite" { 0.04 } else { 0.02 };
+        for c in 0..3 {
+            let sp = m.sigma_s_per_m[c] * (1.0 - m.g[c]) * 1e-3;
+            let sa = m.sigma_a_per_m[c] * 1e-3;
+            let close = |a: f64, b: f64| (a - b).abs() <= tol * b.abs().max(1e-12) + 1e-9;
+            assert!(
+                close(sp, v[c]),
+                "{} ch {c}: sigma_s' {sp} vs {}",
+                f[0],
+                v[c]
+            );
+            assert!(
+                close(sa, v[3 + c]),
+                "{} ch {c}: sigma_a {sa} vs {}",
+                f[0],
+                v[3 + c]
+            );
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, 35);
 }

@@ -29,7 +29,9 @@ fn cmf_values_and_interpolation() {
     assert!(cie_1931_xyz_bar(830.0)[0] > 0.0);
     // x̄(600 nm) = 1.0622, ȳ = 0.631, z̄ = 0.0008 (CIE 1931 2° table, 5-nm rows).
     let c = cie_1931_xyz_bar(600.0);
-    assert!((c[0] - 1.0622).abs() < 1e-4 && (c[1] - 0.631).abs() < 1e-3 && (c[2] - 0.0008).abs() < 1e-4);
+    assert!(
+        (c[0] - 1.0622).abs() < 1e-4 && (c[1] - 0.631).abs() < 1e-3 && (c[2] - 0.0008).abs() < 1e-4
+    );
 }
 
 /// D65 → xy = (0.3127, 0.3290) (CIE 015:2004, Table T.3) to 1e-4.
@@ -53,10 +55,14 @@ fn equal_energy_chromaticity() {
 fn illuminant_a_chromaticity() {
     let a = |l: f64| {
         let c2: f64 = 1.435e7; // nm·K
-        (560.0 / l).powi(5) * ((c2 / (2848.0 * 560.0)).exp() - 1.0) / ((c2 / (2848.0 * l)).exp() - 1.0)
+        (560.0 / l).powi(5) * ((c2 / (2848.0 * 560.0)).exp() - 1.0)
+            / ((c2 / (2848.0 * l)).exp() - 1.0)
     };
     let xy = xyz_to_xy(spectrum_to_xyz(a));
-    assert!((xy[0] - 0.44757).abs() < 1e-4 && (xy[1] - 0.40745).abs() < 1e-4, "{xy:?}");
+    assert!(
+        (xy[0] - 0.44757).abs() < 1e-4 && (xy[1] - 0.40745).abs() < 1e-4,
+        "{xy:?}"
+    );
 }
 
 /// The sRGB matrix maps D65 white (Y = 1) to (1, 1, 1), matches IEC 61966-2-1's published matrices,
@@ -78,16 +84,32 @@ fn srgb_matrix() {
     // IEC 61966-2-1:1999 publishes both matrices to 4 decimals (derived from the same primaries
     // and the D65 xy; Lindbloom's 7-digit matrix differs in the 4th digit because it uses the
     // XYZ white (0.95047, 1, 1.08883) instead of xy (0.3127, 0.3290)).
-    let published = [[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]];
+    let published = [
+        [0.4124, 0.3576, 0.1805],
+        [0.2126, 0.7152, 0.0722],
+        [0.0193, 0.1192, 0.9505],
+    ];
     for i in 0..3 {
         for j in 0..3 {
-            assert!((SRGB_TO_XYZ[i][j] - published[i][j]).abs() < 1e-4, "{i},{j}: {}", SRGB_TO_XYZ[i][j]);
+            assert!(
+                (SRGB_TO_XYZ[i][j] - published[i][j]).abs() < 1e-4,
+                "{i},{j}: {}",
+                SRGB_TO_XYZ[i][j]
+            );
         }
     }
-    let published_inv = [[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]];
+    let published_inv = [
+        [3.2406, -1.5372, -0.4986],
+        [-0.9689, 1.8758, 0.0415],
+        [0.0557, -0.2040, 1.0570],
+    ];
     for i in 0..3 {
         for j in 0..3 {
-            assert!((XYZ_TO_SRGB[i][j] - published_inv[i][j]).abs() < 5e-4, "{i},{j}: {}", XYZ_TO_SRGB[i][j]);
+            assert!(
+                (XYZ_TO_SRGB[i][j] - published_inv[i][j]).abs() < 5e-4,
+                "{i},{j}: {}",
+                XYZ_TO_SRGB[i][j]
+            );
         }
     }
     let v = [0.3, 0.7, 0.1];
@@ -115,12 +137,12 @@ fn srgb_transfer_curve() {
         assert!((srgb_decode(srgb_encode(x)) - x).abs() < 1e-6, "{x}");
     }
     assert_eq!(srgb_encode(f64::NAN), 0.0);
-
 }
 
 #[test]
 fn cie_table_is_complete() {
-    let (names, cols) = read_csv_columns(include_str!("../data/cie/cie1931_2deg_xyz_1nm.csv")).unwrap();
+    let (names, cols) =
+        read_csv_columns(include_str!("../data/cie/cie1931_2deg_xyz_1nm.csv")).unwrap();
     assert_eq!(names, ["wavelength_nm", "xbar", "ybar", "zbar"]);
     assert_eq!(cols[0].len(), 471);
     assert_eq!(cols[0][0], LAMBDA_MIN_NM);

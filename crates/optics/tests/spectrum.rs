@@ -25,7 +25,10 @@ fn csv_reader() {
     let text = "# comment\n\nwavelength_nm, value ,other\n400,0.5,1\n# mid comment\n500,0.25,2\n";
     let (names, cols) = read_csv_columns(text).unwrap();
     assert_eq!(names, ["wavelength_nm", "value", "other"]);
-    assert_eq!(cols, vec![vec![400.0, 500.0], vec![0.5, 0.25], vec![1.0, 2.0]]);
+    assert_eq!(
+        cols,
+        vec![vec![400.0, 500.0], vec![0.5, 0.25], vec![1.0, 2.0]]
+    );
     let t = Tabulated::from_csv(text, "value").unwrap();
     assert_eq!(t.eval(450.0), 0.375);
     let err = read_csv_columns("a,b\n1,x\n").unwrap_err().to_string();
@@ -50,7 +53,13 @@ fn planck_integrates_to_stefan_boltzmann() {
         for i in 0..=n {
             let u = lmin + i as f64 * h;
             let l = u.exp();
-            let w = if i == 0 || i == n { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+            let w = if i == 0 || i == n {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
             s += w * planck_radiance(l, t) * l;
         }
         s *= h / 3.0;
@@ -76,7 +85,11 @@ fn wien_displacement() {
             }
         }
         let lmax = 0.5 * (a + b);
-        assert!((lmax * t / 2.897_771_955e-3 - 1.0).abs() < 1e-7, "T={t}: {}", lmax * t);
+        assert!(
+            (lmax * t / 2.897_771_955e-3 - 1.0).abs() < 1e-7,
+            "T={t}: {}",
+            lmax * t
+        );
         // Normalised blackbody: 1 at the peak, below elsewhere.
         assert!((planck_normalized(lmax * 1e9, t) - 1.0).abs() < 1e-9);
         assert!(planck_normalized(550.0, t) <= 1.0);
@@ -91,7 +104,10 @@ fn planck_spot_value() {
     assert!((b / 1.2107e13 - 1.0).abs() < 1e-3, "{b}");
     assert_eq!(planck_radiance(-1.0, 5000.0), 0.0);
     assert_eq!(planck_radiance(500e-9, 0.0), 0.0);
-    let s = Spectrum::Blackbody { temperature_k: 5000.0, scale: 2.0 };
+    let s = Spectrum::Blackbody {
+        temperature_k: 5000.0,
+        scale: 2.0,
+    };
     assert!((s.eval(500.0) - 2.0 * planck_normalized(500.0, 5000.0)).abs() < 1e-15);
 }
 
@@ -151,14 +167,22 @@ fn uplift_random_colours_bounded_and_round_trip() {
         let a = RgbAlbedo::new(rgb);
         for i in 0..=940 {
             let v = a.eval(360.0 + i as f64 * 0.5);
-            assert!((0.0..=1.0).contains(&v), "{rgb:?} at {} nm: {v}", 360.0 + i as f64 * 0.5);
+            assert!(
+                (0.0..=1.0).contains(&v),
+                "{rgb:?} at {} nm: {v}",
+                360.0 + i as f64 * 0.5
+            );
         }
         let back = a.linear_srgb();
         let e = (0..3).map(|k| (back[k] - rgb[k]).abs()).fold(0.0, f64::max);
         worst = worst.max(e);
         sum += e;
     }
-    eprintln!("uplift round trip: mean max-abs error {:.2e}, worst {:.2e}", sum / n as f64, worst);
+    eprintln!(
+        "uplift round trip: mean max-abs error {:.2e}, worst {:.2e}",
+        sum / n as f64,
+        worst
+    );
     let mean = sum / n as f64;
     assert!(mean < 1e-6, "mean error {mean}");
     assert!(worst < 1e-4, "worst error {worst}");
@@ -200,7 +224,11 @@ fn uplift_corners() {
 fn rgb_illuminant_round_trip() {
     let mut seed = 42u64;
     for _ in 0..200 {
-        let rgb = [rng(&mut seed) * 5.0, rng(&mut seed) * 5.0, rng(&mut seed) * 5.0];
+        let rgb = [
+            rng(&mut seed) * 5.0,
+            rng(&mut seed) * 5.0,
+            rng(&mut seed) * 5.0,
+        ];
         let s = RgbIlluminant::new(rgb);
         let back = xyz_to_linear_srgb(spectrum_to_xyz(|l| s.eval(l)));
         let m = rgb[0].max(rgb[1]).max(rgb[2]);
@@ -209,4 +237,16 @@ fn rgb_illuminant_round_trip() {
         }
     }
     assert_eq!(RgbIlluminant::new([0.0, 0.0, 0.0]).eval(550.0), 0.0);
+}
+
+/// Near-grey, near-white and near-black colours (where the sigmoid must approach 0 or 1 closely)
+/// round-trip to within 1e-3.
+#[test]
+fn uplift_near_degenerate_colours() {
+    for rgb in [[0.5, 0.5, 0.5000001], [1.0, 1.0, 0.999], [1e-9, 0.0, 0.0], [0.0, 1e-4, 1.0], [1.0, 1e-6, 1.0]] {
+        let back = RgbAlbedo::new(rgb).linear_srgb();
+        for k in 0..3 {
+            assert!((back[k] - rgb[k]).abs() < 1e-3, "{rgb:?} -> {back:?}");
+        }
+    }
 }
