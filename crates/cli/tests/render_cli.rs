@@ -341,3 +341,33 @@ fn time_limit_stops_and_records_no_spp_target() {
     run_ok(&t.0, &["render", "--resume", "t.ckpt", "--spp", &more, "--quiet", "--out", "u.pfm"]);
     assert_eq!(Checkpoint::read(&t.path("t.ckpt")).unwrap().film.samples_per_pixel(), ck.film.samples_per_pixel() + 2);
 }
+
+/// A checkpoint that cannot be written any more (its folder vanished mid-render) does not cost
+/// the render: lucent warns, keeps going, still writes the images, and then fails (exit 1).
+#[test]
+fn lost_checkpoint_folder_still_yields_the_images() {
+    use std::time::{Duration, Instant};
+    let t = Scratch::new("lost-ckpt");
+    std::fs::create_dir_all(t.path("ckpts")).unwrap();
+    let child = lucent()
+        .current_dir(&t.0)
+        .args(["render", "--width", "16", "--height", "16", "--time", "2", "--quiet"])
+        .args(["--checkpoint", "ckpts/c.ckpt", "--checkpoint-interval", "0.05", "--out", "img.pfm"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !t.path("ckpts/c.ckpt").exists() {
+        assert!(Instant::now() < deadline, "no checkpoint within 60 s");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::fs::remove_dir_all(t.path("ckpts")).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("warning") && stderr.contains("c.ckpt"), "{stderr}");
+    assert!(stderr.lines().last().unwrap().starts_with("lucent: error: "), "{stderr}");
+    let img = read_image(&t.path("img.pfm")).unwrap();
+    assert!(img.rgb.iter().any(|p| p[1] > 0.0));
+}

@@ -219,37 +219,7 @@ impl Checkpoint {
 
     /// Serialise to the binary format described in the module documentation.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let id = &self.identity;
-        let n = self.film.pixel_count();
-        let mut b = Vec::with_capacity(128 + id.scene_name.len() + 24 * self.runs.len() + 24 * n);
-        b.extend_from_slice(MAGIC);
-        b.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
-        b.extend_from_slice(&id.width.to_le_bytes());
-        b.extend_from_slice(&id.height.to_le_bytes());
-        b.extend_from_slice(&id.scene_hash.to_le_bytes());
-        b.extend_from_slice(&(id.scene_name.len() as u32).to_le_bytes());
-        b.extend_from_slice(id.scene_name.as_bytes());
-        b.push(kind_code(id.settings.kind));
-        b.extend_from_slice(&id.settings.max_depth.to_le_bytes());
-        b.extend_from_slice(&id.settings.rr_depth.to_le_bytes());
-        b.extend_from_slice(&self.target_spp.unwrap_or(0).to_le_bytes());
-        b.extend_from_slice(&self.film.samples_per_pixel().to_le_bytes());
-        b.extend_from_slice(&self.film.rejected_samples().to_le_bytes());
-        b.extend_from_slice(&(self.runs.len() as u32).to_le_bytes());
-        for r in &self.runs {
-            b.extend_from_slice(&r.seed.to_le_bytes());
-            b.extend_from_slice(&r.first_pass.to_le_bytes());
-            b.extend_from_slice(&r.passes.to_le_bytes());
-        }
-        for s in self.film.sums() {
-            for v in s {
-                b.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        let mut h = Fnv1a64::new();
-        h.write(&b);
-        b.extend_from_slice(&h.finish().to_le_bytes());
-        b
+        encode(&self.identity, self.target_spp, &self.runs, &self.film)
     }
 
     /// Parse the binary format; errors say which field is wrong (without the file name).
@@ -322,11 +292,14 @@ impl Checkpoint {
 
     /// Write atomically (temporary name, then rename): a failed write leaves any old file intact.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let bytes = self.to_bytes();
-        crate::image_io::write_atomic(path, |tmp| {
-            std::fs::write(tmp, &bytes).with_context(|| format!("cannot write {}", tmp.display()))
-        })
-        .with_context(|| format!("{}: cannot write checkpoint", path.display()))
+        write_bytes(path, &self.to_bytes())
+    }
+
+    /// Write the checkpoint of a single run of `seed` (passes `0..film.samples_per_pixel()`)
+    /// atomically, without copying the film.
+    pub fn write_single_run(path: &Path, identity: &RenderIdentity, seed: u64, target_spp: Option<u64>, film: &Film) -> Result<()> {
+        let runs = [Run { seed, first_pass: 0, passes: film.samples_per_pixel() }];
+        write_bytes(path, &encode(identity, target_spp, &runs, film))
     }
 
     /// Read a checkpoint; errors name the file.
@@ -384,38 +357,116 @@ impl Checkpoint {
     /// Merge checkpoints of independent runs of the same render: sums and sample counts add,
     /// so each run is weighted by its number of samples. Refuses checkpoints of another scene,
     /// resolution or integrator than the first, and runs that repeat passes of the same seed.
+    /// (To merge many large checkpoints without holding them all in memory, use [`Merger`].)
     pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint> {
-        let Some(((first_path, first), rest)) = parts.split_first() else {
-            bail!("nothing to merge: no checkpoints given");
-        };
-        let mut merged = first.clone();
-        merged.target_spp = None;
-        let mut origin: Vec<(Run, &Path)> = first.runs.iter().map(|r| (*r, first_path.as_path())).collect();
-        for (path, c) in rest {
-            c.check_matches(path, &first.identity)
-                .with_context(|| format!("cannot merge with {}", first_path.display()))?;
-            for run in &c.runs {
-                if let Some((other, other_path)) = origin.iter().find(|(o, _)| o.overlaps(run)) {
-                    bail!(
-                        "{}: seed {} passes {}..{} were already merged from {} (seed {} passes {}..{}): \
-                         the same seed gives the same samples; render each part with its own --seed",
-                        path.display(),
-                        run.seed,
-                        run.first_pass,
-                        run.end_pass(),
-                        other_path.display(),
-                        other.seed,
-                        other.first_pass,
-                        other.end_pass()
-                    );
-                }
-                origin.push((*run, path.as_path()));
-            }
-            merged.film.add_film(&c.film)?;
-            merged.runs.extend_from_slice(&c.runs);
+        let mut m = Merger::new();
+        for (path, c) in parts {
+            m.add(path, c.clone())?;
         }
-        Ok(merged)
+        m.finish()
     }
+}
+
+/// Merges checkpoints one at a time, so that only the running total and one part are in memory.
+#[derive(Debug, Default)]
+pub struct Merger {
+    merged: Option<(PathBuf, Checkpoint)>,
+    origin: Vec<(Run, PathBuf)>,
+}
+
+impl Merger {
+    /// An empty merge.
+    pub fn new() -> Merger {
+        Merger::default()
+    }
+
+    /// Add the checkpoint read from `path` (the path names it in errors).
+    pub fn add(&mut self, path: &Path, part: Checkpoint) -> Result<()> {
+        if let Some((first_path, merged)) = &self.merged {
+            part.check_matches(path, &merged.identity)
+                .with_context(|| format!("cannot merge with {}", first_path.display()))?;
+        }
+        for (i, run) in part.runs.iter().enumerate() {
+            let earlier = self.origin.iter().map(|(r, p)| (r, p.as_path()));
+            let within = part.runs[..i].iter().map(|r| (r, path));
+            if let Some((other, other_path)) = earlier.chain(within).find(|(o, _)| o.overlaps(run)) {
+                bail!(
+                    "{}: seed {} passes {}..{} were already merged from {} (seed {} passes {}..{}): \
+                     the same seed gives the same samples; render each part with its own --seed",
+                    path.display(),
+                    run.seed,
+                    run.first_pass,
+                    run.end_pass(),
+                    other_path.display(),
+                    other.seed,
+                    other.first_pass,
+                    other.end_pass()
+                );
+            }
+        }
+        self.origin.extend(part.runs.iter().map(|r| (*r, path.to_path_buf())));
+        match &mut self.merged {
+            None => {
+                let mut first = part;
+                first.target_spp = None;
+                self.merged = Some((path.to_path_buf(), first));
+            }
+            Some((_, merged)) => {
+                merged.film.add_film(&part.film)?;
+                merged.runs.extend_from_slice(&part.runs);
+            }
+        }
+        Ok(())
+    }
+
+    /// The merged checkpoint; an error if nothing was added.
+    pub fn finish(self) -> Result<Checkpoint> {
+        match self.merged {
+            Some((_, c)) => Ok(c),
+            None => bail!("nothing to merge: no checkpoints given"),
+        }
+    }
+}
+
+/// Serialise to the binary format described in the module documentation.
+fn encode(id: &RenderIdentity, target_spp: Option<u64>, runs: &[Run], film: &Film) -> Vec<u8> {
+    let n = film.pixel_count();
+    let mut b = Vec::with_capacity(128 + id.scene_name.len() + 24 * runs.len() + 24 * n);
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+    b.extend_from_slice(&id.width.to_le_bytes());
+    b.extend_from_slice(&id.height.to_le_bytes());
+    b.extend_from_slice(&id.scene_hash.to_le_bytes());
+    b.extend_from_slice(&(id.scene_name.len() as u32).to_le_bytes());
+    b.extend_from_slice(id.scene_name.as_bytes());
+    b.push(kind_code(id.settings.kind));
+    b.extend_from_slice(&id.settings.max_depth.to_le_bytes());
+    b.extend_from_slice(&id.settings.rr_depth.to_le_bytes());
+    b.extend_from_slice(&target_spp.unwrap_or(0).to_le_bytes());
+    b.extend_from_slice(&film.samples_per_pixel().to_le_bytes());
+    b.extend_from_slice(&film.rejected_samples().to_le_bytes());
+    b.extend_from_slice(&(runs.len() as u32).to_le_bytes());
+    for r in runs {
+        b.extend_from_slice(&r.seed.to_le_bytes());
+        b.extend_from_slice(&r.first_pass.to_le_bytes());
+        b.extend_from_slice(&r.passes.to_le_bytes());
+    }
+    for s in film.sums() {
+        for v in s {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let mut h = Fnv1a64::new();
+    h.write(&b);
+    b.extend_from_slice(&h.finish().to_le_bytes());
+    b
+}
+
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    crate::image_io::write_atomic(path, |tmp| {
+        std::fs::write(tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))
+    })
+    .with_context(|| format!("{}: cannot write checkpoint", path.display()))
 }
 
 #[cfg(test)]
@@ -550,5 +601,10 @@ mod tests {
         let err = format!("{:#}", Checkpoint::merge(&[("a".into(), a), ("o.ckpt".into(), other)]).unwrap_err());
         assert!(err.contains("o.ckpt") && err.contains("another scene"), "{err}");
         assert!(Checkpoint::merge(&[]).is_err());
+        // Overlap inside one part (a hand-made or corrupted merged checkpoint) is caught as well.
+        let mut twice = Checkpoint::single_run(identity(b"s", 1, 1), 8, None, film_with(1, 1, &[1.0, 2.0]));
+        twice.runs = vec![Run { seed: 8, first_pass: 0, passes: 1 }, Run { seed: 8, first_pass: 0, passes: 1 }];
+        let err = Checkpoint::merge(&[("t.ckpt".into(), twice)]).unwrap_err().to_string();
+        assert!(err.contains("t.ckpt") && err.contains("seed 8"), "{err}");
     }
 }

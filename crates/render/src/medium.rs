@@ -37,7 +37,31 @@ pub enum PhaseModel {
         lambda_nm: Vec<f32>,
         /// One normalised phase function per wavelength.
         tables: Vec<TabulatedPhase>,
+        /// The tables' values on their common cos θ grid, when they share one (fast evaluation:
+        /// one grid search for all wavelengths); `None` evaluates each table on its own.
+        grid: Option<SharedGrid>,
     },
+}
+
+/// Phase-function tables sampled on one common, increasing grid of cos θ (values per sr, exactly
+/// the tables' own piecewise-linear functions).
+#[derive(Clone, Debug)]
+pub struct SharedGrid {
+    /// cos θ nodes, increasing from −1 to 1.
+    mu: Vec<f32>,
+    /// `values[k * mu.len() + j]`: table k at node j (sr⁻¹).
+    values: Vec<f32>,
+}
+
+impl PhaseModel {
+    /// Tabulated model; `grid_mu` is the cos θ grid all tables were built on, if they share one.
+    pub fn tabulated(lambda_nm: Vec<f32>, tables: Vec<TabulatedPhase>, grid_mu: Option<&[f64]>) -> PhaseModel {
+        let grid = grid_mu.map(|mu| SharedGrid {
+            mu: mu.iter().map(|&m| m as f32).collect(),
+            values: tables.iter().flat_map(|t| mu.iter().map(move |&m| t.eval(m) as f32)).collect(),
+        });
+        PhaseModel::Tabulated { lambda_nm, tables, grid }
+    }
 }
 
 /// A homogeneous medium.
@@ -81,7 +105,7 @@ impl HomogeneousMedium {
                     bail!("{name}: g must lie in (-1, 1), got {x} at {} nm", 360 + i);
                 }
             }
-            PhaseModel::Tabulated { lambda_nm, tables } => {
+            PhaseModel::Tabulated { lambda_nm, tables, .. } => {
                 if lambda_nm.is_empty() || lambda_nm.len() != tables.len() {
                     bail!("{name}: tabulated phase function needs one table per wavelength");
                 }
@@ -104,6 +128,23 @@ impl HomogeneousMedium {
     /// Phase function (sr⁻¹) at each carried wavelength for scattering cosine `cos_theta`.
     #[inline]
     pub fn phase_eval(&self, wl: &SampledWavelengths, cos_theta: f32) -> SampledSpectrum {
+        if let PhaseModel::Tabulated { lambda_nm: ls, grid: Some(g), .. } = &self.phase {
+            // One search of the common cos θ grid for all four wavelengths.
+            let n = g.mu.len();
+            let x = cos_theta.clamp(-1.0, 1.0);
+            let j = g.mu.partition_point(|&m| m <= x).saturating_sub(1).min(n - 2);
+            let s = ((x - g.mu[j]) / (g.mu[j + 1] - g.mu[j])).clamp(0.0, 1.0);
+            let at = |k: usize| {
+                let v = &g.values[k * n + j..k * n + j + 2];
+                v[0] + s * (v[1] - v[0])
+            };
+            let mut out = [0f32; N_LAMBDA];
+            for (i, o) in out.iter_mut().enumerate() {
+                let (k, t) = bracket(ls, wl.lambda_nm[i]);
+                *o = if t > 0.0 { at(k) * (1.0 - t) + t * at(k + 1) } else { at(k) };
+            }
+            return Vec4::from_array(out);
+        }
         let mut out = [0f32; N_LAMBDA];
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.phase_at(wl.lambda_nm[i], cos_theta);
@@ -116,7 +157,7 @@ impl HomogeneousMedium {
     pub fn phase_at(&self, lambda_nm: f32, cos_theta: f32) -> f32 {
         match &self.phase {
             PhaseModel::HenyeyGreenstein { g } => hg(g.eval(lambda_nm), cos_theta),
-            PhaseModel::Tabulated { lambda_nm: ls, tables } => {
+            PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
                 let (k, t) = bracket(ls, lambda_nm);
                 let a = tables[k].eval(cos_theta as f64) as f32;
                 if t > 0.0 {
@@ -135,7 +176,7 @@ impl HomogeneousMedium {
         let l0 = wl.lambda_nm[0];
         let mu = match &self.phase {
             PhaseModel::HenyeyGreenstein { g } => hg_sample(g.eval(l0), u.x),
-            PhaseModel::Tabulated { lambda_nm: ls, tables } => {
+            PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
                 let (k, t) = bracket(ls, l0);
                 let k = if t > 0.0 && uc < t { k + 1 } else { k };
                 tables[k].sample_cos_theta(u.x as f64) as f32
@@ -146,11 +187,11 @@ impl HomogeneousMedium {
         let phi = 2.0 * PI * u.y;
         let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
         let wi = Frame::from_normal(d).to_world(local).normalize();
-        let pdf = self.phase_at(l0, mu);
+        let p = self.phase_eval(wl, mu);
+        let pdf = p.x;
         if !(pdf > 0.0) {
             return None;
         }
-        let p = self.phase_eval(wl, mu);
         Some(PhaseSample { wi, weight: p / pdf, pdf })
     }
 
@@ -158,7 +199,7 @@ impl HomogeneousMedium {
     pub fn g_at(&self, lambda_nm: f32) -> f32 {
         match &self.phase {
             PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm),
-            PhaseModel::Tabulated { lambda_nm: ls, tables } => {
+            PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
                 let (k, t) = bracket(ls, lambda_nm);
                 let a = tables[k].g() as f32;
                 if t > 0.0 {
@@ -228,7 +269,7 @@ pub fn tabulated_from_mie(lambda_nm: &[f64], table: &optics::media::PhaseTable) 
         }
         tables.push(TabulatedPhase::new(mu.clone(), v).map_err(|e| anyhow::anyhow!("phase function at {l} nm: {e:#}"))?);
     }
-    Ok(PhaseModel::Tabulated { lambda_nm: lambda_nm.iter().map(|&l| l as f32).collect(), tables })
+    Ok(PhaseModel::tabulated(lambda_nm.iter().map(|&l| l as f32).collect(), tables, Some(&mu)))
 }
 
 /// Piecewise-linear interpolation of values given at increasing wavelengths, held constant beyond the ends.
@@ -392,10 +433,30 @@ mod tests {
             "tab",
             DenseSpectrum::from_fn(|_| 0.0),
             DenseSpectrum::from_fn(|_| 1.0),
-            PhaseModel::Tabulated { lambda_nm: vec![400.0, 700.0], tables: vec![t1, t2] },
+            PhaseModel::tabulated(vec![400.0, 700.0], vec![t1, t2], None),
         )
         .unwrap();
-        for m in [&hgm, &tab] {
+        // The same two phase functions on one shared grid (the fast path used for Mie tables).
+        let mu: Vec<f64> = (0..3001).map(|k| -1.0 + 2.0 * k as f64 / 3000.0).collect();
+        let s1 = TabulatedPhase::new(mu.clone(), mu.iter().map(|&m| hg(0.3, m as f32) as f64).collect()).unwrap();
+        let s2 = TabulatedPhase::new(mu.clone(), mu.iter().map(|&m| hg(0.8, m as f32) as f64).collect()).unwrap();
+        let shared = HomogeneousMedium::new(
+            "shared",
+            DenseSpectrum::from_fn(|_| 0.0),
+            DenseSpectrum::from_fn(|_| 1.0),
+            PhaseModel::tabulated(vec![400.0, 700.0], vec![s1, s2], Some(&mu)),
+        )
+        .unwrap();
+        // Fast and generic evaluation agree.
+        for k in 0..200 {
+            let c = -1.0 + 2.0 * k as f32 / 199.0;
+            let fast = shared.phase_eval(&wl(), c);
+            for i in 0..4 {
+                let slow = shared.phase_at(wl().lambda_nm[i], c);
+                assert!((fast[i] - slow).abs() < 1e-4 * slow.max(1.0), "{c}: {} vs {slow}", fast[i]);
+            }
+        }
+        for m in [&hgm, &tab, &shared] {
             let wl = wl();
             let mut rng = Pcg32::new(3, 4);
             let d = Vec3::new(0.3, -0.5, 0.8).normalize();

@@ -1244,11 +1244,29 @@ fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, 
         }
         "preset" => {
             let name = t["preset"].as_str().ok_or_else(|| cx.err(&span, &f("preset"), "must be a name"))?;
-            let Some(&(_, fat, protein, pressure)) = MILK_PRESETS.iter().find(|p| p.0.eq_ignore_ascii_case(name)) else {
+            if let Some(&(_, fat, protein, pressure)) = MILK_PRESETS.iter().find(|p| p.0.eq_ignore_ascii_case(name)) {
+                return milk(fat, protein, pressure, &f("preset"));
+            }
+            // Measured media (Jensen et al. 2001, Narasimhan et al. 2006; RGB, as pbrt's named media).
+            let Some(mm) = optics::bssrdf::find_medium(name) else {
                 let known: Vec<&str> = MILK_PRESETS.iter().map(|p| p.0).collect();
-                return Err(cx.err(&span, &f("preset"), format!("unknown preset `{name}` (known: {known:?})")));
+                return Err(cx.err(&span, &f("preset"), format!(
+                    "unknown preset `{name}` (known: {known:?}, or a measured medium of Jensen et al. 2001 / Narasimhan et al. 2006 such as \"Regular Milk\", \"Ketchup\")")));
             };
-            milk(fat, protein, pressure, &f("preset"))
+            let uplift = |rgb: [f64; 3]| -> optics::spectrum::DenseSpectrum {
+                let m = rgb.iter().cloned().fold(0.0f64, f64::max);
+                if !(m > 0.0) {
+                    return optics::spectrum::DenseSpectrum::from_fn(|_| 0.0);
+                }
+                let sh = optics::spectrum::RgbAlbedo::new([rgb[0] / m, rgb[1] / m, rgb[2] / m]);
+                optics::spectrum::DenseSpectrum::from_fn(move |l| sh.eval(l) * m)
+            };
+            let g = if mm.g.iter().all(|&x| x >= 0.0) { uplift(mm.g) } else {
+                let mean = mm.g.iter().sum::<f64>() / 3.0;
+                optics::spectrum::DenseSpectrum::from_fn(move |_| mean)
+            };
+            HomogeneousMedium::new(field, uplift(mm.sigma_a_per_m), uplift(mm.sigma_s_per_m), PhaseModel::HenyeyGreenstein { g })
+                .map_err(|e| cx.err(&span, &f("preset"), format!("{e:#}")))
         }
         _ => {
             let rel = t["recipe"].as_str().ok_or_else(|| cx.err(&span, &f("recipe"), "must be a file name"))?;

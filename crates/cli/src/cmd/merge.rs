@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 
-use render::checkpoint::Checkpoint;
+use render::checkpoint::{Checkpoint, Merger};
 
 use super::render::{check_outputs, check_parent_dir, finite_f64, write_outputs};
 
@@ -41,11 +41,12 @@ pub fn run(args: Args) -> Result<()> {
             eprintln!("lucent: warning: --checkpoint {} replaces one of the inputs", c.display());
         }
     }
-    let mut parts = Vec::with_capacity(args.inputs.len());
+    // One checkpoint in memory at a time: a merge of thousands of large parts stays small.
+    let mut merger = Merger::new();
     for path in &args.inputs {
-        parts.push((path.clone(), Checkpoint::read(path)?));
+        merger.add(path, Checkpoint::read(path)?)?;
     }
-    let merged = Checkpoint::merge(&parts)?;
+    let merged = merger.finish()?;
     if let Some(c) = &args.checkpoint {
         merged.write(c)?;
     }
@@ -53,7 +54,7 @@ pub fn run(args: Args) -> Result<()> {
     let seeds: Vec<String> = merged.runs.iter().map(|r| r.seed.to_string()).collect();
     eprintln!(
         "lucent: merged {} checkpoints of {} ({}×{}): {} spp in total from seeds {}",
-        parts.len(),
+        args.inputs.len(),
         merged.identity.scene_name,
         merged.identity.width,
         merged.identity.height,

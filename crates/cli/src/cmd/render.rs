@@ -56,13 +56,13 @@ pub struct Args {
     /// Seed of the random sequence; independent runs to merge need different seeds [default: 0].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub seed: Option<String>,
-    /// Light-transport estimator: path, direct or ao [default: path].
+    /// Light-transport estimator: path, direct or ao [default: the scene's `[integrator]`, else path].
     #[arg(long, value_name = "path|direct|ao")]
     pub integrator: Option<String>,
-    /// Longest path in bounces [default: 8].
+    /// Longest path in bounces [default: the scene's, else 8].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub max_depth: Option<String>,
-    /// Russian roulette starts at this bounce [default: 5].
+    /// Russian roulette starts at this bounce [default: the scene's, else 5].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub rr_depth: Option<String>,
     /// Write the accumulator here every few seconds, at the end and on Ctrl-C (atomically).
@@ -319,8 +319,7 @@ pub fn run(args: Args) -> Result<()> {
 
     let save = |film: &Film| -> Result<()> {
         if let Some(path) = &checkpoint_path {
-            let ck = Checkpoint::single_run(identity.clone(), seed, target_spp, film.clone());
-            ck.write(path)?;
+            Checkpoint::write_single_run(path, &identity, seed, target_spp, film)?;
         }
         Ok(())
     };
@@ -333,6 +332,7 @@ pub fn run(args: Args) -> Result<()> {
     let progress = Progress::new(stop, start_spp, args.quiet);
     let mut pass_buffer = vec![[0.0f32; 3]; pixels as usize];
     let mut last_save = Instant::now();
+    let mut save_warned = false;
     let mut pass = first_pass;
     pool.install(|| -> Result<()> {
         loop {
@@ -348,7 +348,14 @@ pub fn run(args: Args) -> Result<()> {
             pass += 1;
             progress.update(&film, start, start_spp, pixels);
             if checkpoint_path.is_some() && last_save.elapsed() >= interval {
-                save(&film)?;
+                // A failed periodic save (full disk, lost mount) must not end the render: warn
+                // once, keep rendering, and try again at the next interval and at the end.
+                if let Err(e) = save(&film) {
+                    if !save_warned {
+                        progress.suspend(|| eprintln!("lucent: warning: {e:#}"));
+                        save_warned = true;
+                    }
+                }
                 last_save = Instant::now();
             }
         }
@@ -358,9 +365,11 @@ pub fn run(args: Args) -> Result<()> {
     let elapsed = start.elapsed().as_secs_f64();
     let was_interrupted = interrupted.load(Ordering::SeqCst);
 
-    // ---- Save: checkpoint first (the work), then the images. ----
-    save(&film)?;
-    let written = write_outputs(&film, &outs, exposure)?;
+    // ---- Save: checkpoint first (the work), then the images, even if the checkpoint failed. ----
+    let saved = save(&film);
+    let written = write_outputs(&film, &outs, exposure);
+    saved?;
+    let written = written?;
     if !args.quiet {
         let new_samples = (film.samples_per_pixel() - start_spp) as f64 * pixels as f64;
         let rate = if elapsed > 0.0 { new_samples / elapsed / 1e6 } else { 0.0 };
@@ -433,6 +442,11 @@ impl Progress {
                 self.bar.set_position(elapsed.as_millis() as u64);
             }
         }
+    }
+
+    /// Run `f` (which prints) with the bar cleared.
+    fn suspend(&self, f: impl FnOnce()) {
+        self.bar.suspend(f)
     }
 
     fn finish(&self) {
