@@ -651,7 +651,7 @@ fn phase_g(phase: &crate::medium::PhaseModel, lambda_nm: f32) -> f64 {
     use crate::medium::PhaseModel;
     match phase {
         PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm) as f64,
-        PhaseModel::Tabulated { lambda_nm: ls, tables } => {
+        PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
             if tables.is_empty() {
                 return 0.0;
             }
