@@ -13,6 +13,11 @@ use std::path::Path;
 /// A 200 × 200 × 100 mm box (top face at y = 0) of a translucent material under a constant
 /// environment of radiance 1. `sub` is the material's `subsurface` table.
 fn slab_scene(sub: &str, ior: f64) -> Scene {
+    slab_scene_lit(sub, ior, "type = \"environment\"\nradiance = 1")
+}
+
+/// The slab box of [`slab_scene`] with the given `[[lights]]` body.
+fn slab_scene_lit(sub: &str, ior: f64, light: &str) -> Scene {
     let a = 100.0;
     let h = 100.0;
     let q = |c: [[f64; 3]; 4]| {
@@ -50,8 +55,7 @@ name = "slab"
 material = "slab"
 quads = [{quads}]
 [[lights]]
-type = "environment"
-radiance = 1
+{light}
 "#
     );
     Scene::from_toml_str(&text, "slab.toml", Path::new(".")).unwrap()
@@ -350,4 +354,41 @@ fn passes_are_deterministic_for_resume() {
     render::integrator::render_pass(&scene, &settings, 4, 4, &mut c);
     assert_eq!(a, b);
     assert_ne!(a, c);
+}
+
+#[test]
+fn normal_incidence_matches_numerical_rd_for_both_dipoles() {
+    // A directional light of irradiance E = 1 at normal incidence on the slab: the stored entries come
+    // from light sampling only (a delta light), and L_d(x_o, +n) = T21(0) T12(0) E rd/π, with rd = π∫S_d dA
+    // integrated numerically by optics::bssrdf (independent of the renderer's point cloud and tree).
+    use optics::bssrdf::{DirectionalDipole, StandardDipole};
+    let eta = 1.3;
+    let props = OpticalProperties { eta, sigma_s_per_m: 1000.0, sigma_a_per_m: 10.0, g: 0.0 };
+    let t = 1.0 - optics::fresnel::fresnel_dielectric(1.0, eta);
+    for (model, rd) in [
+        ("standard", StandardDipole::new(&props).unwrap().rd_numerical()),
+        ("directional", DirectionalDipole::new(&props).unwrap().rd_numerical()),
+    ] {
+        let sub = format!(r#"{{ model = "{model}", sigma_s_per_mm = 1.0, sigma_a_per_mm = 0.01, points_per_pass = 65536 }}"#);
+        let scene = slab_scene_lit(&sub, eta, "type = \"directional\"\ndirection = [0, -1, 0]\nirradiance = 1");
+        let expected = t * t * rd / std::f64::consts::PI;
+        let mut pass_means = Vec::new();
+        for pass in 0..16u64 {
+            let p = SubsurfacePass::build(&scene, &scene.integrator, 21, pass).unwrap();
+            let mut rng = Pcg32::new(5, pass);
+            let nq = 200;
+            let acc: f64 = (0..nq)
+                .map(|k| {
+                    let x = -0.01 + 0.02 * ((k % 13) as f32 / 12.0);
+                    let z = -0.01 + 0.02 * ((k / 13 % 13) as f32 / 12.0);
+                    p.radiance(0, Vec3::new(x, 0.0, z), Vec3::Y, Vec3::Y, &mut rng).x as f64
+                })
+                .sum();
+            pass_means.push(acc / nq as f64);
+        }
+        let (m, se) = mean_se(&pass_means);
+        println!("{model}: estimate {m:.5} ± {se:.5}, T21 T12 rd/π = {expected:.5} (rd = {rd:.5})");
+        assert!(se < 0.02 * expected, "{model}: too noisy: {se}");
+        assert!((m - expected).abs() < 4.0 * se + 0.003 * expected, "{model}: {m} ± {se} vs {expected}");
+    }
 }
