@@ -20,7 +20,9 @@
 
 use crate::bvh::Hit;
 use crate::geometry::Ray;
-use crate::material::Bsdf;
+use crate::bxdf::SmoothConductor;
+use crate::material::{Bsdf, Material};
+use crate::subsurface::{SubsurfaceMode, SubsurfacePass};
 use crate::sampling::{cosine_hemisphere, power_heuristic, Frame, Pcg32};
 use crate::scene::Scene;
 use crate::spectral::{SampledSpectrum, SampledWavelengths};
@@ -77,11 +79,13 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
     let (w, h) = scene.resolution();
     let n = (w as usize) * (h as usize);
     assert!(xyz_out.len() >= n, "render_pass: output has {} entries, need {}×{}", xyz_out.len(), w, h);
+    // Subsurface hook: with translucent objects and `path`, the pass's point cloud is built first.
+    let sss = if settings.kind == IntegratorKind::Path { SubsurfacePass::build(scene, settings, seed, pass) } else { None };
     xyz_out[..n].par_chunks_mut(w as usize).enumerate().for_each(|(j, row)| {
         for (i, out) in row.iter_mut().enumerate() {
             let pixel = (j as u64) * (w as u64) + i as u64;
             let mut rng = Pcg32::for_pixel(seed, pass, pixel);
-            *out = sample_pixel(scene, settings, i as u32, j as u32, &mut rng);
+            *out = sample_pixel_sss(scene, settings, i as u32, j as u32, &mut rng, sss.as_ref());
         }
     });
 }
@@ -89,6 +93,13 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
 /// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
 #[inline]
 pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
+    sample_pixel_sss(scene, settings, i, j, rng, None)
+}
+
+/// [`sample_pixel`] with this pass's subsurface state (`None`: translucent materials act as
+/// their dielectric boundary); with it, the path uses the pass's wavelengths.
+#[inline]
+pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32, sss: Option<&SubsurfacePass>) -> [f32; 3] {
     let u_lambda = rng.next_f32();
     let ray = scene.camera.generate_ray(i, j, rng.next_2d());
     let xyz = match settings.kind {
@@ -99,9 +110,15 @@ pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32
             [w[0] * v, w[1] * v, w[2] * v]
         }
         kind => {
-            let mut wl = SampledWavelengths::sample(u_lambda);
+            let mut wl = match sss {
+                Some(p) => p.wl,
+                None => SampledWavelengths::sample(u_lambda),
+            };
             let l = match kind {
-                IntegratorKind::Path => li_path(scene, settings, ray, &mut wl, rng),
+                IntegratorKind::Path => match sss {
+                    Some(p) => li_path_mode(scene, settings, ray, &mut wl, rng, SubsurfaceMode::Bssrdf(p), 0.0),
+                    None => li_path(scene, settings, ray, &mut wl, rng),
+                },
                 IntegratorKind::Volpath => crate::volpath::li_volpath(scene, settings, ray, &mut wl, rng),
                 _ => li_direct(scene, ray, &wl, rng),
             };
@@ -186,12 +203,20 @@ fn sample_one_light(scene: &Scene, s: &Shading, wo: Vec3, bsdf: &Bsdf, wl: &Samp
 /// Radiance along `ray` by path tracing with NEE, MIS and Russian roulette.
 /// `wl` may lose its secondary wavelengths on the way (dispersion): convert the result with the
 /// `wl` as it is on return.
-pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+pub fn li_path(scene: &Scene, settings: &IntegratorSettings, ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+    li_path_mode(scene, settings, ray, wl, rng, SubsurfaceMode::Dielectric, 0.0)
+}
+
+/// [`li_path`] with a choice of how translucent materials are treated (see [`SubsurfaceMode`]).
+/// `first_pdf` > 0: `ray` was sampled with this density per steradian from a point that also
+/// sampled the lights, so emission found by the first segment is MIS-weighted against light
+/// sampling (power heuristic); 0: no MIS on the first segment (camera rays).
+pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32, sss: SubsurfaceMode, first_pdf: f32) -> SampledSpectrum {
     let mut l = Vec4::ZERO;
     let mut beta = Vec4::ONE;
     let mut depth = 0u32; // segments traced so far
-    let mut prev_pdf = 0.0f32; // BSDF density of the last direction (per sr)
-    let mut prev_delta = true; // camera ray or specular bounce: no MIS on emission
+    let mut prev_pdf = first_pdf; // BSDF density of the last direction (per sr)
+    let mut prev_delta = !(first_pdf > 0.0); // camera ray or specular bounce: no MIS on emission
     let mut prev_p = ray.o;
     loop {
         let hit = scene.accel.intersect(&ray);
@@ -228,7 +253,17 @@ pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &
         if depth >= settings.max_depth {
             break;
         }
-        let bsdf = scene.materials[obj.material as usize].bsdf_at(wl, s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η; dispersion: hero only
+        let mat = &scene.materials[obj.material as usize];
+        let bsdf = match (mat, sss) {
+            // Translucent with a BSSRDF: the boundary's specular reflection, plus the diffusive term.
+            (Material::Translucent(t), SubsurfaceMode::ReflectOnly | SubsurfaceMode::Bssrdf(_)) => {
+                if let SubsurfaceMode::Bssrdf(p) = sss {
+                    l += beta * p.radiance(s.object, s.p, s.ng, wo, rng);
+                }
+                Bsdf::SmoothConductor(SmoothConductor { eta: Vec4::splat(t.eta), k: Vec4::ZERO })
+            }
+            _ => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0), // back face: η → 1/η; dispersion: hero only
+        };
         if bsdf.is_black() {
             break;
         }

@@ -22,3 +22,4 @@ pub mod slab;
 pub mod microfacet;
 pub mod bxdf;
 pub mod volpath;
+pub mod subsurface;

@@ -59,6 +59,9 @@ pub enum Material {
         /// Albedo table of the coating (computed once per (α, ior)).
         table: &'static CoatingTable,
     },
+    /// Translucent object (closed mesh) rendered with a dipole BSSRDF (`crate::subsurface`); as a
+    /// BSDF it is its smooth dielectric boundary (what volumetric path tracing sees).
+    Translucent(std::sync::Arc<crate::subsurface::Translucent>),
 }
 
 /// A scattering function at fixed wavelengths, in the local shading frame.
@@ -188,6 +191,7 @@ impl Material {
                 distrib: TrowbridgeReitz::isotropic(*alpha),
                 table,
             }),
+            Material::Translucent(t) => Bsdf::SmoothDielectric { lobe: SmoothDielectric { eta: t.eta }, dispersive: false },
         }
     }
 }

@@ -278,6 +278,8 @@ struct MaterialDesc {
     k: Option<Spanned<toml::Value>>,
     roughness: Option<Spanned<toml::Value>>,
     alpha: Option<Spanned<toml::Value>>,
+    /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
+    subsurface: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -746,6 +748,9 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 }
             }
         }
+        if m.subsurface.is_some() && m.kind != "translucent" {
+            return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", m.kind)));
+        }
         let mat = match m.kind.as_str() {
             "lambertian" | "diffuse" => {
                 let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
@@ -764,12 +769,21 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 }
                 Material::Black
             }
+            "translucent" => {
+                let sub = m.subsurface.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.subsurface"), "missing (a translucent material needs subsurface = { ... })"))?;
+                let ior = match &m.ior {
+                    None => None,
+                    Some(v) => Some(as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &format!("{field}.ior"), "must be a number"))?),
+                };
+                let t = crate::subsurface::translucent_from_toml(ior, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
+                Material::Translucent(std::sync::Arc::new(t))
+            }
             "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
             other => {
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic)"),
+                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic, translucent)"),
                 ))
             }
         };
@@ -860,9 +874,11 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
             if mesh.indices.is_empty() {
                 return Err(cx.err(&span, &field, "mesh has no triangles"));
             }
-            if o.medium.is_some() {
-                // A medium boundary must be closed; orient it outwards (the front face is the outside).
-                let volume = crate::medium::closed_mesh_volume(&mesh).map_err(|e| cx.err(&span, &format!("{field}.medium"), format!("boundary is not a closed mesh: {e:#}")))?;
+            let translucent = matches!(materials[material as usize], Material::Translucent(_));
+            if o.medium.is_some() || translucent {
+                // A medium boundary (or translucent object) must be closed; orient it outwards (the front face is the outside).
+                let what = if translucent { "material (translucent)" } else { "medium" };
+                let volume = crate::medium::closed_mesh_volume(&mesh).map_err(|e| cx.err(&span, &format!("{field}.{what}"), format!("boundary is not a closed mesh: {e:#}")))?;
                 if volume < 0.0 {
                     for t in mesh.indices.iter_mut() {
                         t.swap(1, 2);
@@ -876,6 +892,9 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
             }
             Shape::Mesh(mesh)
         };
+        if matches!(&materials[material as usize], Material::Translucent(t) if t.from_medium) && o.medium.is_none() {
+            return Err(cx.err(&span, &format!("{field}.medium"), "missing (its translucent material takes the coefficients from the object's medium)"));
+        }
         let interior_medium = match &o.medium {
             Some(v) => {
                 media.push(medium_desc(cx, &sp, v, &format!("{field}.medium"), unit_m)?);

@@ -1,0 +1,852 @@
+//! Subsurface scattering with dipole BSSRDFs, rendered progressively by the point-cloud method
+//! with rejection control (Jensen et al. 2001; Frisvad, Hachisuka & Kjeldsen 2014; Dal Corso &
+//! Frisvad 2018; the tutorial's "Progressive rendering of subsurface scattering").
+//!
+//! A [`Translucent`] material is a closed object with a smooth dielectric boundary of relative
+//! index η whose interior is described by σ_s(λ), σ_a(λ), g(λ). Its appearance is the specular
+//! reflection of the boundary (traced by the path tracer) plus the diffusive BSSRDF term
+//!
+//! L_d(x_o, ω_o) = T21(ω_o) · (1/M) Σ_i S_d(x_i, ω_i; x_o) · L_t,i,
+//! L_t,i = T12(ω_i) · L_i(x_i, ω_i) · π · A,
+//!
+//! where, once per pass ([`SubsurfacePass::build`]), M points x_i are drawn uniformly on the
+//! object's surface (pdf 1/A), a cosine-distributed direction ω_i is drawn about the outward
+//! normal and L_i is found by full path tracing (other objects and lights are lit correctly).
+//!
+//! Rejection control: point i is accepted with probability p_i = e^{−σ_tr,min ‖x_o − x_i‖}
+//! (σ_tr,min the smallest transport coefficient over the pass's wavelengths) and its term is
+//! divided by p_i. To keep the cost per shading point from growing linearly with M, the points
+//! are stored in a kd-tree; a node whose box is at distance d_min from x_o bounds every p_i in it
+//! by q = e^{−σ_tr,min d_min}. Nodes that are far (n·q small) or leaves are handled as a whole:
+//! candidates are drawn from the node's points with probability q by geometric skipping, and a
+//! candidate is kept with probability p_i/q. Every point is thus accepted with probability exactly
+//! q·p_i/q = p_i whatever the cut, so the estimator is unbiased; its cost is about the number of
+//! nodes on the cut plus the number of candidates. `rejection_control = false` accepts every
+//! point (p_i = 1, cost linear in M) — the reference for the unbiasedness test.
+//!
+//! Wavelengths: the stored L_t are spectral, so a pass that uses the point cloud traces every
+//! path of the pass (camera and cloud) at the same four hero wavelengths, drawn from (seed,
+//! pass); passes average over wavelengths as they do over everything else.
+//!
+//! Limitation: the paths traced from cloud points see translucent surfaces as their specular
+//! reflection only (the previous pass's cloud is not kept), so light that leaves one translucent
+//! surface by subsurface scattering and reaches another translucent point is dropped.
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::bvh::Shape;
+use crate::geometry::{Aabb, Ray};
+use crate::integrator::IntegratorSettings;
+use crate::material::Material;
+use crate::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle, Frame, Pcg32};
+use crate::scene::Scene;
+use crate::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
+use anyhow::{anyhow, bail, Context, Result};
+use glam::{Vec3, Vec4};
+use optics::bssrdf::{DipoleModel, DirectionalDipole, OpticalProperties, StandardDipole};
+use optics::spectrum::DenseSpectrum;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Default number of cloud points per pass and translucent object.
+pub const DEFAULT_POINTS_PER_PASS: usize = 16384;
+
+/// A translucent material: smooth dielectric boundary over a homogeneous scattering interior,
+/// rendered with a dipole BSSRDF.
+#[derive(Clone, Debug)]
+pub struct Translucent {
+    /// Relative index of refraction η = n_inside / n_outside (non-dispersive).
+    pub eta: f32,
+    /// Which dipole evaluates S_d.
+    pub model: DipoleModel,
+    /// Scattering coefficient σ_s(λ), m⁻¹.
+    pub sigma_s_per_m: DenseSpectrum,
+    /// Absorption coefficient σ_a(λ), m⁻¹.
+    pub sigma_a_per_m: DenseSpectrum,
+    /// Henyey–Greenstein asymmetry g(λ) (only σ'_s = σ_s(1 − g) matters to the dipoles).
+    pub g: DenseSpectrum,
+    /// Cloud points per pass on each object with this material.
+    pub points_per_pass: usize,
+    /// Rejection control on (acceptance e^{−σ_tr,min d}); off: every point is accepted.
+    pub rejection_control: bool,
+    /// Take σ_s, σ_a and g from the object's interior `medium` instead (the same coefficients
+    /// volumetric path tracing uses; the spectra above are then unused).
+    pub from_medium: bool,
+}
+
+impl Translucent {
+    /// A translucent material from spectra; checks η > 0 and that every wavelength gives valid
+    /// optical properties (α' ∈ [0, 1], finite non-negative coefficients).
+    pub fn new(
+        eta: f32,
+        model: DipoleModel,
+        sigma_s_per_m: DenseSpectrum,
+        sigma_a_per_m: DenseSpectrum,
+        g: DenseSpectrum,
+    ) -> Result<Translucent> {
+        if !(eta > 0.0) || !eta.is_finite() {
+            bail!("ior must be positive and finite, got {eta}");
+        }
+        let t = Translucent {
+            eta,
+            model,
+            sigma_s_per_m,
+            sigma_a_per_m,
+            g,
+            points_per_pass: DEFAULT_POINTS_PER_PASS,
+            rejection_control: true,
+            from_medium: false,
+        };
+        for l in (360..=830).step_by(5) {
+            let p = t.properties(l as f32);
+            p.validate().with_context(|| format!("at {l} nm"))?;
+            if !(p.sigma_s_per_m * (1.0 - p.g) + p.sigma_a_per_m > 0.0) {
+                bail!("at {l} nm: the medium neither scatters nor absorbs (σ'_t = 0)");
+            }
+        }
+        Ok(t)
+    }
+
+    /// Constant coefficients (m⁻¹) at every wavelength.
+    pub fn constant(
+        eta: f32,
+        model: DipoleModel,
+        sigma_s_per_m: f64,
+        sigma_a_per_m: f64,
+        g: f64,
+    ) -> Result<Translucent> {
+        Translucent::new(
+            eta,
+            model,
+            DenseSpectrum::from_fn(|_| sigma_s_per_m),
+            DenseSpectrum::from_fn(|_| sigma_a_per_m),
+            DenseSpectrum::from_fn(|_| g),
+        )
+    }
+
+    /// Optical properties at one wavelength (nm).
+    pub fn properties(&self, lambda_nm: f32) -> OpticalProperties {
+        OpticalProperties {
+            eta: self.eta as f64,
+            sigma_s_per_m: self.sigma_s_per_m.eval(lambda_nm) as f64,
+            sigma_a_per_m: self.sigma_a_per_m.eval(lambda_nm) as f64,
+            g: self.g.eval(lambda_nm) as f64,
+        }
+    }
+}
+
+/// RGB triple of a measured medium (channels r, g, b) as a spectrum: piecewise linear through
+/// (450 nm, b), (550 nm, g), (650 nm, r), constant beyond.
+pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
+    DenseSpectrum::from_fn(move |l| {
+        if l <= 450.0 {
+            rgb[2]
+        } else if l <= 550.0 {
+            rgb[2] + (rgb[1] - rgb[2]) * (l - 450.0) / 100.0
+        } else if l <= 650.0 {
+            rgb[1] + (rgb[0] - rgb[1]) * (l - 550.0) / 100.0
+        } else {
+            rgb[0]
+        }
+    })
+}
+
+/// Parse the `subsurface = { … }` table of a `translucent` material (see docs/scene-format.md):
+/// `model` ("standard" | "directional", default directional), exactly one of `preset` (a medium
+/// of Jensen et al. 2001 or Narasimhan et al. 2006, by name), `milk = { fat_percent,
+/// protein_percent, pressure_mpa }`, or `sigma_s_per_mm` + `sigma_a_per_mm` (number or
+/// [r, g, b]) with optional `g`; optional `points_per_pass` and `rejection_control`.
+/// `ior` is the material's index (a preset's own η is used when `ior` is absent).
+/// Errors name the key (relative to the table).
+pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Translucent> {
+    const KEYS: &[&str] = &[
+        "model",
+        "from_medium",
+        "preset",
+        "milk",
+        "sigma_s_per_mm",
+        "sigma_a_per_mm",
+        "g",
+        "points_per_pass",
+        "rejection_control",
+    ];
+    let t = table.as_table().ok_or_else(|| {
+        anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
+    })?;
+    for k in t.keys() {
+        if !KEYS.contains(&k.as_str()) {
+            bail!("subsurface: unknown key `{k}` (expected one of {KEYS:?})");
+        }
+    }
+    let num = |v: &toml::Value| -> Option<f64> { v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) };
+    let model: DipoleModel = match t.get("model") {
+        None => DipoleModel::Directional,
+        Some(v) => v
+            .as_str()
+            .ok_or_else(|| anyhow!("subsurface.model: expected \"standard\" or \"directional\""))?
+            .parse()
+            .context("subsurface.model")?,
+    };
+    let kinds: Vec<&str> = ["from_medium", "preset", "milk", "sigma_s_per_mm"]
+        .into_iter()
+        .filter(|k| t.contains_key(*k))
+        .collect();
+    if kinds.len() != 1 {
+        bail!("subsurface: give exactly one of from_medium, preset, milk, sigma_s_per_mm/sigma_a_per_mm/g (got {kinds:?})");
+    }
+    let eta_of = |default: f64| -> Result<f32> {
+        let e = ior.unwrap_or(default);
+        if !(e > 0.0) || !e.is_finite() {
+            bail!("ior: must be positive, got {e}");
+        }
+        Ok(e as f32)
+    };
+    let mut mat = match kinds[0] {
+        "from_medium" => {
+            if t["from_medium"].as_bool() != Some(true) {
+                bail!("subsurface.from_medium: must be true (leave it out otherwise)");
+            }
+            // Placeholder coefficients, replaced by the object's medium when the cloud is built.
+            let mut m = Translucent::constant(eta_of(1.3)?, model, 1.0, 0.0, 0.0)?;
+            m.from_medium = true;
+            m
+        }
+        "preset" => {
+            let name = t["preset"]
+                .as_str()
+                .ok_or_else(|| anyhow!("subsurface.preset: expected a name such as \"marble\""))?;
+            let m = optics::bssrdf::find_medium(name).ok_or_else(|| anyhow!("subsurface.preset: unknown medium `{name}` (see optics::bssrdf presets of Jensen 2001 / Narasimhan 2006)"))?;
+            Translucent::new(
+                eta_of(m.eta)?,
+                model,
+                rgb_coefficients_to_spectrum(m.sigma_s_per_m),
+                rgb_coefficients_to_spectrum(m.sigma_a_per_m),
+                rgb_coefficients_to_spectrum(m.g),
+            )
+            .context("subsurface.preset")?
+        }
+        "milk" => {
+            let m = t["milk"]
+                .as_table()
+                .ok_or_else(|| anyhow!("subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"))?;
+            let get = |k: &str, d: Option<f64>| -> Result<f64> {
+                match m.get(k) {
+                    Some(v) => num(v).ok_or_else(|| anyhow!("subsurface.milk.{k}: must be a number")),
+                    None => d.ok_or_else(|| anyhow!("subsurface.milk.{k}: missing")),
+                }
+            };
+            let fat = get("fat_percent", None)?;
+            let protein = get("protein_percent", Some(3.4))?;
+            let pressure = get("pressure_mpa", Some(20.0))?;
+            let lambda: Vec<f64> = (0..17).map(|k| 375.0 + 25.0 * k as f64).collect();
+            let b = optics::milk::milk_properties(fat, protein, pressure, &lambda).context("subsurface.milk")?;
+            let tab = |v: &[f64]| -> Result<DenseSpectrum> {
+                let s = optics::spectrum::Tabulated::new(lambda.clone(), v.to_vec())?;
+                let (lo, hi) = (v[0], v[v.len() - 1]);
+                Ok(DenseSpectrum::from_fn(move |l| {
+                    if l < 375.0 {
+                        lo
+                    } else if l > 775.0 {
+                        hi
+                    } else {
+                        s.eval(l)
+                    }
+                }))
+            };
+            Translucent::new(
+                eta_of(1.345)?,
+                model,
+                tab(&b.sigma_s_per_m)?,
+                tab(&b.sigma_a_per_m)?,
+                tab(&b.g)?,
+            )
+            .context("subsurface.milk")?
+        }
+        _ => {
+            let coef = |k: &str, scale: f64, default: Option<f64>| -> Result<DenseSpectrum> {
+                match t.get(k) {
+                    None => default
+                        .map(|d| DenseSpectrum::from_fn(move |_| d))
+                        .ok_or_else(|| anyhow!("subsurface.{k}: missing")),
+                    Some(v) => {
+                        if let Some(x) = num(v) {
+                            if !x.is_finite() {
+                                bail!("subsurface.{k}: must be finite");
+                            }
+                            Ok(DenseSpectrum::from_fn(move |_| x * scale))
+                        } else if let Some(a) = v.as_array() {
+                            let xs: Vec<f64> = a.iter().filter_map(num).collect();
+                            if xs.len() != 3 || a.len() != 3 || xs.iter().any(|x| !x.is_finite()) {
+                                bail!("subsurface.{k}: expected a number or [r, g, b]");
+                            }
+                            Ok(rgb_coefficients_to_spectrum([
+                                xs[0] * scale,
+                                xs[1] * scale,
+                                xs[2] * scale,
+                            ]))
+                        } else {
+                            bail!("subsurface.{k}: expected a number or [r, g, b]")
+                        }
+                    }
+                }
+            };
+            let ss = coef("sigma_s_per_mm", 1e3, None)?;
+            let sa = coef("sigma_a_per_mm", 1e3, None)?;
+            let g = coef("g", 1.0, Some(0.0))?;
+            Translucent::new(eta_of(1.3)?, model, ss, sa, g).context("subsurface")?
+        }
+    };
+    if let Some(v) = t.get("points_per_pass") {
+        let n = v
+            .as_integer()
+            .filter(|n| *n >= 1 && *n <= 1 << 24)
+            .ok_or_else(|| anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216"))?;
+        mat.points_per_pass = n as usize;
+    }
+    if let Some(v) = t.get("rejection_control") {
+        mat.rejection_control = v
+            .as_bool()
+            .ok_or_else(|| anyhow!("subsurface.rejection_control: expected true or false"))?;
+    }
+    Ok(mat)
+}
+
+/// The dipole of one wavelength lane.
+#[derive(Clone, Copy, Debug)]
+enum LaneModel {
+    Standard(StandardDipole),
+    Directional(DirectionalDipole),
+    /// α' = 0 or otherwise nothing diffuses.
+    Black,
+}
+
+impl LaneModel {
+    #[inline]
+    fn sd(&self, xi: Vec3, ni: Vec3, wi: Vec3, xo: Vec3, no: Vec3) -> f64 {
+        match self {
+            LaneModel::Standard(m) => m.sd(xo.distance(xi) as f64),
+            LaneModel::Directional(m) => {
+                let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+                m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
+            }
+            LaneModel::Black => 0.0,
+        }
+    }
+}
+
+/// One stored sample of transmitted light.
+#[derive(Clone, Copy, Debug)]
+struct CloudPoint {
+    p: Vec3,
+    /// Outward unit normal.
+    n: Vec3,
+    /// Direction towards the light (outside, unit).
+    wi: Vec3,
+    /// L_t = T12 L_i π A at the pass's wavelengths.
+    lt: Vec4,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    bounds: Aabb,
+    start: u32,
+    end: u32,
+    /// Index of the first child (the second is `left + 1`), 0 for a leaf.
+    left: u32,
+}
+
+const LEAF_SIZE: usize = 8;
+
+/// The point cloud of one translucent object for one pass.
+struct ObjectCloud {
+    lanes: [LaneModel; N_LAMBDA],
+    eta: f32,
+    /// Smallest σ_tr over the pass's wavelengths (m⁻¹).
+    sigma_tr_min: f32,
+    rejection_control: bool,
+    /// Number of points drawn (the estimator divides by it).
+    m: usize,
+    points: Vec<CloudPoint>,
+    nodes: Vec<Node>,
+}
+
+/// Statistics of one query (for tests and benchmarks).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct QueryStats {
+    /// Tree nodes visited.
+    pub nodes: u64,
+    /// Points evaluated with S_d (accepted).
+    pub accepted: u64,
+}
+
+/// Per-pass subsurface state: the wavelengths every path of the pass uses and the point cloud of
+/// each translucent object.
+pub struct SubsurfacePass {
+    /// The wavelengths of every path of this pass.
+    pub wl: SampledWavelengths,
+    clouds: Vec<Option<ObjectCloud>>,
+}
+
+/// How the path tracer treats translucent materials.
+#[derive(Clone, Copy)]
+pub enum SubsurfaceMode<'a> {
+    /// As their smooth dielectric boundary (light enters the interior; volumetric path tracing).
+    Dielectric,
+    /// Specular reflection of the boundary only (paths traced from cloud points).
+    ReflectOnly,
+    /// Specular reflection plus the BSSRDF term from this pass's cloud (camera paths).
+    Bssrdf(&'a SubsurfacePass),
+}
+
+/// Whether `scene` has any translucent object.
+pub fn scene_has_translucent(scene: &Scene) -> bool {
+    scene
+        .objects
+        .iter()
+        .any(|o| matches!(scene.materials[o.material as usize], Material::Translucent(_)))
+}
+
+/// Area-uniform point sampler over one shape.
+struct SurfaceSampler<'a> {
+    shape: &'a Shape,
+    cdf: Vec<f32>,
+    area: f32,
+    /// +1 if the mesh winding gives outward normals, −1 if inward.
+    orient: f32,
+}
+
+impl<'a> SurfaceSampler<'a> {
+    fn new(shape: &'a Shape) -> SurfaceSampler<'a> {
+        match shape {
+            Shape::Sphere(s) => SurfaceSampler {
+                shape,
+                cdf: Vec::new(),
+                area: 4.0 * std::f32::consts::PI * s.radius * s.radius,
+                orient: 1.0,
+            },
+            Shape::Mesh(m) => {
+                let mut acc = 0.0f64;
+                let mut vol = 0.0f64;
+                let mut cdf = Vec::with_capacity(m.indices.len());
+                for i in 0..m.indices.len() {
+                    acc += m.triangle_area(i) as f64;
+                    cdf.push(acc as f32);
+                    let [a, b, c] = m.triangle(i);
+                    vol += a.as_dvec3().dot(b.as_dvec3().cross(c.as_dvec3()));
+                }
+                SurfaceSampler {
+                    shape,
+                    cdf,
+                    area: acc as f32,
+                    orient: if vol < 0.0 { -1.0 } else { 1.0 },
+                }
+            }
+        }
+    }
+
+    /// Uniform point and its outward unit normal.
+    fn sample(&self, rng: &mut Pcg32) -> (Vec3, Vec3) {
+        match self.shape {
+            Shape::Sphere(s) => {
+                let n = uniform_sphere(rng.next_2d());
+                (s.center + n * s.radius.abs(), n)
+            }
+            Shape::Mesh(m) => {
+                let u = rng.next_f32() * self.area;
+                let i = self.cdf.partition_point(|&c| c <= u).min(self.cdf.len() - 1);
+                let [a, b, c] = m.triangle(i);
+                let bc = uniform_triangle(rng.next_2d());
+                let p = a * (1.0 - bc.x - bc.y) + b * bc.x + c * bc.y;
+                let n = (b - a).cross(c - a).normalize_or_zero() * self.orient;
+                (p, n)
+            }
+        }
+    }
+}
+
+/// Outward normal of `shape` at a surface point with geometric normal `ng_raw` (as stored).
+pub fn outward_normal(shape: &Shape, ng_raw: Vec3) -> Vec3 {
+    // Meshes marked translucent are oriented outwards at load (scene.rs); spheres always are.
+    let _ = shape;
+    ng_raw
+}
+
+#[inline]
+fn fresnel_t(cos: f32, eta: f32) -> f32 {
+    (1.0 - optics::fresnel::fresnel_dielectric(cos.clamp(0.0, 1.0) as f64, eta as f64)) as f32
+}
+
+#[inline]
+fn box_distance(b: &Aabb, p: Vec3) -> f32 {
+    let d = (b.min - p).max(p - b.max).max(Vec3::ZERO);
+    d.length()
+}
+
+impl SubsurfacePass {
+    /// Wavelengths of pass `pass` (every path of a pass with translucent objects uses them).
+    pub fn pass_wavelengths(seed: u64, pass: u64) -> SampledWavelengths {
+        let mut rng = Pcg32::for_pixel(seed ^ 0x5b5d_2c1e_9e37_79b9, pass, u64::MAX);
+        SampledWavelengths::sample(rng.next_f32())
+    }
+
+    /// Build the pass state: for each translucent object draw its points, trace them with the
+    /// path tracer (translucent surfaces reflect only) and build the kd-tree. `None` when the
+    /// scene has no translucent object. Deterministic in (`seed`, `pass`).
+    pub fn build(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass: u64) -> Option<SubsurfacePass> {
+        if !scene_has_translucent(scene) {
+            return None;
+        }
+        let wl = Self::pass_wavelengths(seed, pass);
+        let mut clouds = Vec::with_capacity(scene.objects.len());
+        for (oi, obj) in scene.objects.iter().enumerate() {
+            let Material::Translucent(t) = &scene.materials[obj.material as usize] else {
+                clouds.push(None);
+                continue;
+            };
+            clouds.push(Some(build_cloud(scene, settings, t, oi, &wl, seed, pass)));
+        }
+        Some(SubsurfacePass { wl, clouds })
+    }
+
+    /// Diffusive BSSRDF radiance leaving object `object` at `xo` (outward unit normal `no`)
+    /// towards `wo` (unit, outside): T21 · (1/M) Σ S_d L_t / p_i over the accepted points.
+    pub fn radiance(&self, object: u32, xo: Vec3, no: Vec3, wo: Vec3, rng: &mut Pcg32) -> SampledSpectrum {
+        self.radiance_stats(object, xo, no, wo, rng).0
+    }
+
+    /// [`SubsurfacePass::radiance`] with the query's statistics.
+    pub fn radiance_stats(
+        &self,
+        object: u32,
+        xo: Vec3,
+        no: Vec3,
+        wo: Vec3,
+        rng: &mut Pcg32,
+    ) -> (SampledSpectrum, QueryStats) {
+        let mut st = QueryStats::default();
+        let Some(Some(c)) = self.clouds.get(object as usize) else {
+            return (Vec4::ZERO, st);
+        };
+        let cos_o = wo.dot(no);
+        if !(cos_o > 0.0) || c.points.is_empty() {
+            return (Vec4::ZERO, st);
+        }
+        let mut sum = [0f64; N_LAMBDA];
+        let sigma = c.sigma_tr_min;
+        let mut eval = |pt: &CloudPoint, p: f32, st: &mut QueryStats| {
+            st.accepted += 1;
+            for (k, lane) in c.lanes.iter().enumerate() {
+                let lt = pt.lt[k];
+                if lt != 0.0 {
+                    sum[k] += lane.sd(pt.p, pt.n, pt.wi, xo, no) * lt as f64 / p as f64;
+                }
+            }
+        };
+        let mut stack = [0u32; 64];
+        let mut sp = 1usize;
+        stack[0] = 0;
+        while sp > 0 {
+            sp -= 1;
+            let node = &c.nodes[stack[sp] as usize];
+            st.nodes += 1;
+            let q = if c.rejection_control {
+                (-sigma * box_distance(&node.bounds, xo)).exp()
+            } else {
+                1.0
+            };
+            if !(q > 0.0) {
+                continue;
+            }
+            let n = (node.end - node.start) as f32;
+            if node.left == 0 || n * q < 4.0 || sp + 2 > stack.len() {
+                // Candidates with probability q by geometric skipping, then keep with p/q.
+                let (start, end) = (node.start as usize, node.end as usize);
+                if q >= 1.0 {
+                    for pt in &c.points[start..end] {
+                        let p = if c.rejection_control {
+                            (-sigma * pt.p.distance(xo)).exp()
+                        } else {
+                            1.0
+                        };
+                        if p > 0.0 && (p >= 1.0 || rng.next_f32() < p) {
+                            eval(pt, p, &mut st);
+                        }
+                    }
+                } else {
+                    let ln1q = (-(q as f64)).ln_1p();
+                    let mut j = start;
+                    loop {
+                        let u = 1.0 - rng.next_f64(); // (0, 1]
+                        let skip = (u.ln() / ln1q).floor();
+                        if !(skip < (end - j) as f64) {
+                            break;
+                        }
+                        j += skip as usize;
+                        let pt = &c.points[j];
+                        let p = (-sigma * pt.p.distance(xo)).exp();
+                        if p > 0.0 && rng.next_f32() * q < p {
+                            eval(pt, p, &mut st);
+                        }
+                        j += 1;
+                        if j >= end {
+                            break;
+                        }
+                    }
+                }
+            } else {
+                stack[sp] = node.left;
+                stack[sp + 1] = node.left + 1;
+                sp += 2;
+            }
+        }
+        let t21 = fresnel_t(cos_o, c.eta);
+        let scale = t21 as f64 / c.m as f64;
+        (
+            Vec4::new(
+                (sum[0] * scale) as f32,
+                (sum[1] * scale) as f32,
+                (sum[2] * scale) as f32,
+                (sum[3] * scale) as f32,
+            ),
+            st,
+        )
+    }
+
+    /// Number of stored points of `object` (0 if not translucent).
+    pub fn point_count(&self, object: u32) -> usize {
+        self.clouds
+            .get(object as usize)
+            .and_then(|c| c.as_ref())
+            .map_or(0, |c| c.points.len())
+    }
+}
+
+fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBDA], f32) {
+    let mut lanes = [LaneModel::Black; N_LAMBDA];
+    let mut smin = f32::INFINITY;
+    for (k, lane) in lanes.iter_mut().enumerate() {
+        let p = t.properties(wl.lambda_nm[k]);
+        let m = match t.model {
+            DipoleModel::Standard => StandardDipole::new(&p).map(LaneModel::Standard),
+            DipoleModel::Directional => DirectionalDipole::new(&p).map(LaneModel::Directional),
+        };
+        if let Ok(m) = m {
+            let (ap, str_) = match &m {
+                LaneModel::Standard(d) => (d.props.alpha_prime, d.props.sigma_tr_per_m),
+                LaneModel::Directional(d) => (d.props.alpha_prime, d.props.sigma_tr_per_m),
+                LaneModel::Black => (0.0, f64::INFINITY),
+            };
+            if ap > 0.0 && str_.is_finite() {
+                *lane = m;
+                smin = smin.min(str_ as f32);
+            }
+        }
+    }
+    (lanes, if smin.is_finite() { smin } else { 0.0 })
+}
+
+/// Mean cosine of a medium's phase function at `lambda_nm`.
+fn phase_g(phase: &crate::medium::PhaseModel, lambda_nm: f32) -> f64 {
+    use crate::medium::PhaseModel;
+    match phase {
+        PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm) as f64,
+        PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
+            if tables.is_empty() {
+                return 0.0;
+            }
+            let k = ls.partition_point(|&l| l <= lambda_nm);
+            if k == 0 {
+                tables[0].g()
+            } else if k >= ls.len() {
+                tables[ls.len() - 1].g()
+            } else {
+                let f = ((lambda_nm - ls[k - 1]) / (ls[k] - ls[k - 1])) as f64;
+                tables[k - 1].g() * (1.0 - f) + tables[k].g() * f
+            }
+        }
+    }
+}
+
+/// The material with its coefficients taken from the object's medium when `from_medium`.
+fn effective_material(scene: &Scene, t: &Translucent, object: usize) -> Translucent {
+    let mut t = t.clone();
+    if t.from_medium {
+        if let Some(mi) = scene.objects[object].interior_medium {
+            let m = &scene.media[mi as usize];
+            t.sigma_s_per_m = m.sigma_s_per_m.clone();
+            t.sigma_a_per_m = m.sigma_a_per_m.clone();
+            let phase = &m.phase;
+            t.g = DenseSpectrum::from_fn(|l| phase_g(phase, l as f32));
+        }
+    }
+    t
+}
+
+fn build_cloud(
+    scene: &Scene,
+    settings: &IntegratorSettings,
+    t: &Translucent,
+    object: usize,
+    wl: &SampledWavelengths,
+    seed: u64,
+    pass: u64,
+) -> ObjectCloud {
+    let t = &effective_material(scene, t, object);
+    let (lanes, sigma_tr_min) = lane_models(t, wl);
+    let shape = scene.accel.shape(object as u32);
+    let sampler = SurfaceSampler::new(shape);
+    let m = t.points_per_pass;
+    let area = sampler.area;
+    let eps = scene.ray_epsilon_m;
+    let any_lane = lanes.iter().any(|l| !matches!(l, LaneModel::Black));
+    let mut points: Vec<CloudPoint> = if any_lane {
+        (0..m)
+            .into_par_iter()
+            .map(|i| {
+                let mut rng = Pcg32::for_pixel(seed ^ 0xc10d_0000_0000_0000 ^ (object as u64) << 32, pass, i as u64);
+                let (p, n) = sampler.sample(&mut rng);
+                let d_local = cosine_hemisphere(rng.next_2d());
+                let wi = Frame::from_normal(n).to_world(d_local).normalize();
+                let ray = Ray {
+                    o: p + n * eps,
+                    d: wi,
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                // Light sample (next-event estimation), MIS-weighted against the cosine direction.
+                let light = sample_light_at(scene, p, n, wl, &mut rng, t.eta, area);
+                let cos_pdf = d_local.z * std::f32::consts::FRAC_1_PI;
+                let mut wl_path = *wl;
+                let mut li = crate::integrator::li_path_mode(
+                    scene,
+                    settings,
+                    ray,
+                    &mut wl_path,
+                    &mut rng,
+                    SubsurfaceMode::ReflectOnly,
+                    cos_pdf,
+                );
+                if wl_path.secondary_terminated() {
+                    li = Vec4::new(li.x * N_LAMBDA as f32, 0.0, 0.0, 0.0);
+                }
+                if !li.is_finite() {
+                    li = Vec4::ZERO;
+                }
+                let lt = li * (fresnel_t(d_local.z, t.eta) * std::f32::consts::PI * area);
+                [Some(CloudPoint { p, n, wi, lt }), light]
+            })
+            .flat_map_iter(|pair| pair.into_iter().flatten())
+            .filter(|c| c.lt != Vec4::ZERO)
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let nodes = build_tree(&mut points);
+    ObjectCloud {
+        lanes,
+        eta: t.eta,
+        sigma_tr_min,
+        rejection_control: t.rejection_control,
+        m,
+        points,
+        nodes,
+    }
+}
+
+/// Next-event estimation at cloud point `p` (outward normal `n`): one light sample, MIS-weighted
+/// (power heuristic) against the cosine sampling of the traced direction; returns the stored
+/// entry L_t = T12 · L_e · cos θ · w / pdf · A (with the light's direction) or `None`.
+fn sample_light_at(
+    scene: &Scene,
+    p: Vec3,
+    n: Vec3,
+    wl: &SampledWavelengths,
+    rng: &mut Pcg32,
+    eta: f32,
+    area: f32,
+) -> Option<CloudPoint> {
+    let u_pick = rng.next_f32();
+    let u = rng.next_2d();
+    let (idx, pmf) = scene.pick_light(u_pick)?;
+    let ls = scene.lights[idx].sample_li(p, u, wl)?;
+    let cos = ls.wi.dot(n);
+    if !(ls.pdf > 0.0) || !(cos > 0.0) || ls.li == Vec4::ZERO {
+        return None;
+    }
+    let eps = scene.ray_epsilon_m;
+    let t_max = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) - 2.0 * eps } else { f32::INFINITY };
+    if t_max > 0.0 && scene.accel.occluded(&Ray { o: p + n * eps, d: ls.wi, t_min: 0.0, t_max }) {
+        return None;
+    }
+    let light_pdf = pmf * ls.pdf;
+    let w = if ls.delta {
+        1.0
+    } else {
+        crate::sampling::power_heuristic(1.0, light_pdf, 1.0, cos * std::f32::consts::FRAC_1_PI)
+    };
+    let lt = ls.li * (fresnel_t(cos, eta) * cos * w / light_pdf * area);
+    lt.is_finite().then_some(CloudPoint { p, n, wi: ls.wi, lt })
+}
+
+/// kd-tree over the points (median split on the longest axis); reorders `points` so every node
+/// is a contiguous range.
+fn build_tree(points: &mut [CloudPoint]) -> Vec<Node> {
+    let mut nodes = Vec::with_capacity(2 * points.len() / LEAF_SIZE + 1);
+    let bounds = |pts: &[CloudPoint]| pts.iter().fold(Aabb::EMPTY, |b, c| b.grow(c.p));
+    nodes.push(Node {
+        bounds: bounds(points),
+        start: 0,
+        end: points.len() as u32,
+        left: 0,
+    });
+    let mut todo = vec![0usize];
+    while let Some(ni) = todo.pop() {
+        let Node {
+            bounds: b, start, end, ..
+        } = nodes[ni];
+        let n = (end - start) as usize;
+        if n <= LEAF_SIZE {
+            continue;
+        }
+        let axis = b.longest_axis();
+        let mid = n / 2;
+        let slice = &mut points[start as usize..end as usize];
+        slice.select_nth_unstable_by(mid, |a, c| a.p[axis].total_cmp(&c.p[axis]));
+        let left = nodes.len();
+        let m = start + mid as u32;
+        nodes.push(Node {
+            bounds: bounds(&points[start as usize..m as usize]),
+            start,
+            end: m,
+            left: 0,
+        });
+        nodes.push(Node {
+            bounds: bounds(&points[m as usize..end as usize]),
+            start: m,
+            end,
+            left: 0,
+        });
+        nodes[ni].left = left as u32;
+        todo.push(left);
+        todo.push(left + 1);
+    }
+    nodes
+}
+
+/// Check that a shape marked translucent is closed (every edge shared by two triangles after
+/// welding equal positions); errors say which edge count is wrong.
+pub fn check_closed(shape: &Shape) -> Result<()> {
+    match shape {
+        Shape::Sphere(_) => Ok(()),
+        Shape::Mesh(m) => crate::medium::closed_mesh_volume(m).map(|_| ()),
+    }
+}
+
+/// Convenience: the material of a translucent object.
+pub fn translucent_of(scene: &Scene, object: u32) -> Option<&Arc<Translucent>> {
+    match &scene.materials[scene.objects[object as usize].material as usize] {
+        Material::Translucent(t) => Some(t),
+        _ => None,
+    }
+}

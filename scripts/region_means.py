@@ -1,0 +1,54 @@
+#!/usr/bin/env python3
+"""Mean linear-sRGB radiance over fixed image regions of PFM renders, and the relative differences.
+
+usage: region_means.py REFERENCE.pfm OTHER.pfm [OTHER2.pfm ...] --regions NAME:x0,y0,x1,y1 ...
+Regions are fractions of the image width/height (x right, y down). Prints a Markdown table of the
+luminance-like mean (R+G+B)/3 per region with its standard error (from 8×8-pixel block means) and
+the relative difference of each OTHER to REFERENCE.
+"""
+import sys
+import numpy as np
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        kind = f.readline().strip()
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
+    ch = 3 if kind == b"PF" else 1
+    img = data.reshape(h, w, ch)[::-1]  # PFM rows are bottom-to-top
+    return img
+
+
+def stats(img, r):
+    h, w = img.shape[:2]
+    x0, y0, x1, y1 = r
+    sub = img[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)].mean(axis=2)
+    bh, bw = max(1, sub.shape[0] // 8), max(1, sub.shape[1] // 8)
+    blocks = [sub[i:i + bh, j:j + bw].mean() for i in range(0, sub.shape[0] - bh + 1, bh) for j in range(0, sub.shape[1] - bw + 1, bw)]
+    return sub.mean(), np.std(blocks, ddof=1) / np.sqrt(len(blocks))
+
+
+def main():
+    args = sys.argv[1:]
+    k = args.index("--regions")
+    files, regs = args[:k], args[k + 1:]
+    imgs = [read_pfm(f) for f in files]
+    regions = []
+    for r in regs:
+        name, box = r.split(":")
+        regions.append((name, tuple(float(v) for v in box.split(","))))
+    head = "| region | " + " | ".join(files) + " | " + " | ".join(f"Δ {f}" for f in files[1:]) + " |"
+    print(head)
+    print("|" + "---|" * (1 + 2 * len(files) - 1))
+    for name, r in regions:
+        s = [stats(im, r) for im in imgs]
+        ref = s[0][0]
+        cells = [f"{m:.4f} ± {e:.4f}" for m, e in s]
+        rel = [f"{100 * (m - ref) / ref:+.1f} %" for m, _ in s[1:]]
+        print(f"| {name} | " + " | ".join(cells) + " | " + " | ".join(rel) + " |")
+
+
+if __name__ == "__main__":
+    main()
