@@ -1,1 +1,549 @@
-//! (to be written)
+//! Lorenz–Mie theory for a homogeneous sphere, optionally in an absorbing host.
+//!
+//! Conventions (Bohren & Huffman 1983): time dependence e^{−iωt}, refractive indices
+//! n = n′ + i n″ with n″ ≥ 0 absorbing, outgoing waves ξ_n(ρ) = ρ h_n^{(1)}(ρ).
+//! Size parameter in the host x = 2π r n_med / λ (λ in vacuum), relative index m = n_p / n_med.
+//!
+//! Two code paths:
+//! * real host (n_med″ = 0): the classical Bohren–Huffman formulation with D_n(mx) by downward
+//!   recurrence and ψ_n, ξ_n by upward recurrence, fused with the sums (no storage of a_n, b_n);
+//! * absorbing host: the formulation of Frisvad, Christensen & Jensen (ACM TOG 26(3), 2007),
+//!   with ratios of Riccati–Bessel functions so that complex x stays stable
+//!   (ψ_nξ_n products and ψ_n/ξ_n ratios by upward recurrence, as in Yang, Appl. Opt. 42, 2003).
+//!   It reduces to the classical one when n_med″ = 0 (checked in the tests).
+//!
+//! Number of terms M = ⌈|x| + 4.3|x|^{1/3} + 1⌉ (10⁻⁸ error bound quoted in the tutorial).
+//! The logarithmic derivative D_n(z) is started at zero well above max(M, |z|): at
+//! max(M, |z|) + 16 + 4·max(M,|z|)^{1/3}. Starting it at M only is wrong for large |mx|.
+
+/// Complex numbers used throughout (re-exported so callers need no direct dependency).
+pub use num_complex::Complex64;
+use std::f64::consts::PI;
+
+/// Number of terms of the series, M = ⌈|x| + 4.3|x|^{1/3} + 1⌉ (at least 1).
+pub fn number_of_terms(x_abs: f64) -> usize {
+    let m = (x_abs + 4.3 * x_abs.cbrt() + 1.0).ceil();
+    if m.is_finite() && m >= 1.0 {
+        m as usize
+    } else {
+        1
+    }
+}
+
+/// Index at which the downward recurrence of D_n(z) is started (with D = 0).
+fn downward_start(terms: usize, z_abs: f64) -> usize {
+    let top = (terms as f64).max(z_abs);
+    (top + 16.0 + 4.0 * top.cbrt()).ceil() as usize
+}
+
+/// 1/z with one real division.
+#[inline(always)]
+fn inv(z: Complex64) -> Complex64 {
+    let s = 1.0 / (z.re * z.re + z.im * z.im);
+    Complex64::new(z.re * s, -z.im * s)
+}
+
+/// a/b with one real division (no overflow scaling: Mie quantities stay far from the limits).
+#[inline(always)]
+fn div(a: Complex64, b: Complex64) -> Complex64 {
+    let s = 1.0 / (b.re * b.re + b.im * b.im);
+    Complex64::new((a.re * b.re + a.im * b.im) * s, (a.im * b.re - a.re * b.im) * s)
+}
+
+/// Largest |Im x| of the host size parameter for which ψ_n(x), ξ_n(x) are built by upward
+/// recurrence; above it the ratio formulation is used.
+pub const UPWARD_MAX_IM_X: f64 = 1.0;
+
+/// Fill `out[0..=terms]` with D_n(z) = ψ_n′(z)/ψ_n(z) by downward recurrence.
+fn log_derivative(z: Complex64, terms: usize, out: &mut Vec<Complex64>) {
+    let start = downward_start(terms, z.norm());
+    out.clear();
+    out.resize(terms + 1, Complex64::new(0.0, 0.0));
+    let inv_z = inv(z);
+    let mut d = Complex64::new(0.0, 0.0);
+    // D_{n-1} = n/z − 1/(D_n + n/z)
+    let mut n = start;
+    while n > terms {
+        let nz = inv_z * n as f64;
+        d = nz - inv(d + nz);
+        n -= 1;
+    }
+    // now d = D_terms
+    out[terms] = d;
+    while n > 0 {
+        let nz = inv_z * n as f64;
+        d = nz - inv(d + nz);
+        n -= 1;
+        out[n] = d;
+    }
+}
+
+/// Efficiencies and asymmetry parameter of one sphere (dimensionless).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Efficiencies {
+    /// Number of series terms used, M.
+    pub terms: usize,
+    /// Extinction efficiency Q_ext = C_ext / (π r²).
+    pub qext: f64,
+    /// Scattering efficiency Q_sca.
+    pub qsca: f64,
+    /// Absorption efficiency Q_abs = Q_ext − Q_sca.
+    pub qabs: f64,
+    /// Bohren–Huffman radar backscattering efficiency 4|S1(180°)|²/x² (real host).
+    pub qback: f64,
+    /// Asymmetry parameter g = ⟨cos θ⟩ of the normalised phase function.
+    pub g: f64,
+}
+
+/// Cross sections (m²) and efficiencies of a sphere of given radius in a (possibly absorbing) host.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    /// Efficiencies (Q = C / (π r²)); for an absorbing host, per Frisvad et al. 2007.
+    pub eff: Efficiencies,
+    /// Extinction cross section, m².
+    pub c_ext_m2: f64,
+    /// Scattering cross section, m².
+    pub c_sca_m2: f64,
+    /// Absorption cross section C_ext − C_sca, m² (negative when the particle absorbs less than the host it displaces).
+    pub c_abs_m2: f64,
+}
+
+/// Reusable buffers for Mie computations: no allocation in the hot path after warm-up.
+#[derive(Default, Clone, Debug)]
+pub struct MieWorkspace {
+    d_p: Vec<Complex64>,
+    d_h: Vec<Complex64>,
+    a: Vec<Complex64>,
+    b: Vec<Complex64>,
+}
+
+impl MieWorkspace {
+    /// Empty workspace.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Q's and g for a real size parameter `x` > 0 (non-absorbing host) and relative index `m`.
+    /// Classical Bohren–Huffman formulation, fused with the sums.
+    pub fn efficiencies(&mut self, x: f64, m: Complex64) -> Efficiencies {
+        let terms = number_of_terms(x);
+        log_derivative(m * x, terms, &mut self.d_p);
+        let d = &self.d_p;
+        let (s, c) = x.sin_cos();
+        let inv_x = 1.0 / x;
+        let inv_m = inv(m);
+        // ψ_{n-1}, η_{n-1} (η_n = x y_n so that ξ_n = ψ_n + iη_n), starting at n = 0.
+        let (mut psi_m1, mut psi_0) = (c, s); // ψ_{-1}, ψ_0
+        let (mut eta_m1, mut eta_0) = (s, -c); // η_{-1}, η_0
+        let mut ext = 0.0;
+        let mut sca = 0.0;
+        let mut g_cross = 0.0; // Σ n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
+        let mut g_ab = 0.0; // Σ (2n+1)/(n(n+1)) Re(a_n b*_n)
+        let mut back = Complex64::new(0.0, 0.0);
+        let mut a_prev = Complex64::new(0.0, 0.0);
+        let mut b_prev = Complex64::new(0.0, 0.0);
+        let mut sign = -1.0;
+        for (n, dn) in d.iter().enumerate().skip(1) {
+            let nf = n as f64;
+            let f = (2.0 * nf - 1.0) * inv_x;
+            let psi = f * psi_0 - psi_m1;
+            let eta = f * eta_0 - eta_m1;
+            let nx = nf * inv_x;
+            let ta = dn * inv_m + nx;
+            let tb = dn * m + nx;
+            let xi = Complex64::new(psi, eta);
+            let xi_prev = Complex64::new(psi_0, eta_0);
+            let an = div(ta * psi - psi_0, ta * xi - xi_prev);
+            let bn = div(tb * psi - psi_0, tb * xi - xi_prev);
+            let w = 2.0 * nf + 1.0;
+            ext += w * (an.re + bn.re);
+            sca += w * (an.norm_sqr() + bn.norm_sqr());
+            if n > 1 {
+                let k = nf - 1.0;
+                g_cross += k * (k + 2.0) / (k + 1.0)
+                    * (a_prev.re * an.re + a_prev.im * an.im + b_prev.re * bn.re + b_prev.im * bn.im);
+            }
+            g_ab += w / (nf * (nf + 1.0)) * (an.re * bn.re + an.im * bn.im);
+            back += (an - bn) * (w * sign);
+            sign = -sign;
+            a_prev = an;
+            b_prev = bn;
+            psi_m1 = psi_0;
+            psi_0 = psi;
+            eta_m1 = eta_0;
+            eta_0 = eta;
+        }
+        let x2 = x * x;
+        let qext = 2.0 * ext / x2;
+        let qsca = 2.0 * sca / x2;
+        Efficiencies {
+            terms,
+            qext,
+            qsca,
+            qabs: qext - qsca,
+            qback: back.norm_sqr() / x2,
+            g: if sca > 0.0 { 2.0 * (g_cross + g_ab) / sca } else { 0.0 },
+        }
+    }
+
+    /// Mie coefficients a_n, b_n (n = 1..=M, stored at index n−1) for a host size parameter
+    /// `x` (complex when the host absorbs) and relative index `m` = n_p/n_med.
+    /// Upward recurrence of ψ_n(x), ξ_n(x) when |Im x| ≤ [`UPWARD_MAX_IM_X`], else the ratio formulation.
+    pub fn coefficients(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        if x.im.abs() <= UPWARD_MAX_IM_X {
+            self.coefficients_upward(x, m)
+        } else {
+            self.coefficients_ratio(x, m)
+        }
+    }
+
+    /// a_n, b_n by the Bohren–Huffman formulas with D_n(mx) downward and ψ_n(x), ξ_n(x) upward
+    /// (complex x allowed; accurate while |Im x| is moderate).
+    pub fn coefficients_upward(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        let terms = number_of_terms(x.norm());
+        log_derivative(m * x, terms, &mut self.d_p);
+        self.a.clear();
+        self.b.clear();
+        let i = Complex64::new(0.0, 1.0);
+        let inv_x = inv(x);
+        let inv_m = inv(m);
+        let e = (i * x).exp();
+        // ψ_{-1} = cos x, ψ_0 = sin x, ξ_{-1} = e^{ix}, ξ_0 = −i e^{ix}
+        let (mut psi_m1, mut psi_0) = (x.cos(), x.sin());
+        let (mut xi_m1, mut xi_0) = (e, -i * e);
+        for n in 1..=terms {
+            let nf = n as f64;
+            let f = inv_x * (2.0 * nf - 1.0);
+            let psi = f * psi_0 - psi_m1;
+            let xi = f * xi_0 - xi_m1;
+            let dn = self.d_p[n];
+            let nx = inv_x * nf;
+            let ta = dn * inv_m + nx;
+            let tb = dn * m + nx;
+            self.a.push(div(ta * psi - psi_0, ta * xi - xi_0));
+            self.b.push(div(tb * psi - psi_0, tb * xi - xi_0));
+            psi_m1 = psi_0;
+            psi_0 = psi;
+            xi_m1 = xi_0;
+            xi_0 = xi;
+        }
+        (&self.a, &self.b)
+    }
+
+    /// a_n, b_n by the ratio formulation (A_n = ψ_n′/ψ_n downward for x and mx; ψ_nξ_n and ψ_n/ξ_n
+    /// upward; B_n = A_n + i/(ψ_nξ_n)), stable for complex x with large imaginary part.
+    pub fn coefficients_ratio(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        let terms = number_of_terms(x.norm());
+        log_derivative(m * x, terms, &mut self.d_p);
+        log_derivative(x, terms, &mut self.d_h);
+        self.a.clear();
+        self.b.clear();
+        let i = Complex64::new(0.0, 1.0);
+        let inv_x = x.inv();
+        // ψ_0ξ_0 = (1 − e^{2ix})/2, ψ_0/ξ_0 = (1 − e^{−2ix})/2, B_0 = i.
+        let e2 = (i * 2.0 * x).exp();
+        let mut prod = (Complex64::new(1.0, 0.0) - e2) * 0.5;
+        let mut ratio = (Complex64::new(1.0, 0.0) - e2.inv()) * 0.5;
+        let mut b_h = i;
+        for n in 1..=terms {
+            let nx = inv_x * n as f64;
+            let a_h_prev = self.d_h[n - 1];
+            prod = prod * (nx - a_h_prev) * (nx - b_h);
+            let a_h = self.d_h[n];
+            b_h = a_h + i / prod;
+            ratio = ratio * (b_h + nx) / (a_h + nx);
+            let a_p = self.d_p[n];
+            let an = ratio * (m * a_h - a_p) / (m * b_h - a_p);
+            let bn = ratio * (a_h - m * a_p) / (b_h - m * a_p);
+            self.a.push(an);
+            self.b.push(bn);
+        }
+        (&self.a, &self.b)
+    }
+
+    /// A sphere of radius `radius_m` and complex index `n_particle` in a host of complex index
+    /// `n_medium` (n″ ≥ 0 absorbs), illuminated at vacuum wavelength `lambda_m`.
+    /// Absorbing host: Frisvad, Christensen & Jensen 2007,
+    /// C_ext = λ²/(2π) Re Σ(2n+1)(a_n+b_n)/n_med², C_sca = λ² e^{−α} / (2π γ |n_med|²) Σ(2n+1)(|a_n|²+|b_n|²),
+    /// α = 4π r n_med″/λ, γ = 2(1 + (α−1)e^α)/α².
+    pub fn sphere(&mut self, radius_m: f64, lambda_m: f64, n_particle: Complex64, n_medium: Complex64) -> Sphere {
+        let k0 = 2.0 * PI / lambda_m;
+        let area = PI * radius_m * radius_m;
+        let m = n_particle / n_medium;
+        if n_medium.im == 0.0 {
+            let x = k0 * radius_m * n_medium.re;
+            let eff = self.efficiencies(x, m);
+            return Sphere {
+                eff,
+                c_ext_m2: eff.qext * area,
+                c_sca_m2: eff.qsca * area,
+                c_abs_m2: eff.qabs * area,
+            };
+        }
+        let x = n_medium * (k0 * radius_m);
+        if x.im.abs() <= UPWARD_MAX_IM_X {
+            let sums = self.sums_upward(x, m);
+            return cross_sections(&sums, x, radius_m, lambda_m, n_medium);
+        }
+        self.sphere_keep_coefficients(radius_m, lambda_m, n_particle, n_medium)
+    }
+
+    /// Fused upward path for complex x: the sums of the series without storing a_n, b_n.
+    fn sums_upward(&mut self, x: Complex64, m: Complex64) -> Sums {
+        let terms = number_of_terms(x.norm());
+        log_derivative(m * x, terms, &mut self.d_p);
+        let i = Complex64::new(0.0, 1.0);
+        let inv_x = inv(x);
+        let inv_m = inv(m);
+        let e = (i * x).exp();
+        let (mut psi_m1, mut psi_0) = (x.cos(), x.sin());
+        let (mut xi_m1, mut xi_0) = (e, -i * e);
+        let mut sums = Sums { terms, ..Default::default() };
+        let mut a_prev = Complex64::new(0.0, 0.0);
+        let mut b_prev = Complex64::new(0.0, 0.0);
+        let mut sign = -1.0;
+        for (n, dn) in self.d_p.iter().enumerate().skip(1) {
+            let nf = n as f64;
+            let f = inv_x * (2.0 * nf - 1.0);
+            let psi = f * psi_0 - psi_m1;
+            let xi = f * xi_0 - xi_m1;
+            let nx = inv_x * nf;
+            let ta = dn * inv_m + nx;
+            let tb = dn * m + nx;
+            let an = div(ta * psi - psi_0, ta * xi - xi_0);
+            let bn = div(tb * psi - psi_0, tb * xi - xi_0);
+            sums.add(n, an, bn, a_prev, b_prev, sign);
+            sign = -sign;
+            a_prev = an;
+            b_prev = bn;
+            psi_m1 = psi_0;
+            psi_0 = psi;
+            xi_m1 = xi_0;
+            xi_0 = xi;
+        }
+        sums
+    }
+
+    /// As [`MieWorkspace::sphere`] but always through stored coefficients, keeping a_n, b_n
+    /// for [`MieWorkspace::last_coefficients`] (phase functions).
+    pub fn sphere_keep_coefficients(&mut self, radius_m: f64, lambda_m: f64, n_particle: Complex64, n_medium: Complex64) -> Sphere {
+        let k0 = 2.0 * PI / lambda_m;
+        let m = n_particle / n_medium;
+        let x = n_medium * (k0 * radius_m);
+        self.coefficients(x, m);
+        let mut sums = Sums { terms: self.a.len(), ..Default::default() };
+        let (mut a_prev, mut b_prev, mut sign) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0), -1.0);
+        for (k, (&an, &bn)) in self.a.iter().zip(&self.b).enumerate() {
+            sums.add(k + 1, an, bn, a_prev, b_prev, sign);
+            sign = -sign;
+            a_prev = an;
+            b_prev = bn;
+        }
+        cross_sections(&sums, x, radius_m, lambda_m, n_medium)
+    }
+}
+
+/// Running sums of the Mie series.
+#[derive(Default, Clone, Copy, Debug)]
+struct Sums {
+    terms: usize,
+    /// Σ(2n+1)(a_n + b_n)
+    ext: Complex64,
+    /// Σ(2n+1)(|a_n|² + |b_n|²)
+    sca: f64,
+    /// Σ n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1}) + Σ (2n+1)/(n(n+1)) Re(a_n b*_n)
+    g_num: f64,
+    /// Σ(2n+1)(−1)^n (a_n − b_n)
+    back: Complex64,
+}
+
+impl Sums {
+    #[inline(always)]
+    fn add(&mut self, n: usize, an: Complex64, bn: Complex64, a_prev: Complex64, b_prev: Complex64, sign: f64) {
+        let nf = n as f64;
+        let w = 2.0 * nf + 1.0;
+        self.ext += (an + bn) * w;
+        self.sca += w * (an.norm_sqr() + bn.norm_sqr());
+        if n > 1 {
+            let k = nf - 1.0;
+            self.g_num += k * (k + 2.0) / (k + 1.0) * (a_prev.re * an.re + a_prev.im * an.im + b_prev.re * bn.re + b_prev.im * bn.im);
+        }
+        self.g_num += w / (nf * (nf + 1.0)) * (an.re * bn.re + an.im * bn.im);
+        self.back += (an - bn) * (w * sign);
+    }
+}
+
+/// Cross sections from the sums for a (possibly absorbing) host, Frisvad et al. 2007.
+fn cross_sections(sums: &Sums, x: Complex64, radius_m: f64, lambda_m: f64, n_medium: Complex64) -> Sphere {
+    let area = PI * radius_m * radius_m;
+    let lambda2 = lambda_m * lambda_m;
+    let c_ext = lambda2 / (2.0 * PI) * div(sums.ext, n_medium * n_medium).re;
+    let alpha = 4.0 * PI * radius_m * n_medium.im / lambda_m;
+    let gamma = absorbing_host_gamma(alpha);
+    let c_sca = lambda2 * (-alpha).exp() / (2.0 * PI * gamma * n_medium.norm_sqr()) * sums.sca;
+    // Backscattering: 4|S1(π)|²/|x|² in the host (Bohren–Huffman normalisation).
+    let qback = sums.back.norm_sqr() / x.norm_sqr();
+    Sphere {
+        eff: Efficiencies {
+            terms: sums.terms,
+            qext: c_ext / area,
+            qsca: c_sca / area,
+            qabs: (c_ext - c_sca) / area,
+            qback,
+            g: if sums.sca > 0.0 { 2.0 * sums.g_num / sums.sca } else { 0.0 },
+        },
+        c_ext_m2: c_ext,
+        c_sca_m2: c_sca,
+        c_abs_m2: c_ext - c_sca,
+    }
+}
+
+impl MieWorkspace {
+    /// Coefficients (a_n, b_n at index n−1) of the last [`MieWorkspace::coefficients`] or
+    /// [`MieWorkspace::sphere_keep_coefficients`] call.
+    pub fn last_coefficients(&self) -> (&[Complex64], &[Complex64]) {
+        (&self.a, &self.b)
+    }
+}
+
+/// γ(α) = 2(1 + (α−1)e^α)/α² of Frisvad et al. 2007: the mean incident intensity over the
+/// particle's front surface relative to its centre, α = 4πr n″_med/λ. The closed form cancels
+/// catastrophically for small α (relative error ~10⁻¹⁶/α²), so below α = 0.5 the series
+/// γ = 2 Σ_{j≥2} (j−1) α^{j−2}/j! = 1 + 2α/3 + α²/4 + α³/15 + … is summed instead.
+pub fn absorbing_host_gamma(alpha: f64) -> f64 {
+    if alpha < 0.5 {
+        let mut sum = 0.0;
+        let mut pow = 1.0; // α^{j−2}
+        let mut fact = 2.0; // j!
+        for j in 2..30 {
+            sum += (j - 1) as f64 * pow / fact;
+            pow *= alpha;
+            fact *= (j + 1) as f64;
+        }
+        2.0 * sum
+    } else {
+        2.0 * (1.0 + (alpha - 1.0) * alpha.exp()) / (alpha * alpha)
+    }
+}
+
+/// Asymmetry parameter g from coefficients (a[n−1] = a_n): normalised far-field ⟨cos θ⟩.
+pub fn asymmetry(a: &[Complex64], b: &[Complex64]) -> f64 {
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for k in 0..a.len() {
+        let n = (k + 1) as f64;
+        den += (2.0 * n + 1.0) * (a[k].norm_sqr() + b[k].norm_sqr());
+        num += (2.0 * n + 1.0) / (n * (n + 1.0)) * (a[k] * b[k].conj()).re;
+        if k + 1 < a.len() {
+            num += n * (n + 2.0) / (n + 1.0) * (a[k] * a[k + 1].conj() + b[k] * b[k + 1].conj()).re;
+        }
+    }
+    if den > 0.0 {
+        2.0 * num / den
+    } else {
+        0.0
+    }
+}
+
+/// Scattering amplitudes (S1, S2) at cos θ = `mu` from coefficients (a[n−1] = a_n),
+/// Bohren–Huffman normalisation, using the angular functions π_n and τ_n.
+pub fn amplitudes(a: &[Complex64], b: &[Complex64], mu: f64) -> (Complex64, Complex64) {
+    let mut s1 = Complex64::new(0.0, 0.0);
+    let mut s2 = Complex64::new(0.0, 0.0);
+    let mut pi_prev = 0.0; // π_0
+    let mut pi_n = 1.0; // π_1
+    for k in 0..a.len() {
+        let n = (k + 1) as f64;
+        let tau = n * mu * pi_n - (n + 1.0) * pi_prev;
+        let w = (2.0 * n + 1.0) / (n * (n + 1.0));
+        s1 += (a[k] * pi_n + b[k] * tau) * w;
+        s2 += (a[k] * tau + b[k] * pi_n) * w;
+        let pi_next = ((2.0 * n + 1.0) * mu * pi_n - (n + 1.0) * pi_prev) / n;
+        pi_prev = pi_n;
+        pi_n = pi_next;
+    }
+    (s1, s2)
+}
+
+/// Phase function p(θ) per steradian at cos θ = `mu`, normalised to 1 over the sphere:
+/// p = (|S1|² + |S2|²) / (4π Σ(2n+1)(|a_n|²+|b_n|²)).
+pub fn phase_function(a: &[Complex64], b: &[Complex64], mu: f64) -> f64 {
+    let den = scattering_sum(a, b);
+    let (s1, s2) = amplitudes(a, b, mu);
+    if den > 0.0 {
+        (s1.norm_sqr() + s2.norm_sqr()) / (4.0 * PI * den)
+    } else {
+        1.0 / (4.0 * PI)
+    }
+}
+
+/// Σ(2n+1)(|a_n|²+|b_n|²).
+pub fn scattering_sum(a: &[Complex64], b: &[Complex64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .enumerate()
+        .map(|(k, (an, bn))| (2 * k + 3) as f64 * (an.norm_sqr() + bn.norm_sqr()))
+        .sum()
+}
+
+/// Convenience: Q's and g for real size parameter `x` and relative index `m` (thread-local workspace).
+pub fn efficiencies(x: f64, m: Complex64) -> Efficiencies {
+    WORKSPACE.with(|w| w.borrow_mut().efficiencies(x, m))
+}
+
+/// Convenience: cross sections of a sphere (thread-local workspace); see [`MieWorkspace::sphere`].
+pub fn sphere(radius_m: f64, lambda_m: f64, n_particle: Complex64, n_medium: Complex64) -> Sphere {
+    WORKSPACE.with(|w| w.borrow_mut().sphere(radius_m, lambda_m, n_particle, n_medium))
+}
+
+thread_local! {
+    static WORKSPACE: std::cell::RefCell<MieWorkspace> = std::cell::RefCell::new(MieWorkspace::new());
+}
+
+/// Rayleigh (x ≪ 1) efficiencies: Q_sca = 8/3 x⁴ |K|², Q_abs = 4x Im K with K = (m²−1)/(m²+2).
+pub fn rayleigh(x: f64, m: Complex64) -> (f64, f64) {
+    let m2 = m * m;
+    let k = (m2 - 1.0) / (m2 + 2.0);
+    (8.0 / 3.0 * x.powi(4) * k.norm_sqr(), 4.0 * x * k.im)
+}
+
+/// Parse a complex number written `RE`, `RE+IMi` or `RE-IMi` (decimal or exponent notation).
+pub fn parse_complex(s: &str) -> anyhow::Result<Complex64> {
+    let t = s.trim();
+    let bad = || anyhow::anyhow!("malformed complex number {s:?} (expected RE or RE+IMi, e.g. 1.33+1e-05i)");
+    let parse = |v: &str| -> anyhow::Result<f64> {
+        if v.is_empty() || v.contains(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c))) {
+            return Err(bad());
+        }
+        let f: f64 = v.parse().map_err(|_| bad())?;
+        if !f.is_finite() {
+            return Err(anyhow::anyhow!("complex number {s:?} is not finite"));
+        }
+        Ok(f)
+    };
+    if let Some(body) = t.strip_suffix(['i', 'j']) {
+        // find the sign that separates the real and imaginary parts (not an exponent sign)
+        let bytes = body.as_bytes();
+        let mut split = None;
+        for k in (1..bytes.len()).rev() {
+            if (bytes[k] == b'+' || bytes[k] == b'-') && !matches!(bytes[k - 1], b'e' | b'E') {
+                split = Some(k);
+                break;
+            }
+        }
+        match split {
+            Some(k) => {
+                let re = parse(&body[..k])?;
+                let im_str = &body[k..];
+                if im_str.len() <= 1 {
+                    return Err(bad());
+                }
+                let im = parse(im_str)?;
+                Ok(Complex64::new(re, im))
+            }
+            None => Err(bad()),
+        }
+    } else {
+        Ok(Complex64::new(parse(t)?, 0.0))
+    }
+}
