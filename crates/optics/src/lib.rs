@@ -12,4 +12,5 @@ pub mod particles;
 pub mod media;
 pub mod milk;
 pub mod bssrdf;
+pub mod fitting;
 pub mod reflectometry;
