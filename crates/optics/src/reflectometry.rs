@@ -29,6 +29,44 @@ pub fn t12_normal(eta: f64) -> f64 {
     1.0 - fresnel_dielectric(1.0, eta)
 }
 
+/// Boundary terms of the diffusion models for a medium of relative index η (light inside hits
+/// the boundary with relative index 1/η): F_dr = 2C₁(1/η), A = (1 + F_dr)/(1 − F_dr) (standard
+/// dipole), C_φ = (1 − 2C₁)/4, C_E = (1 − 3C₂)/2 and A = (1 − C_E)/(2C_φ) (directional dipole).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoundaryTerms {
+    /// Diffuse Fresnel reflectance of the inner side.
+    pub fdr: f64,
+    /// A of the standard dipole.
+    pub a_standard: f64,
+    /// C_φ.
+    pub c_phi: f64,
+    /// C_E.
+    pub c_e: f64,
+    /// A of the directional dipole.
+    pub a_directional: f64,
+}
+
+/// [`BoundaryTerms`] for relative index `eta` (Fresnel moments by quadrature, cached per thread
+/// for the last η asked for, since fits evaluate many radii at one η).
+pub fn boundary_terms(eta: f64) -> BoundaryTerms {
+    thread_local! {
+        static LAST: std::cell::Cell<Option<(f64, BoundaryTerms)>> = const { std::cell::Cell::new(None) };
+    }
+    if let Some((e, b)) = LAST.with(|c| c.get()) {
+        if e == eta {
+            return b;
+        }
+    }
+    let c1 = fresnel_moment(1, 1.0 / eta);
+    let c2 = fresnel_moment(2, 1.0 / eta);
+    let fdr = 2.0 * c1;
+    let c_phi = 0.25 * (1.0 - 2.0 * c1);
+    let c_e = 0.5 * (1.0 - 3.0 * c2);
+    let b = BoundaryTerms { fdr, a_standard: (1.0 + fdr) / (1.0 - fdr), c_phi, c_e, a_directional: (1.0 - c_e) / (2.0 * c_phi) };
+    LAST.with(|c| c.set(Some((eta, b))));
+    b
+}
+
 /// Standard dipole R(r) in mm⁻² (Farrell, Patterson & Wilson 1992, times T₁₂):
 /// T₁₂ α'/(4π) [z₀(μ_eff + 1/r₁)e^{−μ_eff r₁}/r₁² + (z₀ + 4AD)(μ_eff + 1/r₂)e^{−μ_eff r₂}/r₂²].
 pub fn dipole_rd_per_mm2(r_mm: f64, sigma_a_per_mm: f64, sigma_s_prime_per_mm: f64, eta: f64) -> f64 {
@@ -36,8 +74,7 @@ pub fn dipole_rd_per_mm2(r_mm: f64, sigma_a_per_mm: f64, sigma_s_prime_per_mm: f
     let alpha_p = sigma_s_prime_per_mm / mut_p;
     let d = 1.0 / (3.0 * mut_p);
     let mu_eff = (sigma_a_per_mm / d).sqrt();
-    let fdr = 2.0 * fresnel_moment(1, 1.0 / eta);
-    let a = (1.0 + fdr) / (1.0 - fdr);
+    let a = boundary_terms(eta).a_standard;
     let z0 = 1.0 / mut_p;
     let zv = z0 + 4.0 * a * d;
     let term = |z: f64| {
@@ -57,9 +94,8 @@ pub fn directional_dipole_rd_per_mm2(r_mm: f64, sigma_a_per_mm: f64, sigma_s_pri
     }
     let d = 1.0 / (3.0 * mut_p);
     let s_tr = (sigma_a_per_mm / d).sqrt();
-    let c_phi = 0.25 * (1.0 - 2.0 * fresnel_moment(1, 1.0 / eta));
-    let c_e = 0.5 * (1.0 - 3.0 * fresnel_moment(2, 1.0 / eta));
-    let a = (1.0 - c_e) / (2.0 * c_phi);
+    let b = boundary_terms(eta);
+    let (c_phi, c_e, a) = (b.c_phi, b.c_e, b.a_directional);
     let de = 2.131 * d / alpha_p.sqrt();
     // Real source at the point of incidence, direction straight down; corrected distance d_r.
     let r2 = r_mm * r_mm;
@@ -109,11 +145,10 @@ impl MonteCarloTable {
             let lineno = i + 1;
             if let Some(c) = line.strip_prefix('#') {
                 if let Some((k, v)) = c.split_once('=') {
-                    let v: f64 = v.trim().parse().with_context(|| format!("{name}: line {lineno}: bad number"))?;
-                    match k.trim() {
-                        "eta" => eta = Some(v),
-                        "g" => g = Some(v),
-                        _ => {}
+                    let k = k.trim();
+                    if k == "eta" || k == "g" {
+                        let v: f64 = v.trim().parse().map_err(|_| anyhow::anyhow!("{name}: line {lineno}: {k}: bad number"))?;
+                        if k == "eta" { eta = Some(v) } else { g = Some(v) }
                     }
                 }
                 continue;
@@ -657,4 +692,19 @@ pub fn fit_oblique(x_mm: &[f64], value: &[f64], incidence_deg: f64, eta: f64, ex
         residual_rms: fit.residual_rms,
         points: xs.len(),
     })
+}
+
+/// Refractive indices (relative) of the bundled Monte Carlo tables (g = 0; built by
+/// `lucent fit mc-table`, see `crates/optics/data/reflectometry/README.md`).
+pub const BUNDLED_TABLE_ETAS: [f64; 0] = [];
+const BUNDLED_TABLES: [&str; 0] = [];
+
+/// The bundled Monte Carlo table for `eta` (to 1e-6), if there is one.
+pub fn bundled_table(eta: f64) -> Result<Option<MonteCarloTable>> {
+    for (e, text) in BUNDLED_TABLE_ETAS.iter().zip(BUNDLED_TABLES) {
+        if (e - eta).abs() < 1e-6 {
+            return MonteCarloTable::from_csv(text, &format!("bundled table eta {e}")).map(Some);
+        }
+    }
+    Ok(None)
 }
