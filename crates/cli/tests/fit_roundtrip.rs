@@ -1,0 +1,139 @@
+//! Round trips of diffuse reflectance spectroscopy: R(r) simulated by the layered Monte Carlo
+//! (`render::slab`, fixed seeds) for skim, low-fat and whole milk and Jensen's marble, with 1 %
+//! multiplicative noise, fitted by `optics::reflectometry` with the three forward models.
+//!
+//! Optical properties (blue channel, where absorption is largest and walks are shortest, so the
+//! simulations stay fast): Jensen, Marschner, Levoy & Hanrahan 2001, table in fig. 5 — skim milk
+//! σ'_s = 1.90, σ_a = 0.0142 mm⁻¹; whole milk 3.77, 0.014; marble 3.00, 0.0071 (η = 1.5);
+//! low-fat milk from Narasimhan et al. 2006 (σ_s = 17.9572 mm⁻¹, g = 0.859 → σ'_s = 2.532,
+//! σ_a = 0.0115). Milks at η = 1.3 as in Jensen et al. The simulations use g = 0 with σ_s = σ'_s
+//! (these tables give only reduced coefficients; far from the source only σ'_s matters).
+//!
+//! Targets (issue 6): σ'_s within 5 %, σ_a within 20 %. The tabulated Monte Carlo model meets
+//! both over the whole profile; the dipoles are fitted from 1 mm outwards (about 2–4 transport
+//! lengths), where diffusion holds — each test asserts what its model reaches (docs/inverse.md).
+
+use optics::reflectometry::{bundled_table, fit_reflectance, FitOptions, ReflectanceModel, ReflectanceProfile};
+use render::slab::{simulate, Layer, RadialGrid, SlabSettings};
+
+struct Case {
+    name: &'static str,
+    sigma_a_per_mm: f64,
+    sigma_s_prime_per_mm: f64,
+    eta: f64,
+    seed: u64,
+}
+
+/// Simulated R(r) with 1 % multiplicative Gaussian noise (fixed seed), r up to ≈ 4/μ_eff.
+fn simulate_profile(c: &Case, photons: u64) -> ReflectanceProfile {
+    let meff = (3.0 * c.sigma_a_per_mm * (c.sigma_a_per_mm + c.sigma_s_prime_per_mm)).sqrt();
+    let max_mm = (4.0 / meff).min(20.0);
+    let layer = Layer { mua_per_mm: c.sigma_a_per_mm, mus_per_mm: c.sigma_s_prime_per_mm, g: 0.0, n: c.eta, thickness_mm: f64::INFINITY };
+    let s = SlabSettings { photons, seed: c.seed, radial: Some(RadialGrid { bins: 100, max_mm }), ..SlabSettings::new(vec![layer]) };
+    let r = simulate(&s).unwrap();
+    let rad = r.radial.unwrap();
+    let mut state = c.seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
+    let mut normal = || {
+        let mut s = 0.0;
+        for _ in 0..12 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            s += (state >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        s - 6.0
+    };
+    let value: Vec<f64> = rad.rd_per_mm2.iter().map(|v| v * (1.0 + 0.01 * normal())).collect();
+    ReflectanceProfile {
+        lambda_nm: None,
+        r_mm: rad.r_mm.clone(),
+        value,
+        stderr: Some(rad.rd_per_mm2_stderr.clone()),
+        relative: false,
+    }
+}
+
+/// Fit with one model; returns (σ'_s error, σ_a error) as fractions and asserts the CI contains the estimate.
+fn errors(c: &Case, p: &ReflectanceProfile, model: &ReflectanceModel, r_min_mm: f64) -> (f64, f64) {
+    let f = fit_reflectance(p, model, c.eta, &FitOptions { r_min_mm, ..FitOptions::default() }).unwrap();
+    let sa = f.sigma_a_per_mm.expect("σ_a determined");
+    let ss = f.sigma_s_prime_per_mm.expect("σ'_s determined");
+    let e = (ss.value / c.sigma_s_prime_per_mm - 1.0, sa.value / c.sigma_a_per_mm - 1.0);
+    eprintln!(
+        "{:12} {:12} σ'_s {:.4} [{:.4}, {:.4}] ({:+.1} %)  σ_a {:.5} [{:.5}, {:.5}] ({:+.1} %)  rms {:.2}",
+        c.name, model.name(), ss.value, ss.ci95[0], ss.ci95[1], 100.0 * e.0, sa.value, sa.ci95[0], sa.ci95[1], 100.0 * e.1, f.residual_rms
+    );
+    e
+}
+
+fn round_trip(c: Case) {
+    let p = simulate_profile(&c, 60_000);
+    let table = ReflectanceModel::MonteCarlo(bundled_table(c.eta).unwrap().expect("bundled table"));
+    let (es, ea) = errors(&c, &p, &table, 0.0);
+    assert!(es.abs() < 0.05 && ea.abs() < 0.20, "{}: Monte Carlo model: σ'_s {es:+.3}, σ_a {ea:+.3}", c.name);
+    let (es, ea) = errors(&c, &p, &ReflectanceModel::Dipole, 1.0);
+    assert!(es.abs() < 0.10 && ea.abs() < 0.30, "{}: dipole: σ'_s {es:+.3}, σ_a {ea:+.3}", c.name);
+    let (es, ea) = errors(&c, &p, &ReflectanceModel::Directional, 1.0);
+    assert!(es.abs() < 0.10 && ea.abs() < 0.30, "{}: directional: σ'_s {es:+.3}, σ_a {ea:+.3}", c.name);
+}
+
+#[test]
+fn skim_milk_round_trip() {
+    round_trip(Case { name: "skim milk", sigma_a_per_mm: 0.0142, sigma_s_prime_per_mm: 1.90, eta: 1.3, seed: 61 });
+}
+
+#[test]
+fn low_fat_milk_round_trip() {
+    round_trip(Case { name: "low-fat milk", sigma_a_per_mm: 0.0115, sigma_s_prime_per_mm: 2.532, eta: 1.3, seed: 62 });
+}
+
+#[test]
+fn whole_milk_round_trip() {
+    round_trip(Case { name: "whole milk", sigma_a_per_mm: 0.014, sigma_s_prime_per_mm: 3.77, eta: 1.3, seed: 63 });
+}
+
+#[test]
+fn marble_round_trip() {
+    round_trip(Case { name: "marble", sigma_a_per_mm: 0.0071, sigma_s_prime_per_mm: 3.00, eta: 1.5, seed: 64 });
+}
+
+#[test]
+fn oblique_incidence_reflectometry_round_trip() {
+    // Wang & Jacques 1995: a 45° beam on a half-space (σ_a = 0.05, σ'_s = 1 mm⁻¹, g = 0, n = 1.4);
+    // the line profile R(x, 0) from the Monte Carlo, 1 % noise, then σ'_s from the centre shift.
+    // The method is approximate (diffusion theory; Wang & Jacques report a few % error on MC):
+    // the check is σ'_s within 10 % and σ_a within 30 %.
+    use optics::reflectometry::fit_oblique;
+    use render::slab::LineGrid;
+    let (mua, musp, n) = (0.05, 1.0, 1.4);
+    let layer = Layer { mua_per_mm: mua, mus_per_mm: musp, g: 0.0, n, thickness_mm: f64::INFINITY };
+    let s = SlabSettings {
+        photons: 400_000,
+        seed: 71,
+        incidence_deg: 45.0,
+        line: Some(LineGrid { bins: 120, max_mm: 12.0 }),
+        ..SlabSettings::new(vec![layer])
+    };
+    let r = simulate(&s).unwrap();
+    let line = r.line.unwrap();
+    let mut state = 0x1234_5678_9abc_def1u64;
+    let v: Vec<f64> = line
+        .rd_per_mm2
+        .iter()
+        .map(|x| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+            x * (1.0 + 0.01 * 3f64.sqrt() * (2.0 * u - 1.0))
+        })
+        .collect();
+    // Keep bins with < 10 % Monte Carlo error.
+    let keep: Vec<usize> = (0..v.len()).filter(|&k| line.rd_per_mm2_stderr[k] < 0.1 * line.rd_per_mm2[k]).collect();
+    let x: Vec<f64> = keep.iter().map(|&k| line.x_mm[k]).collect();
+    let y: Vec<f64> = keep.iter().map(|&k| v[k]).collect();
+    let f = fit_oblique(&x, &y, 45.0, n, 1.5).unwrap();
+    let (es, ea) = (f.sigma_s_prime_per_mm.value / musp - 1.0, f.sigma_a_per_mm.value / mua - 1.0);
+    eprintln!("oblique: Δx {:?}  σ'_s {:?} ({:+.1} %)  σ_a {:?} ({:+.1} %)", f.delta_x_mm, f.sigma_s_prime_per_mm, 100.0 * es, f.sigma_a_per_mm, 100.0 * ea);
+    assert!(es.abs() < 0.10 && ea.abs() < 0.30, "σ'_s {es:+.3}, σ_a {ea:+.3}");
+}
