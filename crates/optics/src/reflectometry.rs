@@ -235,6 +235,26 @@ impl MonteCarloTable {
         s
     }
 
+    /// Replace each row beyond `rho_join` by the standard dipole's profile scaled to match the
+    /// Monte Carlo over [ρ_join − 3, ρ_join] (mean of ln(MC/dipole)). Diffusion theory has the
+    /// right shape there (MC/dipole is constant to ~1 % beyond 4 transport lengths), and the far
+    /// tail of a Monte Carlo histogram is its noisiest part.
+    pub fn join_diffusion_tail(&mut self, rho_join: f64) {
+        for (a, row) in self.albedo.iter().zip(self.r_scaled.iter_mut()) {
+            let dip = |p: f64| dipole_rd_per_mm2(p, 1.0 - a, *a, self.eta);
+            let idx: Vec<usize> = (0..self.rho.len()).filter(|&k| self.rho[k] >= rho_join - 3.0 && self.rho[k] <= rho_join).collect();
+            if idx.is_empty() {
+                continue;
+            }
+            let ratio = idx.iter().map(|&k| (row[k] / dip(self.rho[k])).ln()).sum::<f64>() / idx.len() as f64;
+            for k in 0..self.rho.len() {
+                if self.rho[k] > rho_join {
+                    row[k] = ratio.exp() * dip(self.rho[k]);
+                }
+            }
+        }
+    }
+
     /// T(α', ρ) = R/σ'_t²; `None` outside the albedo range of the table.
     pub fn eval_scaled(&self, albedo: f64, rho: f64) -> Option<f64> {
         let u = (1.0 - albedo).ln();
@@ -609,7 +629,8 @@ pub struct ObliqueFit {
 /// angle, and decays with μ_eff = √(σ_a/D). The centre and μ_eff come from a fit of the shape
 /// of the dipole profile R(|x − x_c|) (free scale) to the line profile R(x, 0), excluding
 /// |x − x_peak| < `exclude_mm` around the peak, where diffusion fails.
-pub fn fit_oblique(x_mm: &[f64], value: &[f64], incidence_deg: f64, eta: f64, exclude_mm: f64) -> Result<ObliqueFit> {
+/// `stderr` (same units as `value`) weights the points, with 1 % relative noise added in quadrature.
+pub fn fit_oblique(x_mm: &[f64], value: &[f64], stderr: Option<&[f64]>, incidence_deg: f64, eta: f64, exclude_mm: f64) -> Result<ObliqueFit> {
     if !(incidence_deg > 0.0 && incidence_deg < 90.0) {
         bail!("--incidence-deg must lie in (0, 90), got {incidence_deg}");
     }
@@ -621,49 +642,56 @@ pub fn fit_oblique(x_mm: &[f64], value: &[f64], incidence_deg: f64, eta: f64, ex
     let x_peak = x_mm[k_peak];
     let mut xs = vec![];
     let mut ys = vec![];
+    let mut ws = vec![];
     for k in 0..x_mm.len() {
         if (x_mm[k] - x_peak).abs() >= exclude_mm && value[k] > 0.0 {
+            let rel = stderr.map_or(0.0, |s| s[k] / value[k]);
             xs.push(x_mm[k]);
             ys.push(value[k].ln());
+            ws.push(1.0 / (1e-4 + rel * rel).sqrt());
         }
     }
     if xs.len() < 6 {
         bail!("only {} positive points outside ±{exclude_mm} mm of the peak: too few", xs.len());
     }
-    // Shape parameters: (x_c, ln μ_eff, ln z, c) using the index-matched dipole shape with the given
-    // μ_eff and transport length z (σ_a, σ'_s from μ_eff and z), free log scale c.
+    // Parameters (x_c, ln μ_eff, c): the dipole profile R(|x − x_c|) with the properties that
+    // the OIR relations give for this centre and slope (D = x_c/(3 sin θ_t), σ_a = μ_eff² D,
+    // σ'_s = 1/(3D) − 0.35σ_a), free log scale c; 1 % relative noise assumed.
     let model = |p: &[f64]| -> Option<Vec<f64>> {
-        let (xc, meff, z) = (p[0], p[1].exp(), p[2].exp());
-        let mut_p = 1.0 / z;
-        let mua = meff * meff / (3.0 * mut_p);
-        let musp = mut_p - mua;
+        let (xc, meff) = (p[0], p[1].exp());
+        if !(xc > 0.0) {
+            return None;
+        }
+        let d = xc / (3.0 * sin_t);
+        let mua = meff * meff * d;
+        let musp = 1.0 / (3.0 * d) - 0.35 * mua;
         if !(musp > 0.0) {
             return None;
         }
-        xs.iter().zip(&ys).map(|(&x, &y)| {
+        xs.iter().zip(&ys).zip(&ws).map(|((&x, &y), &w)| {
             let v = dipole_rd_per_mm2((x - xc).abs(), mua, musp, eta);
-            (v > 0.0 && v.is_finite()).then(|| (y - v.ln() - p[3]) / 0.01)
+            (v > 0.0 && v.is_finite()).then(|| (y - v.ln() - p[2]) * w)
         }).collect()
     };
     let mut best = (f64::INFINITY, vec![]);
-    for i in 0..21 {
-        for j in 0..21 {
-            let xc = x_peak - 1.0 + 3.0 * i as f64 / 20.0 * exclude_mm.max(0.3);
-            let lm = (1e-3f64).ln() + j as f64 * (1e4f64).ln() / 20.0;
-            for lz in [(0.05f64).ln(), (0.2f64).ln(), (1.0f64).ln()] {
-                let mut p = vec![xc, lm, lz, 0.0];
-                let Some(res0) = model(&p) else { continue };
-                p[3] = res0.iter().sum::<f64>() * 0.01 / res0.len() as f64;
-                let Some(res) = model(&p) else { continue };
-                let c: f64 = res.iter().map(|v| v * v).sum();
-                if c < best.0 {
-                    best = (c, p);
-                }
+    let span = x_mm[x_mm.len() - 1] - x_mm[0];
+    for i in 1..=40 {
+        let xc = span * 0.25 * i as f64 / 40.0;
+        for j in 0..=30 {
+            let lm = (1e-3f64).ln() + j as f64 * (1e4f64).ln() / 30.0;
+            let mut p = vec![xc, lm, 0.0];
+            let Some(res0) = model(&p) else { continue };
+            let sw: f64 = ws.iter().map(|w| w * w).sum();
+            p[2] = res0.iter().zip(&ws).map(|(r, w)| r * w).sum::<f64>() / sw;
+            let Some(res) = model(&p) else { continue };
+            let c: f64 = res.iter().map(|v| v * v).sum();
+            if c < best.0 {
+                best = (c, p);
             }
         }
     }
     if best.1.is_empty() {
-        bail!("the dipole profile cannot be evaluated for these data");
+        bail!("the dipole profile cannot be evaluated for these data (is the centre shifted along +x?)");
     }
     let fit = levenberg_marquardt(&model, &best.1, &LmOptions::default())?;
     let t = crate::fitting::student_t_975(fit.dof);
@@ -696,8 +724,8 @@ pub fn fit_oblique(x_mm: &[f64], value: &[f64], incidence_deg: f64, eta: f64, ex
 
 /// Refractive indices (relative) of the bundled Monte Carlo tables (g = 0; built by
 /// `lucent fit mc-table`, see `crates/optics/data/reflectometry/README.md`).
-pub const BUNDLED_TABLE_ETAS: [f64; 0] = [];
-const BUNDLED_TABLES: [&str; 0] = [];
+pub const BUNDLED_TABLE_ETAS: [f64; 1] = [1.3];
+const BUNDLED_TABLES: [&str; 1] = [include_str!("../data/reflectometry/mc_eta1.3.csv")];
 
 /// The bundled Monte Carlo table for `eta` (to 1e-6), if there is one.
 pub fn bundled_table(eta: f64) -> Result<Option<MonteCarloTable>> {

@@ -211,7 +211,7 @@ fn oblique_fit_recovers_the_shift_of_a_displaced_dipole() {
     let dx = 3.0 * d * deg.to_radians().sin() / eta;
     let x: Vec<f64> = (0..161).map(|k| -8.0 + 0.1 * k as f64).collect();
     let v: Vec<f64> = x.iter().map(|&xi| dipole_rd_per_mm2((xi - dx).abs(), mua, musp, eta)).collect();
-    let f = fit_oblique(&x, &v, deg, eta, 1.0).unwrap();
+    let f = fit_oblique(&x, &v, None, deg, eta, 1.0).unwrap();
     assert!((f.delta_x_mm.value - dx).abs() < 0.01 * dx, "{:?} vs {dx}", f.delta_x_mm);
     assert!((f.sigma_s_prime_per_mm.value / musp - 1.0).abs() < 0.02, "{:?}", f.sigma_s_prime_per_mm);
     assert!((f.sigma_a_per_mm.value / mua - 1.0).abs() < 0.1, "{:?}", f.sigma_a_per_mm);

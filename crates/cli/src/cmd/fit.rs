@@ -267,7 +267,8 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
 }
 
 /// Read x_mm and reflectance (or rd_per_mm2) columns; x must increase.
-fn read_line_csv(text: &str, file: &str) -> Result<(Vec<f64>, Vec<f64>)> {
+#[allow(clippy::type_complexity)]
+fn read_line_csv(text: &str, file: &str) -> Result<(Vec<f64>, Vec<f64>, Option<Vec<f64>>)> {
     // Reuse the radial reader by renaming the position column.
     let mut lines = text.lines();
     let mut rebuilt = String::new();
@@ -307,14 +308,14 @@ fn read_line_csv(text: &str, file: &str) -> Result<(Vec<f64>, Vec<f64>)> {
         bail!("{file}: one profile expected (no wavelength_nm column)");
     }
     let p = &p[0];
-    Ok((p.r_mm.iter().map(|x| x - shift).collect(), p.value.clone()))
+    Ok((p.r_mm.iter().map(|x| x - shift).collect(), p.value.clone(), p.stderr.clone()))
 }
 
 fn run_oblique(a: ObliqueArgs) -> Result<()> {
     let name = a.data.display().to_string();
     let text = read_text(&a.data)?;
-    let (x, v) = read_line_csv(&text, &name)?;
-    let f = fit_oblique(&x, &v, a.incidence_deg, a.eta, a.exclude_mm).with_context(|| name.clone())?;
+    let (x, v, se) = read_line_csv(&text, &name)?;
+    let f = fit_oblique(&x, &v, se.as_deref(), a.incidence_deg, a.eta, a.exclude_mm).with_context(|| name.clone())?;
     if a.json {
         let j = json!({
             "delta_x_mm": f.delta_x_mm.value, "delta_x_ci_mm": f.delta_x_mm.ci95,
@@ -452,7 +453,7 @@ fn run_mc_table(a: McTableArgs) -> Result<()> {
         rows.push(row);
     }
     let d = a.rho_max / a.bins as f64;
-    let t = MonteCarloTable {
+    let mut t = MonteCarloTable {
         eta: a.eta,
         g: a.g,
         albedo: TABLE_ALBEDOS.to_vec(),
@@ -460,6 +461,7 @@ fn run_mc_table(a: McTableArgs) -> Result<()> {
         r_scaled: rows,
     };
     t.validate()?;
+    t.join_diffusion_tail(8.0);
     render::image_io::write_atomic(&a.out, |tmp| Ok(std::fs::write(tmp, t.to_csv())?))
         .with_context(|| format!("--out {}", a.out.display()))?;
     Ok(())
