@@ -251,6 +251,13 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
         if !(l.is_finite() && l > 0.0) {
             bail!("wavelength {l} nm must be positive and finite");
         }
+        for c in components {
+            let r_max = c.bins.radius_m.iter().cloned().fold(0.0, f64::max);
+            let alpha = 4.0 * PI * r_max * host.eval(l).im / (l * 1e-9);
+            if alpha > mie::MAX_HOST_ATTENUATION {
+                bail!("particle {:?}: the host absorbs too strongly at {l} nm for radius {:.3e} m (4πr·n″/λ = {alpha:.3} > {})", c.name, r_max, mie::MAX_HOST_ATTENUATION);
+            }
+        }
     }
     let na = options.phase_angles;
     let theta_deg: Vec<f64> = (0..na).map(|j| if na == 1 { 0.0 } else { 180.0 * j as f64 / (na - 1) as f64 }).collect();

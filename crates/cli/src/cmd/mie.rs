@@ -115,6 +115,10 @@ pub fn run(args: Args) -> Result<()> {
         };
         let x = nm * (2.0 * PI * r_um * 1e3 / l_nm);
         check_x(x.norm())?;
+        let alpha = 2.0 * x.im;
+        if alpha > mie::MAX_HOST_ATTENUATION {
+            bail!("--n-medium: the host absorbs too strongly for this sphere (4πr·n″/λ = {alpha:.3} > {}): the light dies out inside one diameter", mie::MAX_HOST_ATTENUATION);
+        }
         let s = ws.sphere(r_um * 1e-6, l_nm * 1e-9, np, nm);
         (x, np / nm, Some(s))
     } else {

@@ -1,0 +1,515 @@
+//! Dipole BSSRDF tests: Fresnel-moment fits against numerical integration of the Fresnel
+//! equations, the standard dipole's closed-form total reflectance, Jensen et al. 2001's published
+//! diffuse reflectances, and the directional dipole against symmetry and a Monte Carlo simulation.
+
+use optics::bssrdf::*;
+use optics::fresnel::{fresnel_dielectric, fresnel_moment};
+
+/// ∫₀¹ R(μ) μⁿ dμ for light inside a medium of relative index `n_rel` hitting its boundary
+/// (Fresnel with n_t/n_i = 1/n_rel), by composite Simpson; the total-internal-reflection part is
+/// integrated exactly and the √ kink at the critical angle removed by μ = μ_c + (1 − μ_c)s².
+fn moment_numerical(order: i32, n_rel: f64) -> f64 {
+    let eta_t_i = 1.0 / n_rel;
+    let f = |mu: f64| fresnel_dielectric(mu, eta_t_i) * mu.powi(order);
+    let simpson = |a: f64, b: f64, g: &dyn Fn(f64) -> f64| {
+        let n = 4000;
+        let h = (b - a) / n as f64;
+        let mut s = g(a) + g(b);
+        for i in 1..n {
+            s += g(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+        }
+        s * h / 3.0
+    };
+    if n_rel > 1.0 {
+        let mu_c = (1.0 - 1.0 / (n_rel * n_rel)).sqrt();
+        let span = 1.0 - mu_c;
+        mu_c.powi(order + 1) / (order as f64 + 1.0)
+            + simpson(0.0, 1.0, &|s| f(mu_c + span * s * s) * 2.0 * span * s)
+    } else {
+        simpson(0.0, 1.0, &f)
+    }
+}
+
+/// d'Eon & Irving's (2011) polynomial fits of 2C₁ and 3C₂ (as used by Frisvad et al. 2014) against
+/// numerical integration of the Fresnel equations for η ∈ [0.6, 2], with the tolerances below, and
+/// H5's independent quadrature (`fresnel_moment`) against ours to 1e-8.
+#[test]
+fn fresnel_moment_fits_match_numerical_integration() {
+    let mut worst = (0.0f64, 0.0f64);
+    for i in 0..=70 {
+        let eta = 0.6 + i as f64 * 0.02;
+        let c1 = moment_numerical(1, eta);
+        let c2 = moment_numerical(2, eta);
+        assert!(
+            (c1 - fresnel_moment(1, 1.0 / eta)).abs() < 1e-8,
+            "eta {eta}"
+        );
+        assert!(
+            (c2 - fresnel_moment(2, 1.0 / eta)).abs() < 1e-8,
+            "eta {eta}"
+        );
+        let e1 = (two_c1(eta) - 2.0 * c1).abs();
+        let e2 = (three_c2(eta) - 3.0 * c2).abs();
+        worst = (worst.0.max(e1), worst.1.max(e2));
+        // Observed: below 1.2e-4 for η < 1, up to 4.5e-3 (2C₁) and 6.9e-3 (3C₂) at and just above
+        // η = 1 where the moments rise steeply from 0, below 1e-3 (2C₁) and 3.6e-3 (3C₂) for η ≥ 1.2.
+        let (t1, t2) = if eta < 0.99 {
+            (2e-4, 2e-4)
+        } else if eta < 1.19 {
+            (5e-3, 8e-3)
+        } else {
+            (1.5e-3, 4e-3)
+        };
+        assert!(
+            e1 < t1,
+            "2C1({eta}): fit {} vs {} (numerical)",
+            two_c1(eta),
+            2.0 * c1
+        );
+        assert!(
+            e2 < t2,
+            "3C2({eta}): fit {} vs {} (numerical)",
+            three_c2(eta),
+            3.0 * c2
+        );
+    }
+    eprintln!(
+        "max |fit - numerical|: 2C1 {:.2e}, 3C2 {:.2e}",
+        worst.0, worst.1
+    );
+    // Boundary terms of the directional dipole at η = 1 (index-matched): no reflection, so
+    // C_φ = 1/4, C_E = 1/2, A = 1.
+    assert!((c_phi(1.0) - 0.25).abs() < 2e-3 && (c_e(1.0) - 0.5).abs() < 5e-3);
+    assert!((a_directional(1.0) - 1.0).abs() < 1e-2);
+}
+
+/// Egan & Hilgeman's F_dr fit (used by Jensen 2001) against the numerical internal diffuse
+/// reflectance 2∫R μ dμ, and A(η) of the standard dipole (Jensen 2001 quotes A ≈ 2.6 at η = 1.3 —
+/// our check is against the numerical F_dr: (1 + F)/(1 − F)).
+#[test]
+fn diffuse_fresnel_reflectance_fit() {
+    for i in 0..=10 {
+        let eta = 1.0 + i as f64 * 0.1;
+        let num = 2.0 * moment_numerical(1, eta);
+        assert!(
+            (fdr_egan_hilgeman(eta) - num).abs() < 6e-3,
+            "eta {eta}: {} vs {num}",
+            fdr_egan_hilgeman(eta)
+        );
+    }
+    let num = 2.0 * moment_numerical(1, 1.3);
+    let a_num = (1.0 + num) / (1.0 - num);
+    assert!(
+        (a_standard(1.3) - a_num).abs() < 0.01,
+        "{} vs {a_num}",
+        a_standard(1.3)
+    );
+}
+
+fn props(eta: f64, sigma_s_per_mm: f64, sigma_a_per_mm: f64, g: f64) -> OpticalProperties {
+    OpticalProperties {
+        eta,
+        sigma_s_per_m: sigma_s_per_mm * 1e3,
+        sigma_a_per_m: sigma_a_per_mm * 1e3,
+        g,
+    }
+}
+
+/// ∫R_d(r) 2πr dr equals the closed form (α'/2)(1 + e^{−(4/3)A√(3(1−α'))})e^{−√(3(1−α'))} to
+/// 1e-4, over a range of albedos, indices and scales.
+#[test]
+fn standard_dipole_integral_equals_closed_form() {
+    let mut worst = 0.0f64;
+    for &eta in &[1.0, 1.3, 1.5, 0.8] {
+        for &(s, a) in &[
+            (1.0, 0.001),
+            (1.0, 0.1),
+            (0.5, 0.5),
+            (2.0, 0.0),
+            (0.01, 1.0),
+            (100.0, 0.3),
+        ] {
+            let d = StandardDipole::new(&props(eta, s, a, 0.0)).unwrap();
+            let num = d.rd_numerical();
+            let cf = d.rd_closed_form();
+            worst = worst.max((num - cf).abs());
+            assert!(
+                (num - cf).abs() < 1e-4,
+                "eta {eta} s {s} a {a}: {num} vs {cf}"
+            );
+        }
+    }
+    eprintln!("standard dipole: max |numerical - closed form| = {worst:.2e}");
+    // α' = 1, index matched: half the light returns from each source, R_d = 1.
+    let d = StandardDipole::new(&props(1.0, 1.0, 0.0, 0.0)).unwrap();
+    assert!((d.rd_closed_form() - 1.0).abs() < 1e-15);
+}
+
+/// The profile follows the anisotropy through σ'_s = σ_s(1 − g) only (similarity relation).
+#[test]
+fn standard_dipole_similarity() {
+    let a = StandardDipole::new(&props(1.3, 2.0, 0.01, 0.0)).unwrap();
+    let b = StandardDipole::new(&props(1.3, 20.0, 0.01, 0.9)).unwrap();
+    for r in [0.01e-3, 0.1e-3, 1e-3, 5e-3] {
+        assert!((a.rd_profile(r) / b.rd_profile(r) - 1.0).abs() < 1e-12);
+    }
+}
+
+/// Jensen et al. 2001, Fig. 5 table (published total diffuse reflectance R_d, two decimals):
+/// apple (0.85, 0.84, 0.53), potato (0.77, 0.62, 0.21). The closed-form dipole with η = 1.3
+/// reproduces them to within 0.01 (the table was computed with the same dipole; the last digit
+/// depends on rounding of the tabulated coefficients).
+#[test]
+fn jensen_2001_published_reflectances() {
+    let published = [
+        ("Apple", [0.85, 0.84, 0.53]),
+        ("Potato", [0.77, 0.62, 0.21]),
+    ];
+    for (name, rd) in published {
+        let m = find_medium(name).unwrap();
+        for c in 0..3 {
+            let d = StandardDipole::new(&m.channel(c)).unwrap();
+            let cf = d.rd_closed_form();
+            let num = d.rd_numerical();
+            eprintln!(
+                "{name} channel {c}: closed form {cf:.4}, numerical {num:.4}, published {}",
+                rd[c]
+            );
+            assert!((cf - rd[c]).abs() < 0.01, "{name} {c}: {cf} vs {}", rd[c]);
+            assert!((num - cf).abs() < 1e-4);
+        }
+    }
+    // All 12 Jensen media give reflectances in (0, 1]; Spectralon (σ_a = 0, η = 1.3) gives the
+    // α' = 1 value (1 + e^0)/2 = 1: all light returns.
+    for m in jensen2001_media() {
+        for c in 0..3 {
+            let rd = StandardDipole::new(&m.channel(c)).unwrap().rd_closed_form();
+            assert!(rd > 0.0 && rd <= 1.0, "{} {c}: {rd}", m.name);
+        }
+    }
+    let sp = find_medium("spectralon").unwrap();
+    assert!(
+        (StandardDipole::new(&sp.channel(1))
+            .unwrap()
+            .rd_closed_form()
+            - 1.0)
+            .abs()
+            < 1e-12
+    );
+}
+
+#[test]
+fn presets_are_complete_and_in_si_units() {
+    assert_eq!(jensen2001_media().len(), 12);
+    assert_eq!(narasimhan2006_media().len(), 35);
+    let apple = find_medium("apple").unwrap();
+    assert_eq!(apple.sigma_s_per_m, [2290.0, 2390.0, 1970.0]);
+    assert!((apple.sigma_a_per_m[2] - 46.0).abs() < 1e-9);
+    assert_eq!(apple.eta, 1.3);
+    assert_eq!(find_medium("Marble").unwrap().eta, 1.5);
+    let milk = find_medium("regular milk").unwrap();
+    assert!((milk.sigma_s_per_m[0] - 18205.2).abs() < 1e-6 && milk.g[0] == 0.75);
+    assert!(find_medium("unobtainium").is_none());
+    for m in jensen2001_media().iter().chain(narasimhan2006_media()) {
+        for c in 0..3 {
+            m.channel(c).validate().unwrap();
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_rejected_with_the_field_named() {
+    let e = |p: OpticalProperties| StandardDipole::new(&p).unwrap_err().to_string();
+    assert!(e(props(0.0, 1.0, 0.1, 0.0)).contains("eta"));
+    assert!(e(props(-1.3, 1.0, 0.1, 0.0)).contains("eta"));
+    assert!(e(props(1.3, 1.0, -0.5, 0.0)).contains("alpha'"));
+    assert!(e(props(1.3, -1.0, 2.0, 0.0)).contains("alpha'"));
+    assert!(e(props(1.3, 0.0, 0.0, 0.0)).contains("alpha'"));
+    assert!(e(props(1.3, f64::NAN, 0.1, 0.0)).contains("sigma_s"));
+    assert!(e(props(1.3, 1.0, 0.1, 1.0)).contains("g"));
+    assert!(DirectionalDipole::new(&props(0.0, 1.0, 0.1, 0.0)).is_err());
+}
+
+fn rotate(q: [[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|i| q[i][0] * v[0] + q[i][1] * v[1] + q[i][2] * v[2])
+}
+
+/// The directional dipole depends only on relative geometry: a rigid rotation and translation of
+/// the whole configuration leaves S_d unchanged (oblique incidence, exit normal tilted).
+#[test]
+fn directional_dipole_is_invariant_under_rigid_motion() {
+    let m = DirectionalDipole::new(&props(1.3, 1.0, 0.01, 0.0)).unwrap();
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let ni = [0.0, 0.0, 1.0];
+    let wi = [s, 0.0, s];
+    let no = {
+        let v: [f64; 3] = [0.2, 0.1, 1.0];
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / l)
+    };
+    let xo = [0.7e-3, 0.4e-3, -0.1e-3];
+    let base = m.sd([0.0; 3], ni, wi, xo, no);
+    assert!(base > 0.0);
+    // Rotation about the axis (1,2,3)/√14 by 0.9 rad (Rodrigues), then a translation.
+    let k = [1.0 / 14f64.sqrt(), 2.0 / 14f64.sqrt(), 3.0 / 14f64.sqrt()];
+    let (c, sn) = (0.9f64.cos(), 0.9f64.sin());
+    let mut q = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            let kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
+            q[i][j] = if i == j { c } else { 0.0 } + sn * kx[i][j] + (1.0 - c) * k[i] * k[j];
+        }
+    }
+    let t = [3e-3, -1e-3, 2e-3];
+    let mv = |p: [f64; 3]| {
+        let r = rotate(q, p);
+        [r[0] + t[0], r[1] + t[1], r[2] + t[2]]
+    };
+    let moved = m.sd(
+        mv([0.0; 3]),
+        rotate(q, ni),
+        rotate(q, wi),
+        mv(xo),
+        rotate(q, no),
+    );
+    assert!((moved / base - 1.0).abs() < 1e-10, "{moved} vs {base}");
+}
+
+/// Normal incidence on a plane: the 2-D Cartesian integral of π S_d over the plane (the general
+/// 3-D code path, all azimuths; midpoint rule on 40 000 × 8 nodes) equals the adaptive radial
+/// integral to 2e-5, so the CLI's `rd` meets its 1e-4 accuracy target.
+#[test]
+fn directional_dipole_plane_integral_two_ways() {
+    use std::f64::consts::PI;
+    // α' = 0.99 (η = 1.3) and α' = 0.5 (η = 1.5, where clamping at 0 can act), L = 1 mm.
+    for &(eta, ss, sa) in &[(1.3, 1.0, 0.01), (1.5, 1.0, 1.0)] {
+        let m = DirectionalDipole::new(&props(eta, ss, sa, 0.0)).unwrap();
+        let radial = m.rd_numerical();
+        let n = [0.0, 0.0, 1.0];
+        // Polar grid with azimuths offset so that no sample lies on the axes; r = L u/(1-u).
+        let l = 1e-3;
+        let (nu, nphi) = (40000, 8);
+        let mut sum = 0.0;
+        for i in 0..nu {
+            let u = (i as f64 + 0.5) / nu as f64;
+            let r = l * u / (1.0 - u);
+            let jac = l / ((1.0 - u) * (1.0 - u)) / nu as f64;
+            for j in 0..nphi {
+                let phi = (j as f64 + 0.37) / nphi as f64 * 2.0 * PI;
+                let xo = [r * phi.cos(), r * phi.sin(), 0.0];
+                sum += PI * m.sd([0.0; 3], n, n, xo, n) * r * jac * 2.0 * PI / nphi as f64;
+            }
+        }
+        eprintln!("directional rd (eta {eta}): radial {radial:.7}, polar grid {sum:.7}");
+        assert!((sum - radial).abs() < 2e-5, "{sum} vs {radial}");
+    }
+}
+
+/// Deterministic xorshift64* generator.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Monte Carlo reference: a semi-infinite medium with isotropic scattering and a smooth boundary
+/// of relative index η, light entering at normal incidence (after the T12 transmission). Returns
+/// the fraction of the entered light that leaves through the boundary, and its standard error.
+fn mc_half_space(eta: f64, albedo: f64, n: usize, seed: u64) -> (f64, f64) {
+    let mut rng = Rng(seed);
+    let (mut s1, mut s2) = (0.0, 0.0);
+    for _ in 0..n {
+        // Position z (depth, > 0 inside), direction cosine along +z (into the medium).
+        let mut z = 0.0f64;
+        let mut mu = 1.0f64;
+        let mut w = 1.0f64;
+        let mut out = 0.0;
+        loop {
+            let step = -(1.0 - rng.next()).ln(); // optical depths: σ_t = 1
+            let znew = z + mu * step;
+            if znew <= 0.0 {
+                // Hits the boundary from inside: Fresnel with n_t/n_i = 1/η.
+                let r = fresnel_dielectric(-mu, 1.0 / eta);
+                if rng.next() >= r {
+                    out = w;
+                    break;
+                }
+                // Specular reflection: continue from the boundary with mirrored direction
+                // (the remaining path length is resampled: memoryless exponential).
+                z = 0.0;
+                mu = -mu;
+                continue;
+            }
+            z = znew;
+            w *= albedo;
+            if w < 1e-3 {
+                // Russian roulette.
+                if rng.next() < 0.5 {
+                    break;
+                }
+                w *= 2.0;
+            }
+            mu = 2.0 * rng.next() - 1.0;
+        }
+        s1 += out;
+        s2 += out * out;
+    }
+    let mean = s1 / n as f64;
+    let var = (s2 / n as f64 - mean * mean) / n as f64;
+    (mean, var.sqrt())
+}
+
+/// Monte Carlo check of the diffusion models: fraction of the light entering a half-space at
+/// normal incidence that leaves it again (isotropic scattering, η = 1.3, 2·10⁵ paths, fixed seeds).
+/// The standard dipole's R_d (Jensen 2001) must agree within 4 % + 4σ_MC at α' = 0.99 and within
+/// 12 % + 4σ_MC at α' = 0.9 (diffusion theory degrades as absorption grows). The directional
+/// dipole's π∫S_d dA (with its 1/(4C_φ(1/η)) normalisation; light leaving = that × 4C_φ(1/η)) is
+/// printed beside it: as specified in the paper it exceeds the Monte Carlo value (see the report).
+#[test]
+fn dipoles_against_monte_carlo() {
+    for (i, &(albedo, tol)) in [(0.99, 0.04), (0.9, 0.12)].iter().enumerate() {
+        let eta = 1.3;
+        let (mc, se) = mc_half_space(eta, albedo, 200_000, 12345 + i as u64);
+        let p = OpticalProperties {
+            eta,
+            sigma_s_per_m: albedo * 1e3,
+            sigma_a_per_m: (1.0 - albedo) * 1e3,
+            g: 0.0,
+        };
+        let dd = DirectionalDipole::new(&p).unwrap();
+        let dd_out = dd.rd_numerical() * 4.0 * c_phi(1.0 / eta);
+        let sd = StandardDipole::new(&p).unwrap().rd_closed_form();
+        eprintln!(
+            "alpha' {albedo}: MC {mc:.4} ± {se:.4}; standard R_d {sd:.4} ({:+.1} %); directional leaving {dd_out:.4} ({:+.1} %)",
+            (sd / mc - 1.0) * 100.0,
+            (dd_out / mc - 1.0) * 100.0
+        );
+        assert!(
+            (sd - mc).abs() < tol * mc + 4.0 * se,
+            "alpha' {albedo}: {sd} vs MC {mc} ± {se}"
+        );
+    }
+}
+
+/// The infinite-medium term S'_d of the directional dipole integrated over a plane has closed forms
+/// for a source at constant offset c below the plane (x·ω = 0, x·n = 0, ω·n = −1, d = √(r² + c²))
+/// and for the mirrored (virtual) configuration (x·ω = x·n = −b, ω·n = 1, d = √(r² + b²)), using
+/// d/dd[−e^{−σd}/d] = (1 + σd)e^{−σd}/d² and d/dd[−(1 + σd)e^{−σd}/d³] = (3(1 + σd) + σ²d²)e^{−σd}/d⁴:
+///   ∫S'_real dA = 2π N [C_φ e^{−σc}/(σD) + 3D C_E e^{−σc}/c],
+///   ∫S'_virt dA = 2π N [C_φ e^{−σb}/(σD) − 3C_φ e^{−σb} − C_E e^{−σb}(1 − 3Dσ)],  N = 1/(4C_φ(1/η)4π²).
+/// This checks our transcription of the paper's S'_d term by term (and the plane quadrature).
+#[test]
+fn directional_dipole_infinite_medium_term_closed_forms() {
+    let pi = std::f64::consts::PI;
+    for &(eta, s, a) in &[(1.3, 1.0, 0.01), (1.0, 2.0, 0.2), (1.5, 0.5, 0.05)] {
+        let m = DirectionalDipole::new(&props(eta, s, a, 0.0)).unwrap();
+        let n = [0.0, 0.0, 1.0];
+        let (d, st, cp, ce, nn) = (m.props.d_m, m.props.sigma_tr_per_m, m.c_phi, m.c_e, m.norm);
+        let c = 0.7e-3;
+        let real = integrate_plane(
+            |r| m.sd_prime([r, 0.0, 0.0], [0.0, 0.0, -1.0], (r * r + c * c).sqrt(), n),
+            c,
+        );
+        let real_cf =
+            2.0 * pi * nn * (cp * (-st * c).exp() / (st * d) + 3.0 * d * ce * (-st * c).exp() / c);
+        assert!(
+            (real / real_cf - 1.0).abs() < 1e-8,
+            "real: {real} vs {real_cf}"
+        );
+        let b = 2.0 * m.a * m.d_e_m;
+        let virt = integrate_plane(
+            |r| m.sd_prime([r, 0.0, -b], [0.0, 0.0, 1.0], (r * r + b * b).sqrt(), n),
+            b,
+        );
+        let e = (-st * b).exp();
+        let virt_cf =
+            2.0 * pi * nn * (cp * e / (st * d) - 3.0 * cp * e - ce * e * (1.0 - 3.0 * d * st));
+        assert!(
+            (virt / virt_cf - 1.0).abs() < 1e-8,
+            "virtual: {virt} vs {virt_cf}"
+        );
+    }
+}
+
+/// Refraction into the medium obeys Snell's law (sin θ_t = sin θ_i / η), gives a unit vector
+/// pointing inwards, and S_d is finite and ≥ 0 for random front- and back-lit configurations.
+#[test]
+fn directional_dipole_refraction_and_positivity() {
+    let m = DirectionalDipole::new(&props(1.4, 1.5, 0.02, 0.3)).unwrap();
+    let mut rng = Rng(99);
+    let unit = |rng: &mut Rng| {
+        let z = 2.0 * rng.next() - 1.0;
+        let phi = 2.0 * std::f64::consts::PI * rng.next();
+        let s = (1.0 - z * z).sqrt();
+        [s * phi.cos(), s * phi.sin(), z]
+    };
+    for _ in 0..2000 {
+        let ni = unit(&mut rng);
+        let mut wi = unit(&mut rng);
+        let c = wi[0] * ni[0] + wi[1] * ni[1] + wi[2] * ni[2];
+        if c < 0.0 {
+            wi = wi.map(|v| -v);
+        }
+        let c = c.abs();
+        let w12 = m.refract_in(wi, ni);
+        let len = (w12[0] * w12[0] + w12[1] * w12[1] + w12[2] * w12[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-12);
+        let ct = -(w12[0] * ni[0] + w12[1] * ni[1] + w12[2] * ni[2]);
+        assert!(ct > 0.0);
+        let (si, st) = (
+            (1.0 - c * c).max(0.0).sqrt(),
+            (1.0 - ct * ct).max(0.0).sqrt(),
+        );
+        assert!((st - si / 1.4).abs() < 1e-12, "{st} vs {}", si / 1.4);
+        let xo = unit(&mut rng).map(|v| v * 2e-3 * rng.next());
+        let no = unit(&mut rng);
+        let s = m.sd([0.0; 3], ni, wi, xo, no);
+        assert!(s.is_finite() && s >= 0.0, "{s}");
+    }
+    // Coincident points: the modified normal falls back to nᵢ; the value is finite and positive.
+    let n = [0.0, 0.0, 1.0];
+    let s0 = m.sd([0.0; 3], n, n, [0.0; 3], n);
+    assert!(s0.is_finite() && s0 > 0.0);
+}
+
+/// Two independent transcriptions of Narasimhan et al. 2006 agree: σ_s(1 − g) and σ_a of our preset
+/// table (from Mitsuba 0.5) against pbrt-v3's reduced table, within 2 % (Sprite's tiny σ_s within
+/// 4 %, rounding of 1e-4 values), for all 35 media and channels.
+#[test]
+fn narasimhan_presets_match_pbrt_reduced_table() {
+    let text = include_str!("../data/media/narasimhan2006_media_reduced_pbrt3.csv");
+    let mut rows = 0;
+    for line in text
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .skip(1)
+    {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let v: Vec<f64> = f[1..].iter().map(|x| x.parse().unwrap()).collect();
+        let m = find_medium(f[0]).unwrap_or_else(|| panic!("{} missing", f[0]));
+        let tol = if f[0] == "Sprite" { 0.04 } else { 0.02 };
+        for c in 0..3 {
+            let sp = m.sigma_s_per_m[c] * (1.0 - m.g[c]) * 1e-3;
+            let sa = m.sigma_a_per_m[c] * 1e-3;
+            let close = |a: f64, b: f64| (a - b).abs() <= tol * b.abs().max(1e-12) + 1e-9;
+            assert!(
+                close(sp, v[c]),
+                "{} ch {c}: sigma_s' {sp} vs {}",
+                f[0],
+                v[c]
+            );
+            assert!(
+                close(sa, v[3 + c]),
+                "{} ch {c}: sigma_a {sa} vs {}",
+                f[0],
+                v[3 + c]
+            );
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, 35);
+}
