@@ -216,3 +216,24 @@ fn oblique_fit_recovers_the_shift_of_a_displaced_dipole() {
     assert!((f.sigma_s_prime_per_mm.value / musp - 1.0).abs() < 0.02, "{:?}", f.sigma_s_prime_per_mm);
     assert!((f.sigma_a_per_mm.value / mua - 1.0).abs() < 0.1, "{:?}", f.sigma_a_per_mm);
 }
+
+#[test]
+fn dipoles_agree_with_the_independent_bssrdf_implementations() {
+    // optics::bssrdf (the renderer's BSSRDF models, written separately, boundary terms from the
+    // d'Eon/Egan–Hilgeman polynomial fits) against our normal-incidence reflectometry forms
+    // (exact Fresnel moments). Standard: R = T₁₂ R_d^{bssrdf}; directional: R = T₁₂ 4C_φ(1/η) π S_d.
+    use optics::bssrdf::{c_phi, DirectionalDipole, OpticalProperties, StandardDipole};
+    for &(mua, musp, eta) in &[(0.0142, 1.9, 1.3), (0.0071, 3.0, 1.5), (0.05, 1.0, 1.0)] {
+        let p = OpticalProperties { eta, sigma_s_per_m: musp * 1e3, sigma_a_per_m: mua * 1e3, g: 0.0 };
+        let sd = StandardDipole::new(&p).unwrap();
+        let dd = DirectionalDipole::new(&p).unwrap();
+        for &r in &[0.2, 1.0, 3.0, 10.0] {
+            let ours = dipole_rd_per_mm2(r, mua, musp, eta);
+            let theirs = t12_normal(eta) * sd.rd_profile(r * 1e-3) * 1e-6;
+            assert!((ours / theirs - 1.0).abs() < 0.03, "standard {eta} r {r}: {ours} vs {theirs}");
+            let ours = directional_dipole_rd_per_mm2(r, mua, musp, eta);
+            let theirs = t12_normal(eta) * 4.0 * c_phi(1.0 / eta) * dd.rd_profile(r * 1e-3) * 1e-6;
+            assert!((ours / theirs - 1.0).abs() < 0.03, "directional {eta} r {r}: {ours} vs {theirs}");
+        }
+    }
+}
