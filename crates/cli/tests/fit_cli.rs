@@ -122,3 +122,26 @@ fn particles_json_has_the_contract_keys() {
     assert!((j["fat_percent"].as_f64().unwrap() - 3.0).abs() < 0.01, "{out}");
     assert!((j["pressure_mpa"].as_f64().unwrap() / 12.0 - 1.0).abs() < 0.01, "{out}");
 }
+
+#[test]
+fn oblique_reads_a_line_profile_and_reports_sigma_s_prime() {
+    // A diffusion-theory line profile centred at Δx = 3D sin θ_t (θ_i = 40°, n = 1.33).
+    let (mua, musp, n, deg) = (0.02, 1.2, 1.33, 40.0f64);
+    let d = 1.0 / (3.0 * (0.35 * mua + musp));
+    let dx = 3.0 * d * deg.to_radians().sin() / n;
+    let mut text = "x_mm,rd_per_mm2,rd_per_mm2_stderr\n".to_string();
+    for k in 0..121 {
+        let x = -6.0 + 0.1 * k as f64;
+        let v = dipole_rd_per_mm2((x - dx).abs(), mua, musp, n);
+        text.push_str(&format!("{x},{v},{}\n", 0.005 * v));
+    }
+    let p = tmp("line.csv", &text);
+    let (ok, out, err) = lucent(&["fit", "oblique", p.to_str().unwrap(), "--eta", "1.33", "--incidence-deg", "40", "--json"]);
+    assert!(ok, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!((j["delta_x_mm"].as_f64().unwrap() / dx - 1.0).abs() < 0.01, "{out}");
+    assert!((j["sigma_s_prime_per_mm"].as_f64().unwrap() / musp - 1.0).abs() < 0.02, "{out}");
+    assert!(j["sigma_s_prime_ci_per_mm"].as_array().unwrap().len() == 2);
+    let (ok, _, err) = lucent(&["fit", "oblique", p.to_str().unwrap(), "--eta", "1.33", "--incidence-deg", "0"]);
+    assert!(!ok && err.contains("incidence-deg"), "{err}");
+}

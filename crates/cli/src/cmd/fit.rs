@@ -58,7 +58,8 @@ pub struct ReflectanceArgs {
     /// Monte Carlo table (CSV from `lucent fit mc-table`); default: the bundled one for --eta.
     #[arg(long)]
     table: Option<PathBuf>,
-    /// Use only points at r ≥ this (mm); default 0 for montecarlo, 1/σ'_t-independent 0 for the dipoles.
+    /// Use only points at r ≥ this (mm). Diffusion models fail within ~2 transport lengths of
+    /// the source: leave that out for the dipoles (e.g. 1 mm for milk), or use montecarlo.
     #[arg(long, default_value_t = 0.0)]
     r_min_mm: f64,
     /// Use only points at r ≤ this (mm).
