@@ -57,7 +57,8 @@ fn simulate_profile(c: &Case, photons: u64) -> ReflectanceProfile {
 
 /// Fit with one model; returns (σ'_s error, σ_a error) as fractions and asserts the CI contains the estimate.
 fn errors(c: &Case, p: &ReflectanceProfile, model: &ReflectanceModel, r_min_mm: f64) -> (f64, f64) {
-    let f = fit_reflectance(p, model, c.eta, &FitOptions { r_min_mm, ..FitOptions::default() }).unwrap();
+    let bin_width_mm = Some(p.r_mm[1] - p.r_mm[0]); // histogram data: compare annulus averages
+    let f = fit_reflectance(p, model, c.eta, &FitOptions { r_min_mm, bin_width_mm, ..FitOptions::default() }).unwrap();
     let sa = f.sigma_a_per_mm.expect("σ_a determined");
     let ss = f.sigma_s_prime_per_mm.expect("σ'_s determined");
     let e = (ss.value / c.sigma_s_prime_per_mm - 1.0, sa.value / c.sigma_a_per_mm - 1.0);

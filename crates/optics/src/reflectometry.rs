@@ -434,11 +434,15 @@ pub struct FitOptions {
     pub r_max_mm: f64,
     /// Relative noise assumed for every point (added in quadrature to the given standard errors).
     pub relative_noise: f64,
+    /// When the data are histogram bins (annuli of this width centred on each r, as written by
+    /// `lucent slab`), the model is averaged over each annulus (4-point Gauss–Legendre in r,
+    /// weighted by r); `None` compares point values.
+    pub bin_width_mm: Option<f64>,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { r_min_mm: 0.0, r_max_mm: f64::INFINITY, relative_noise: 0.01 }
+        FitOptions { r_min_mm: 0.0, r_max_mm: f64::INFINITY, relative_noise: 0.01, bin_width_mm: None }
     }
 }
 
@@ -472,6 +476,32 @@ pub struct ReflectanceFit {
     pub points: usize,
     /// Messages about what could not be determined and why.
     pub notes: Vec<String>,
+}
+
+/// Mean of f over the annulus r0 ≤ r ≤ r1 (area weighted), by 4-point Gauss–Legendre in r.
+pub fn annulus_average(f: impl Fn(f64) -> Option<f64>, r0: f64, r1: f64) -> Option<f64> {
+    const X: [f64; 4] = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
+    const W: [f64; 4] = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+    let (c, h) = (0.5 * (r0 + r1), 0.5 * (r1 - r0));
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for k in 0..4 {
+        let r = c + h * X[k];
+        num += W[k] * r * f(r)?;
+        den += W[k] * r;
+    }
+    Some(num / den)
+}
+
+/// Bin width when `r_mm` looks like histogram bin centres (uniform spacing Δ, first centre Δ/2,
+/// as `lucent slab --radial-csv` writes them), else `None`.
+pub fn detect_bins(r_mm: &[f64]) -> Option<f64> {
+    if r_mm.len() < 3 {
+        return None;
+    }
+    let d = r_mm[1] - r_mm[0];
+    let uniform = r_mm.windows(2).all(|w| ((w[1] - w[0]) - d).abs() < 1e-6 * d.abs().max(1e-12));
+    (uniform && d > 0.0 && (r_mm[0] - 0.5 * d).abs() < 1e-6 * d).then_some(d)
 }
 
 /// Largest 95 % half width of ln(parameter) for which a parameter is reported (a factor of 2).
@@ -512,9 +542,18 @@ pub fn fit_reflectance(profile: &ReflectanceProfile, model: &ReflectanceModel, e
     if r.len() <= npar {
         bail!("{} positive data points in range: too few to fit {npar} parameters", r.len());
     }
+    let bin = options.bin_width_mm.filter(|h| *h > 0.0);
     let log_model = |p: &[f64]| -> Option<Vec<f64>> {
         let (mua, musp) = (p[0].exp(), p[1].exp());
-        r.iter().map(|&rk| model.rd_per_mm2(rk, mua, musp, eta).filter(|&v| v > 0.0).map(f64::ln)).collect()
+        r.iter()
+            .map(|&rk| {
+                let v = match bin {
+                    None => model.rd_per_mm2(rk, mua, musp, eta)?,
+                    Some(h) => annulus_average(|x| model.rd_per_mm2(x, mua, musp, eta), (rk - 0.5 * h).max(0.0), rk + 0.5 * h)?,
+                };
+                (v > 0.0).then(|| v.ln())
+            })
+            .collect()
     };
     // Grid search for a start (the scale of relative data is profiled out).
     let mut best = (f64::INFINITY, vec![0.0; npar]);
@@ -724,8 +763,12 @@ pub fn fit_oblique(x_mm: &[f64], value: &[f64], stderr: Option<&[f64]>, incidenc
 
 /// Refractive indices (relative) of the bundled Monte Carlo tables (g = 0; built by
 /// `lucent fit mc-table`, see `crates/optics/data/reflectometry/README.md`).
-pub const BUNDLED_TABLE_ETAS: [f64; 1] = [1.3];
-const BUNDLED_TABLES: [&str; 1] = [include_str!("../data/reflectometry/mc_eta1.3.csv")];
+pub const BUNDLED_TABLE_ETAS: [f64; 3] = [1.0, 1.3, 1.5];
+const BUNDLED_TABLES: [&str; 3] = [
+    include_str!("../data/reflectometry/mc_eta1.0.csv"),
+    include_str!("../data/reflectometry/mc_eta1.3.csv"),
+    include_str!("../data/reflectometry/mc_eta1.5.csv"),
+];
 
 /// The bundled Monte Carlo table for `eta` (to 1e-6), if there is one.
 pub fn bundled_table(eta: f64) -> Result<Option<MonteCarloTable>> {

@@ -133,6 +133,9 @@ pub struct McTableArgs {
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Replace each row beyond this scaled radius by the dipole matched over the 3 units before.
+    #[arg(long)]
+    diffusion_tail_rho: Option<f64>,
     /// Output CSV.
     #[arg(long)]
     out: PathBuf,
@@ -190,17 +193,24 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
     let name = a.data.display().to_string();
     let profiles = read_reflectance_csv(&read_text(&a.data)?, &name)?;
     let model = load_model(a.model, a.table.as_deref(), a.eta)?;
-    let options = FitOptions {
-        r_min_mm: a.r_min_mm,
-        r_max_mm: a.r_max_mm.unwrap_or(f64::INFINITY),
-        relative_noise: a.noise,
-    };
     let mut fits: Vec<ReflectanceFit> = vec![];
     for p in &profiles {
+        // Histogram data (bin centres Δ/2, 3Δ/2, …): compare annulus averages of the model.
+        let bin = optics::reflectometry::detect_bins(&p.r_mm);
+        let options = FitOptions {
+            r_min_mm: a.r_min_mm,
+            r_max_mm: a.r_max_mm.unwrap_or(f64::INFINITY),
+            relative_noise: a.noise,
+            bin_width_mm: bin,
+        };
         let f = fit_reflectance(p, &model, a.eta, &options).with_context(|| match p.lambda_nm {
             Some(l) => format!("{name}: wavelength_nm {l}"),
             None => name.clone(),
         })?;
+        let mut f = f;
+        if let Some(h) = bin {
+            f.notes.push(format!("r_mm are centres of {h} mm bins: the model is averaged over each annulus"));
+        }
         fits.push(f);
     }
     let relative = profiles[0].relative;
@@ -462,7 +472,9 @@ fn run_mc_table(a: McTableArgs) -> Result<()> {
         r_scaled: rows,
     };
     t.validate()?;
-    t.join_diffusion_tail(8.0);
+    if let Some(rho) = a.diffusion_tail_rho {
+        t.join_diffusion_tail(rho);
+    }
     render::image_io::write_atomic(&a.out, |tmp| Ok(std::fs::write(tmp, t.to_csv())?))
         .with_context(|| format!("--out {}", a.out.display()))?;
     Ok(())
