@@ -56,3 +56,27 @@ fn too_few_wavelengths_are_refused() {
     let s = MilkSpectra { lambda_nm: vec![500.0, 600.0], sigma_s_prime_per_mm: vec![1.0, 0.9], sigma_a_per_mm: None };
     assert!(fit_milk(&s, 3.4).unwrap_err().to_string().contains("at least 3 wavelengths"));
 }
+
+#[test]
+fn particle_radius_and_volume_fraction_are_recovered_from_a_recipe() {
+    // Polystyrene beads in water (media/polystyrene-beads.toml: r_vs = 0.5 µm, φ = 0.1 %):
+    // spectra at r_vs = 0.3 µm, φ = 0.2 % with 1 % noise, fitted from the recipe.
+    use optics::fitting::fit_recipe_particle;
+    use optics::media::Recipe;
+    let text = include_str!("../../../media/polystyrene-beads.toml");
+    let recipe = Recipe::from_toml(text).unwrap();
+    let lambda: Vec<f64> = (0..7).map(|k| 420.0 + 55.0 * k as f64).collect();
+    let mut truth = recipe.clone();
+    truth.particles[0].volume_fraction = Some(0.002);
+    truth.particles[0].size = optics::media::SizeSpec::Lognormal { r_vs_um: 0.3, c_s_um: 0.006 };
+    let b = truth.bulk_properties(Some(&lambda)).unwrap();
+    let mut seed = 7u64;
+    let sp: Vec<f64> = (0..lambda.len()).map(|i| b.sigma_s_per_m[i] * (1.0 - b.g[i]) * 1e-3 * (1.0 + 0.01 * noise(&mut seed))).collect();
+    let s = MilkSpectra { lambda_nm: lambda, sigma_s_prime_per_mm: sp, sigma_a_per_mm: None };
+    let f = fit_recipe_particle(&recipe, "polystyrene", &s).unwrap();
+    eprintln!("{f:?}");
+    assert!((f.radius_um / 0.3 - 1.0).abs() < 0.03, "{f:?}");
+    assert!((f.volume_fraction / 0.002 - 1.0).abs() < 0.05, "{f:?}");
+    assert!(f.radius_um_ci[0] < f.radius_um && f.radius_um < f.radius_um_ci[1]);
+    assert!(fit_recipe_particle(&recipe, "nope", &s).unwrap_err().to_string().contains("polystyrene"));
+}
