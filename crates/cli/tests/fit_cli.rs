@@ -145,3 +145,17 @@ fn oblique_reads_a_line_profile_and_reports_sigma_s_prime() {
     let (ok, _, err) = lucent(&["fit", "oblique", p.to_str().unwrap(), "--eta", "1.33", "--incidence-deg", "0"]);
     assert!(!ok && err.contains("incidence-deg"), "{err}");
 }
+
+#[test]
+fn particles_with_a_recipe_fit_radius_and_volume_fraction() {
+    let recipe = concat!(env!("CARGO_MANIFEST_DIR"), "/../../media/polystyrene-beads.toml");
+    let s = tmp("beads.csv", "wavelength_nm,sigma_s_prime_per_mm\n450,0.5\n550,0.4\n650,0.3\n");
+    let (ok, out, err) = lucent(&["fit", "particles", s.to_str().unwrap(), "--medium", recipe, "--particle", "polystyrene", "--json"]);
+    assert!(ok, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for k in ["radius_um", "radius_um_ci", "volume_fraction", "volume_fraction_ci", "residual_rms"] {
+        assert!(j.get(k).is_some(), "missing {k}: {out}");
+    }
+    let (ok, _, err) = lucent(&["fit", "particles", s.to_str().unwrap(), "--medium", recipe]);
+    assert!(!ok && err.contains("--particle"), "{err}");
+}

@@ -92,19 +92,18 @@ pub struct ObliqueArgs {
     json: bool,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MediumName {
-    /// The milk model of Frisvad et al. 2007 (fat and casein particles in water).
-    Milk,
-}
-
 #[derive(clap::Args, Debug)]
 pub struct ParticlesArgs {
     /// CSV with columns wavelength_nm and sigma_s_prime_per_mm, optional sigma_a_per_mm.
     spectra: PathBuf,
-    /// The product model.
-    #[arg(long, value_enum)]
-    medium: MediumName,
+    /// The product model: `milk` (Frisvad et al. 2007: fat content and homogenization pressure),
+    /// or a medium recipe TOML (see docs/media.md) with --particle NAME (mean radius and volume
+    /// fraction of that particle type).
+    #[arg(long)]
+    medium: String,
+    /// With a recipe: the particle type whose mean radius and volume fraction are fitted.
+    #[arg(long)]
+    particle: Option<String>,
     /// Protein content, wt-% (milk).
     #[arg(long, default_value_t = optics::milk::DEFAULT_PROTEIN_PERCENT)]
     protein_percent: f64,
@@ -397,9 +396,27 @@ fn run_particles(a: ParticlesArgs) -> Result<()> {
     if !(a.protein_percent.is_finite() && (0.0..100.0).contains(&a.protein_percent)) {
         bail!("--protein-percent must lie in [0, 100), got {}", a.protein_percent);
     }
-    let f = match a.medium {
-        MediumName::Milk => fit_milk(&spectra, a.protein_percent).with_context(|| name.clone())?,
-    };
+    if a.medium != "milk" {
+        let path = Path::new(&a.medium);
+        let recipe = optics::media::Recipe::load(path).with_context(|| format!("--medium {}", path.display()))?;
+        let particle = a.particle.as_deref().context("--particle NAME is needed with a recipe --medium")?;
+        let f = optics::fitting::fit_recipe_particle(&recipe, particle, &spectra).with_context(|| name.clone())?;
+        if a.json {
+            let j = json!({
+                "medium": a.medium, "particle": particle,
+                "radius_um": f.radius_um, "radius_um_ci": f.radius_um_ci,
+                "volume_fraction": f.volume_fraction, "volume_fraction_ci": f.volume_fraction_ci,
+                "residual_rms": f.residual_rms,
+            });
+            println!("{}", serde_json::to_string_pretty(&j)?);
+        } else {
+            println!("{particle}: mean radius     {:.4} um [{:.4}, {:.4}]", f.radius_um, f.radius_um_ci[0], f.radius_um_ci[1]);
+            println!("{particle}: volume fraction {:.5} [{:.5}, {:.5}]", f.volume_fraction, f.volume_fraction_ci[0], f.volume_fraction_ci[1]);
+            println!("residual rms      {:.5} (relative)", f.residual_rms);
+        }
+        return Ok(());
+    }
+    let f = fit_milk(&spectra, a.protein_percent).with_context(|| name.clone())?;
     if a.json {
         let j = json!({
             "medium": "milk",
