@@ -6,6 +6,10 @@
 //! Units: SI inside (metres, m⁻¹); S_d is per m² per steradian, R_d(r) per m².
 //! Relative index η = n_medium / n_outside. All diffusion terms here EXCLUDE the Fresnel
 //! transmittances T12 and T21 (the renderer multiplies them in).
+//!
+//! Not implemented: the directional dipole's delta-Eddington (reduced-intensity) term S_δE — we
+//! could not establish its exact form from the sources available to us; the renderer should treat
+//! that contribution as missing.
 
 // NaN-rejecting comparisons (`!(x > 0.0)`) are deliberate.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]

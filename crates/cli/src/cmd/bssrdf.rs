@@ -30,6 +30,22 @@ pub struct Args {
     /// Colour channel of the preset: r, g or b.
     #[arg(long, default_value = "r")]
     channel: String,
+    /// Milk by content declaration: σ_s, σ_a and g from the Lorenz–Mie model of `optics::milk` at
+    /// `--lambda-nm` (η defaults to the host's real index there); explicit flags override them.
+    #[arg(long)]
+    milk: bool,
+    /// Milk: fat content in weight percent.
+    #[arg(long, allow_hyphen_values = true)]
+    fat_percent: Option<f64>,
+    /// Milk: protein content in weight percent (default 3.4).
+    #[arg(long, allow_hyphen_values = true)]
+    protein_percent: Option<f64>,
+    /// Milk: homogenization pressure in MPa (default 20; 0 = unhomogenized).
+    #[arg(long, allow_hyphen_values = true)]
+    pressure_mpa: Option<f64>,
+    /// Milk: vacuum wavelength in nm.
+    #[arg(long, allow_hyphen_values = true)]
+    lambda_nm: Option<f64>,
     /// List the preset media and exit.
     #[arg(long)]
     list_presets: bool,
@@ -128,6 +144,43 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
         sigma_s = Some(m.sigma_s_per_m[c] * 1e-3);
         sigma_a = Some(m.sigma_a_per_m[c] * 1e-3);
         g = Some(m.g[c]);
+    }
+    if args.milk {
+        if args.preset.is_some() {
+            bail!("--milk and --preset exclude each other");
+        }
+        let fat = args
+            .fat_percent
+            .context("--fat-percent is required with --milk")?;
+        let protein = args
+            .protein_percent
+            .unwrap_or(optics::milk::DEFAULT_PROTEIN_PERCENT);
+        let pressure = args.pressure_mpa.unwrap_or(20.0);
+        let lambda = args
+            .lambda_nm
+            .context("--lambda-nm is required with --milk")?;
+        if !(lambda.is_finite() && lambda > 0.0) {
+            bail!("--lambda-nm must be a positive wavelength, got {lambda}");
+        }
+        optics::milk::validate(fat, protein, pressure)?;
+        let bulk = optics::milk::milk_properties_with(
+            fat,
+            protein,
+            pressure,
+            &[lambda],
+            &optics::media::BulkOptions { phase_angles: 0 },
+        )
+        .context("--milk")?;
+        let host = optics::milk::host_index(&optics::milk::inputs()?).eval(lambda);
+        eta = Some(host.re);
+        sigma_s = Some(bulk.sigma_s_per_m[0] * 1e-3);
+        sigma_a = Some(bulk.sigma_a_per_m[0] * 1e-3);
+        g = Some(bulk.g[0]);
+    } else if args.fat_percent.is_some()
+        || args.protein_percent.is_some()
+        || args.pressure_mpa.is_some()
+    {
+        bail!("--fat-percent, --protein-percent and --pressure-mpa apply with --milk only");
     }
     let eta = args
         .eta
@@ -364,6 +417,43 @@ mod tests {
             "0.1",
         ]);
         assert!(m.contains("eta") && !m.contains('\n'), "{m}");
+    }
+
+    /// Milk from the Mie module: whole milk (3.5 % fat) at 550 nm is a strongly scattering,
+    /// weakly absorbing medium with forward scattering; α' close to 1 and g in (0.5, 1).
+    #[test]
+    fn milk_by_content_declaration() {
+        let o = eval(&[
+            "--milk",
+            "--fat-percent",
+            "3.5",
+            "--lambda-nm",
+            "550",
+            "--rd",
+            "--json",
+        ])
+        .unwrap();
+        let (ap, g, eta) = (
+            o["alpha_prime"].as_f64().unwrap(),
+            o["g"].as_f64().unwrap(),
+            o["eta"].as_f64().unwrap(),
+        );
+        assert!(ap > 0.99 && ap <= 1.0, "{ap}");
+        assert!(g > 0.5 && g < 1.0, "{g}");
+        assert!((eta - 1.334).abs() < 0.01, "{eta}");
+        assert!(o["rd"].as_f64().unwrap() > 0.5);
+        assert!(eval(&["--milk", "--lambda-nm", "550"]).is_err());
+        assert!(eval(&[
+            "--fat-percent",
+            "3.5",
+            "--eta",
+            "1.3",
+            "--sigma-s-per-mm",
+            "1",
+            "--sigma-a-per-mm",
+            "0"
+        ])
+        .is_err());
     }
 
     #[test]
