@@ -14,3 +14,4 @@ pub mod milk;
 pub mod bssrdf;
 pub mod fitting;
 pub mod reflectometry;
+pub mod ior;

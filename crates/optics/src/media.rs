@@ -133,18 +133,13 @@ pub struct BulkProperties {
     pub phase: Option<PhaseTable>,
 }
 
-/// Options of [`bulk_properties`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Options of [`bulk_properties`] (default: no phase table).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct BulkOptions {
     /// Number of scattering angles of the tabulated phase function (0: none). Uniform in θ over [0°, 180°].
     pub phase_angles: usize,
 }
 
-impl Default for BulkOptions {
-    fn default() -> Self {
-        BulkOptions { phase_angles: 0 }
-    }
-}
 
 struct Accum {
     sigma_s: f64,
@@ -184,7 +179,7 @@ fn component_at(ws: &mut MieWorkspace, comp: &Component, lambda_nm: f64, n_host:
         acc.g_sigma_s += s.eff.g * s.c_sca_m2 * n;
         weights.push(s.c_sca_m2 * n);
     }
-    if mu.is_empty() || !(acc.sigma_s > 0.0) {
+    if mu.is_empty() || acc.sigma_s.is_nan() || acc.sigma_s <= 0.0 {
         return acc;
     }
     // Phase function: σ_s-weighted sum over the bins that carry at least 1e-9 of this component's σ_s.
@@ -209,7 +204,7 @@ fn component_at(ws: &mut MieWorkspace, comp: &Component, lambda_nm: f64, n_host:
         ws.sphere_keep_coefficients(r, lambda_m, n_p, n_host);
         let (a, b) = ws.last_coefficients();
         let den = 4.0 * PI * mie::scattering_sum(a, b);
-        if !(den > 0.0) {
+        if den.is_nan() || den <= 0.0 {
             continue;
         }
         s1r.iter_mut().chain(s1i.iter_mut()).chain(s2r.iter_mut()).chain(s2i.iter_mut()).for_each(|v| *v = 0.0);
@@ -520,7 +515,7 @@ fn um(v: f64, field: &str) -> Result<f64> {
 impl Recipe {
     /// Parse a recipe from TOML text (errors name the line and field).
     pub fn from_toml(text: &str) -> Result<Recipe> {
-        let r: Recipe = toml::from_str(text).map_err(|e| anyhow!("{}", e.to_string().replace('\n', " ").trim().to_string()))?;
+        let r: Recipe = toml::from_str(text).map_err(|e| anyhow!("{}", e.to_string().replace('\n', " ").trim()))?;
         Ok(r)
     }
 

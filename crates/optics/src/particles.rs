@@ -93,7 +93,7 @@ impl Bins {
     /// Build bins from radii and relative *volume* weights (normalised here), scaled to `volume_fraction`.
     pub fn from_volume_weights(radius_m: &[f64], weights: &[f64], volume_fraction: f64) -> Result<Bins> {
         let total: f64 = weights.iter().sum();
-        if !(total > 0.0) || !total.is_finite() {
+        if total.is_nan() || total <= 0.0 || !total.is_finite() {
             bail!("size distribution has no weight in the radius range");
         }
         let mut out = Bins::default();

@@ -221,7 +221,7 @@ pub fn li_path(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl: &
         if depth >= settings.max_depth {
             break;
         }
-        let bsdf = scene.materials[obj.material as usize].bsdf(wl);
+        let bsdf = scene.materials[obj.material as usize].bsdf_at(wl, s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η; dispersion: hero only
         if bsdf.is_black() {
             break;
         }
@@ -270,7 +270,7 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
     if let Some(li_idx) = obj.light {
         l += scene.lights[li_idx as usize].le(s.ng_raw, wo, wl);
     }
-    let bsdf = scene.materials[obj.material as usize].bsdf(wl);
+    let bsdf = scene.materials[obj.material as usize].bsdf(wl).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
     if !bsdf.is_delta() && !bsdf.is_black() {
         l += sample_one_light(scene, &s, wo, &bsdf, wl, rng, false);
     }

@@ -19,3 +19,5 @@ pub mod scene;
 pub mod image_io;
 pub mod compare;
 pub mod slab;
+pub mod microfacet;
+pub mod bxdf;

@@ -262,6 +262,13 @@ struct MaterialDesc {
     #[serde(rename = "type")]
     kind: String,
     albedo: Option<Spanned<toml::Value>>,
+    // Dielectrics, conductors, plastic (see `bsdf_material`).
+    ior: Option<Spanned<toml::Value>>,
+    metal: Option<Spanned<String>>,
+    eta: Option<Spanned<toml::Value>>,
+    k: Option<Spanned<toml::Value>>,
+    roughness: Option<Spanned<toml::Value>>,
+    alpha: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -310,6 +317,120 @@ struct LightDesc {
     scale: Option<f64>,
     power_w: Option<f64>,
     two_sided: Option<bool>,
+}
+
+/// Dielectric, conductor and plastic materials (issue 4), see docs/scene-format.md.
+fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &Range<usize>, field: &str) -> Result<Material> {
+    use crate::microfacet::{roughness_to_alpha, TrowbridgeReitz};
+    let kind = m.kind.as_str();
+    let f = |name: &str| format!("{field}.{name}");
+    // Fields that do not belong to this type.
+    let allowed: &[&str] = match kind {
+        "dielectric" | "rough_dielectric" => &["ior", "roughness", "alpha"],
+        "conductor" | "rough_conductor" => &["metal", "eta", "k", "roughness", "alpha"],
+        _ => &["albedo", "ior", "roughness", "alpha"],
+    };
+    for (name, present) in [
+        ("albedo", m.albedo.is_some()),
+        ("ior", m.ior.is_some()),
+        ("metal", m.metal.is_some()),
+        ("eta", m.eta.is_some()),
+        ("k", m.k.is_some()),
+        ("roughness", m.roughness.is_some()),
+        ("alpha", m.alpha.is_some()),
+    ] {
+        if present && !allowed.contains(&name) {
+            return Err(cx.err(span, &f(name), format!("not allowed for a {kind} material (allowed: {})", allowed.join(", "))));
+        }
+    }
+    // Roughness: `roughness` r ∈ [0, 1] with α = r², or `alpha` = α or [αx, αy] (anisotropic).
+    let number = |v: &Spanned<toml::Value>, name: &str, lo: f64, hi: f64| -> Result<f64> {
+        let x = as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &f(name), "expected a number"))?;
+        if !(x >= lo && x <= hi) {
+            return Err(cx.err(&v.span(), &f(name), format!("{x} is outside [{lo}, {hi}]")));
+        }
+        Ok(x)
+    };
+    let distrib = match (&m.roughness, &m.alpha) {
+        (Some(_), Some(a)) => return Err(cx.err(&a.span(), &f("alpha"), "give either roughness or alpha, not both")),
+        (Some(r), None) => TrowbridgeReitz::isotropic(roughness_to_alpha(number(r, "roughness", 0.0, 1.0)? as f32)),
+        (None, Some(a)) => match a.get_ref() {
+            toml::Value::Array(xs) if kind != "plastic" => {
+                let v: Vec<f64> = xs.iter().filter_map(as_f64).collect();
+                if v.len() != 2 || xs.len() != 2 || !v.iter().all(|x| (0.0..=4.0).contains(x)) {
+                    return Err(cx.err(&a.span(), &f("alpha"), "expected [alpha_x, alpha_y], each in [0, 4]"));
+                }
+                TrowbridgeReitz { alpha_x: v[0] as f32, alpha_y: v[1] as f32 }
+            }
+            _ => TrowbridgeReitz::isotropic(number(a, "alpha", 0.0, 4.0)? as f32),
+        },
+        (None, None) => {
+            if kind.starts_with("rough_") {
+                return Err(cx.err(span, &f("roughness"), format!("missing (a {kind} material needs roughness or alpha)")));
+            }
+            TrowbridgeReitz::isotropic(0.0)
+        }
+    };
+    if kind.starts_with("rough_") && distrib.effectively_smooth() {
+        return Err(cx.err(span, &f("roughness"), format!("a {kind} material needs α ≥ {} (use the smooth type)", crate::microfacet::SMOOTH_ALPHA)));
+    }
+    // A positive spectrum (index of refraction, η, k): number, name of a glass / named spectrum, or table.
+    let positive = |v: &Spanned<toml::Value>, name: &str| -> Result<DenseSpectrum> {
+        if let toml::Value::String(g) = v.get_ref() {
+            if !sp.named.contains_key(g) {
+                let glass = optics::ior::glass(g).map_err(|e| cx.err(&v.span(), &f(name), format!("{e:#} (or a spectrum defined under [spectra])")))?;
+                return Ok(DenseSpectrum::from_fn(move |l| glass.n(l)));
+            }
+        }
+        let d = sp.resolve(v, &f(name), SpectrumUse::Emission)?;
+        // A table that does not cover 360–830 nm is extended with its end values (an index is
+        // never 0), instead of the zero that spectra take outside their range.
+        let x = d.samples().to_vec();
+        match (x.iter().position(|&y| y > 0.0), x.iter().rposition(|&y| y > 0.0)) {
+            (Some(a), Some(b)) if a > 0 || b + 1 < x.len() => {
+                Ok(DenseSpectrum::from_fn(move |l| x[((l - 360.0).round().max(0.0) as usize).clamp(a, b)] as f64))
+            }
+            _ => Ok(d),
+        }
+    };
+    match kind {
+        "dielectric" | "rough_dielectric" => {
+            let ior = match &m.ior {
+                Some(v) => positive(v, "ior")?,
+                None => return Err(cx.err(span, &f("ior"), "missing (a number such as 1.5, a glass name `bk7` / `fused_silica`, or a spectrum)")),
+            };
+            if ior.samples().iter().any(|&x| !(x > 0.0)) {
+                return Err(cx.err(&m.ior.as_ref().unwrap().span(), &f("ior"), "must be positive at every wavelength"));
+            }
+            Ok(Material::dielectric(ior, distrib))
+        }
+        "conductor" | "rough_conductor" => {
+            let (eta, k) = match (&m.metal, &m.eta, &m.k) {
+                (Some(name), None, None) => {
+                    let t = optics::ior::metal(name.get_ref()).map_err(|e| cx.err(&name.span(), &f("metal"), format!("{e:#}")))?;
+                    let t2 = t.clone();
+                    (DenseSpectrum::from_fn(move |l| t.eta_k(l).0), DenseSpectrum::from_fn(move |l| t2.eta_k(l).1))
+                }
+                (None, Some(e), Some(k)) => (positive(e, "eta")?, positive(k, "k")?),
+                (Some(_), _, _) => return Err(cx.err(span, &f("metal"), "give either metal or eta and k, not both")),
+                _ => return Err(cx.err(span, &f("metal"), "missing (metal = \"au\" | \"ag\" | \"cu\" | \"al\" | \"cr\", or both eta and k)")),
+            };
+            Ok(Material::conductor(eta, k, distrib))
+        }
+        _ => {
+            // plastic
+            let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(span, &f("albedo"), "missing (a plastic material needs the albedo of its base)"))?;
+            let albedo = sp.resolve(albedo, &f("albedo"), SpectrumUse::Albedo)?;
+            let ior = match &m.ior {
+                Some(v) => number(v, "ior", 1.0001, 4.0)?,
+                None => 1.5,
+            };
+            if distrib.alpha_x != distrib.alpha_y {
+                return Err(cx.err(span, &f("alpha"), "a plastic coating is isotropic (one alpha)"));
+            }
+            Ok(Material::plastic(albedo, ior as f32, distrib.alpha_x))
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -597,6 +718,13 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         let span = m.span();
         let m = m.get_ref();
         let field = format!("materials.{name}");
+        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black") {
+            for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
+                if present {
+                    return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
+                }
+            }
+        }
         let mat = match m.kind.as_str() {
             "lambertian" | "diffuse" => {
                 let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
@@ -608,8 +736,13 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 }
                 Material::Black
             }
+            "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
             other => {
-                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown material type `{other}` (known: lambertian, black)")))
+                return Err(cx.err(
+                    &span,
+                    &format!("{field}.type"),
+                    format!("unknown material type `{other}` (known: lambertian, black, dielectric, rough_dielectric, conductor, rough_conductor, plastic)"),
+                ))
             }
         };
         materials.push(mat);

@@ -261,7 +261,10 @@ pub(crate) fn polar_log_svg(theta_deg: &[f64], p: &[f64], title: &str) -> String
 }
 
 /// Line plots of spectra: one panel per (name, unit, log-scale, series) group, x = wavelength in nm.
-pub(crate) fn spectra_svg(lambda_nm: &[f64], panels: &[(&str, bool, Vec<(&str, Vec<f64>)>)], title: &str) -> String {
+/// One panel of [`spectra_svg`]: axis label, log scale?, named series.
+pub(crate) type Panel<'a> = (&'a str, bool, Vec<(&'a str, Vec<f64>)>);
+
+pub(crate) fn spectra_svg(lambda_nm: &[f64], panels: &[Panel], title: &str) -> String {
     let colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
     let (w, ph, left, right, top0) = (720.0, 260.0, 80.0, 160.0, 40.0);
     let height = top0 + panels.len() as f64 * (ph + 50.0) + 10.0;
@@ -281,7 +284,7 @@ pub(crate) fn spectra_svg(lambda_nm: &[f64], panels: &[(&str, bool, Vec<(&str, V
             vmin = vmin.floor();
             vmax = vmax.ceil().max(vmin + 1.0);
         } else {
-            if !(vmax > vmin) {
+            if vmax.is_nan() || vmax <= vmin {
                 vmax = vmin + 1.0;
             }
             let pad = 0.05 * (vmax - vmin);
