@@ -145,6 +145,12 @@ fn oblique_incidence_reflectometry_round_trip() {
     let f = fit_oblique(&x, &y, Some(&se), 45.0, n, 1.5).unwrap();
     let (es, ea) = (f.sigma_s_prime_per_mm.value / musp - 1.0, f.sigma_a_per_mm.value / mua - 1.0);
     eprintln!("oblique: Δx {:?}  σ'_s {:?} ({:+.1} %)  σ_a {:?} ({:+.1} %)", f.delta_x_mm, f.sigma_s_prime_per_mm, 100.0 * es, f.sigma_a_per_mm, 100.0 * ea);
-    // σ_a comes from the slope of a 1-D line profile and is weakly determined (reached: −46 %).
-    assert!(es.abs() < 0.10 && ea.abs() < 0.6, "σ'_s {es:+.3}, σ_a {ea:+.3}");
+    // Reached over four seeds (71 here; 5, 6, 7 with `lucent slab` + `lucent fit oblique`):
+    // σ'_s +4 %, +17 %, +20 %, +12 % — the fitted centre lies 10–15 % short of 3D sin θ_t (as the
+    // slab's own diffuse-centre test finds), so OIR overestimates σ'_s; σ_a (from the slope of a
+    // 1-D line profile) −35 … −47 %. Checks: σ'_s within 25 %, σ_a within 60 %, and the 95 %
+    // interval of Δx narrower than ±15 % (the estimator's own precision).
+    let dx_half = 0.5 * (f.delta_x_mm.ci95[1] - f.delta_x_mm.ci95[0]) / f.delta_x_mm.value;
+    assert!(dx_half < 0.15, "Δx interval ±{dx_half:.3}");
+    assert!(es.abs() < 0.25 && ea.abs() < 0.6, "σ'_s {es:+.3}, σ_a {ea:+.3}");
 }
