@@ -12,5 +12,6 @@ pub mod particles;
 pub mod media;
 pub mod milk;
 pub mod bssrdf;
+pub mod fitting;
 pub mod reflectometry;
 pub mod ior;
