@@ -31,11 +31,7 @@ pub const SSIM_SIGMA_PX: f64 = 1.5;
 pub const SSIM_WINDOW_PX: usize = 11;
 
 /// Linear sRGB → CIE XYZ (IEC 61966-2-1 primaries, D65 white; Y of RGB (1,1,1) is 1).
-pub const LINEAR_SRGB_TO_XYZ: [[f64; 3]; 3] = [
-    [0.412_390_8, 0.357_584_3, 0.180_480_8],
-    [0.212_639_0, 0.715_168_7, 0.072_192_3],
-    [0.019_330_8, 0.119_194_8, 0.950_532_2],
-];
+pub const LINEAR_SRGB_TO_XYZ: [[f64; 3]; 3] = optics::color::SRGB_TO_XYZ;
 
 /// Which pixels take part in a comparison: `true` = compared. Row-major, top row first.
 #[derive(Clone, Debug, PartialEq)]

@@ -86,25 +86,8 @@ impl Format {
     }
 }
 
-/// sRGB opto-electronic transfer function (IEC 61966-2-1): linear [0, 1] → encoded [0, 1].
-///
-/// Local to image I/O; `optics::color::srgb_encode` is the same curve.
-pub fn srgb_encode(linear: f64) -> f64 {
-    if linear <= 0.003_130_8 {
-        12.92 * linear
-    } else {
-        1.055 * linear.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Inverse of [`srgb_encode`]: encoded [0, 1] → linear [0, 1].
-pub fn srgb_decode(encoded: f64) -> f64 {
-    if encoded <= 0.040_45 {
-        encoded / 12.92
-    } else {
-        ((encoded + 0.055) / 1.055).powf(2.4)
-    }
-}
+/// The sRGB transfer curve (IEC 61966-2-1) used for PNG, shared with the colour module.
+pub use optics::color::{srgb_decode, srgb_encode};
 
 /// Writes a file atomically: `write` is called with a temporary path `<name>.tmp-<pid>` in the
 /// same directory; on success that file is renamed to `path`, on error it is removed and any
