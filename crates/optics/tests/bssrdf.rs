@@ -392,6 +392,23 @@ fn dipoles_against_monte_carlo() {
             (sd - mc).abs() < tol * mc + 4.0 * se,
             "alpha' {albedo}: {sd} vs MC {mc} ± {se}"
         );
+        // The diffusion theory the directional dipole approximates, with the same boundary terms
+        // but the ray source integrated exactly (see `ray_source_leaving`), is as close to the
+        // Monte Carlo as the standard dipole (measured +3 % and +5 %); the paper's closed form
+        // is not (+33 %, +63 %): the excess is in its point-source expansion, not in C_φ, C_E, A.
+        let rs = ray_source_leaving(&dd);
+        eprintln!(
+            "  exact ray-source diffusion {rs:.4} ({:+.1} %)",
+            (rs / mc - 1.0) * 100.0
+        );
+        assert!(
+            (rs - mc).abs() < tol * mc + 4.0 * se,
+            "alpha' {albedo}: ray source {rs} vs MC {mc} ± {se}"
+        );
+        assert!(
+            dd_out > 1.2 * mc,
+            "alpha' {albedo}: published directional {dd_out} vs MC {mc}"
+        );
     }
 }
 
@@ -512,4 +529,93 @@ fn narasimhan_presets_match_pbrt_reduced_table() {
         rows += 1;
     }
     assert_eq!(rows, 35);
+}
+
+/// Total diffuse reflectance, as light leaving per unit light entering, of the diffusion theory the
+/// directional dipole approximates, integrated exactly instead of by the paper's point-source
+/// expansion: the refracted ray at normal incidence is a line of sources of density
+/// α'σ'_t e^{−σ'_t s} at depth s, each with its image mirrored in the extrapolated boundary
+/// z_b = A·d_e above the surface, and exitance C_φφ + C_E(E·n) (the same C_φ, C_E, A, d_e, D, σ_tr
+/// as the model). Over the plane, a point source at distance h gives ∫G dA = e^{−σ_tr h}/(2Dσ_tr)
+/// (G = e^{−σ_tr d}/(4πDd)) and flux ∫E·n dA = e^{−σ_tr h}/2; averaging e^{−σ_tr s} over the source
+/// density gives m = σ'_t/(σ'_t + σ_tr), so
+///   leaving = α'm [C_φ(1 − e^{−2σ_tr z_b})/(2Dσ_tr) + C_E(1 + e^{−2σ_tr z_b})/2],
+/// and for σ_a = 0: leaving = C_φ z_b/D + C_E. Independent derivation (this file, not the paper).
+fn ray_source_leaving(m: &DirectionalDipole) -> f64 {
+    let p = &m.props;
+    let (d, s, ap) = (p.d_m, p.sigma_tr_per_m, p.alpha_prime);
+    let zb = m.a * m.d_e_m;
+    if s * zb < 1e-9 {
+        return ap * (m.c_phi * zb / d + m.c_e);
+    }
+    let mm = p.sigma_t_prime_per_m / (p.sigma_t_prime_per_m + s);
+    let e = (-2.0 * s * zb).exp();
+    ap * mm * (m.c_phi * (1.0 - e) / (2.0 * d * s) + m.c_e * 0.5 * (1.0 + e))
+}
+
+/// Analysis of the directional dipole's total diffuse reflectance at normal incidence, σ_a = 0
+/// (issue 5 measured rd = 1.346 at α' = 1, η = 1, where all entering light must leave).
+/// With σ_tr = 0 every term of π∫S_d dA has a closed form except those of the real source:
+///   π∫S_d dA = N/2 [C_φ/D ∫(1/d_r − 1/d_v) r dr + 3C_φ + C_E + 3DC_E ∫ r dr/d_r³],
+/// N = 1/(4C_φ(1/η)), d_v = √(r² + (2Ad_e)²). If the real source sat at constant depth c
+/// (d_r = √(r² + c²)) this is N/2 [C_φ(2Ad_e − c)/D + 3C_φ + C_E + 3DC_E/c], which for c = 1/σ'_t
+/// = 3D (the mean depth of first scattering) equals the exact ray-source value N(C_φAd_e/D + C_E)
+/// of [`ray_source_leaving`]. The paper's d_r (Frisvad et al. 2014; tutorial "Diffusive part of
+/// the directional dipole") is √(r² + Dμ₀(Dμ₀ − 2d_e cos β)), which tends to D = c/3 at r = 0:
+/// at η = 1 (C_φ = 1/4, C_E = 1/2) the fluence terms give 0.653 instead of C_φ·2.131 = 0.533 and
+/// the real source's flux term 0.437 instead of C_E/2 = 0.25, so the total exceeds the exact value
+/// by 14–30 % (η = 1.5…1; more with absorption). This is a property of the published closed form,
+/// which our implementation reproduces term by term (Mitsuba and appleseed ports agree, see
+/// docs/validation.md). The test checks (1) the constant-depth identity to 1e-6 through the
+/// model's own S'_d, (2) the published model's excess over the exact value, pinned in [1.1, 1.4]
+/// with the η = 1 value 1.346 ± 0.002, and (3) reflectometry's normal-incidence R(r) integrates to
+/// T12(0)·rd·4C_φ(1/η) (same model, second implementation; it takes C₁, C₂ by quadrature instead
+/// of the d'Eon–Irving fits, hence 3e-3: measured 4e-4).
+#[test]
+fn directional_dipole_total_reflectance_against_ray_source_diffusion() {
+    for &eta in &[1.0, 1.3, 1.5] {
+        let m = DirectionalDipole::new(&props(eta, 1.0, 0.0, 0.0)).unwrap();
+        let n = [0.0, 0.0, 1.0];
+        let n0 = 1.0 / (4.0 * c_phi(1.0 / eta));
+        let exact = n0 * ray_source_leaving(&m);
+        // (1) Real source at the constant depth c = 1/σ'_t, virtual source as in the model.
+        let c = 1.0 / m.props.sigma_t_prime_per_m;
+        let b = 2.0 * m.a * m.d_e_m;
+        let const_depth = integrate_plane(
+            |r| {
+                std::f64::consts::PI
+                    * (m.sd_prime([r, 0.0, 0.0], [0.0, 0.0, -1.0], (r * r + c * c).sqrt(), n)
+                        - m.sd_prime([r, 0.0, -b], [0.0, 0.0, 1.0], (r * r + b * b).sqrt(), n))
+            },
+            c,
+        );
+        assert!(
+            (const_depth / exact - 1.0).abs() < 1e-6,
+            "eta {eta}: constant-depth {const_depth} vs exact ray source {exact}"
+        );
+        // (2) The published model.
+        let rd = m.rd_numerical();
+        eprintln!(
+            "eta {eta}: published rd {rd:.4}, exact ray-source rd {exact:.4}, ratio {:.3}",
+            rd / exact
+        );
+        assert!(
+            rd / exact > 1.1 && rd / exact < 1.4,
+            "eta {eta}: {rd} vs {exact}"
+        );
+        if eta == 1.0 {
+            assert!((rd - 1.346).abs() < 2e-3, "{rd}");
+        }
+        // (3) Second implementation (optics::reflectometry), per mm, σ'_t = 1 mm⁻¹.
+        let refl = integrate_plane(
+            |r| optics::reflectometry::directional_dipole_rd_per_mm2(r, 0.0, 1.0, eta),
+            1.0,
+        );
+        let t12 = optics::reflectometry::t12_normal(eta);
+        assert!(
+            (refl / (t12 * rd / n0) - 1.0).abs() < 3e-3,
+            "eta {eta}: reflectometry {refl} vs {}",
+            t12 * rd / n0
+        );
+    }
 }
