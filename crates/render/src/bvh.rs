@@ -573,14 +573,18 @@ impl Packet {
         let e0 = cx * by - cy * bx;
         let e1 = ax * cy - ay * cx;
         let e2 = bx * ay - by * ax;
-        let det = e0 + e1 + e2;
-        let t_scaled = sz * (e0 * az + e1 * bz + e2 * cz);
-        let inv_det = Vec4::ONE / det;
-        let t = t_scaled * inv_det;
         let zero = Vec4::ZERO;
         let pos = e0.cmpge(zero) & e1.cmpge(zero) & e2.cmpge(zero);
         let neg = e0.cmple(zero) & e1.cmple(zero) & e2.cmple(zero);
         let exact = e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero);
+        if (pos | neg | exact).bitmask() == 0 {
+            // Every lane misses on an edge test: skip the depth and the division.
+            return Lanes { t: [0.0; 4], u: [0.0; 4], v: [0.0; 4], ok: 0, exact: 0 };
+        }
+        let det = e0 + e1 + e2;
+        let t_scaled = sz * (e0 * az + e1 * bz + e2 * cz);
+        let inv_det = Vec4::ONE / det;
+        let t = t_scaled * inv_det;
         let ok = (pos | neg) & det.cmpne(zero) & t.cmpgt(Vec4::splat(t_min)) & t.cmplt(Vec4::splat(t_max));
         Lanes { t: t.to_array(), u: (e1 * inv_det).to_array(), v: (e2 * inv_det).to_array(), ok: ok.bitmask(), exact: exact.bitmask() }
     }
