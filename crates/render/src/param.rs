@@ -145,10 +145,27 @@ impl SceneTemplate {
         for (p, v) in values {
             set_param(&mut doc, p, *v)?;
         }
-        let text = toml::to_string(&doc).context("cannot serialise the edited scene")?;
+        let text = to_inline_toml(&doc)?;
         let label = format!("{} (with fitted parameters)", self.name);
         Scene::from_toml_str(&text, &label, &self.base_dir)
     }
+}
+
+/// Serialises a document as one `key = value` line per top-level key, every nested table inline.
+/// (`toml::to_string` writes nested tables as `[objects.medium.milk]` headers, which the scene
+/// parser's span-tracking values do not accept back.)
+pub fn to_inline_toml(doc: &toml::Value) -> Result<String> {
+    let Some(table) = doc.as_table() else { bail!("scene document is not a table") };
+    let mut s = String::new();
+    for (k, v) in table {
+        let key = if !k.is_empty() && k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+            k.clone()
+        } else {
+            toml::Value::String(k.clone()).to_string()
+        };
+        s += &format!("{key} = {v}\n");
+    }
+    Ok(s)
 }
 
 /// Result of [`nelder_mead_box`].
@@ -276,6 +293,8 @@ mod tests {
         assert!(e.contains("objects.milk.medium.milk.fat"), "{e}");
         assert!(get_param(&doc, "objects.2.name").is_err());
         assert!(get_param(&doc, "objects.milk.name").is_err()); // a string, not a number
+        let back: toml::Value = toml::from_str(&to_inline_toml(&doc).unwrap()).unwrap();
+        assert_eq!(back, doc);
     }
 
     #[test]
