@@ -59,6 +59,12 @@ pub struct Args {
     /// Stop when the simplex's errors span less than this (relative to the initial error) [default: 1e-6].
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
     pub tolerance: Option<String>,
+    /// Minimise an unbiased estimate of the noise-free squared error instead of the RMSE: the
+    /// passes are split into two independent halves a and b and the objective is
+    /// mean((a − ref)(b − ref)), whose expectation has no Monte Carlo variance term (a plain RMSE
+    /// of a noisy render favours darker parameters, which have less noise). Reported errors stay RMSE.
+    #[arg(long)]
+    pub unbiased: bool,
     /// Print `params`, `initial_error`, `final_error` and `iterations` as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -67,30 +73,46 @@ pub struct Args {
     pub quiet: bool,
 }
 
-/// Renders `scene` at its resolution with `spp` passes of `seed`; linear sRGB.
-pub fn render_image(scene: &Scene, settings: &IntegratorSettings, seed: u64, spp: u64) -> Image {
+/// Renders `scene` at its resolution with passes `passes` of `seed`; linear sRGB.
+pub fn render_image(scene: &Scene, settings: &IntegratorSettings, seed: u64, passes: std::ops::Range<u64>) -> Image {
     let (w, h) = scene.resolution();
     let mut film = Film::new(w, h);
     let mut buf = vec![[0.0f32; 3]; w as usize * h as usize];
-    for pass in 0..spp {
+    for pass in passes {
         render_pass(scene, settings, seed, pass, &mut buf);
         film.add_pass(&buf);
     }
     film.to_image()
 }
 
-/// Convergence plot: best error against iteration, as a small hand-written SVG.
-pub fn convergence_svg(history: &[f64]) -> String {
+/// mean over pixels and channels of (a − r)(b − r), `a` and `b` first multiplied by `m` if given.
+fn cross_error(a: &Image, b: &Image, r: &Image, m: Option<&[[f64; 3]; 3]>) -> f64 {
+    let (a, b) = match m {
+        Some(m) => (render::compare::apply_color_matrix(a, m), render::compare::apply_color_matrix(b, m)),
+        None => (a.clone(), b.clone()),
+    };
+    let mut sum = 0.0;
+    for ((pa, pb), pr) in a.rgb.iter().zip(&b.rgb).zip(&r.rgb) {
+        for c in 0..3 {
+            sum += (pa[c] as f64 - pr[c] as f64) * (pb[c] as f64 - pr[c] as f64);
+        }
+    }
+    sum / (3 * r.rgb.len().max(1)) as f64
+}
+
+/// Convergence plot: best objective value (named `label`) against iteration, a small hand-written SVG.
+pub fn convergence_svg(history: &[f64], label: &str) -> String {
     let (w, h, ml, mr, mt, mb) = (640.0, 400.0, 80.0, 20.0, 30.0, 50.0);
     let finite: Vec<f64> = history.iter().cloned().filter(|v| v.is_finite()).collect();
     let ymax = finite.iter().cloned().fold(0.0f64, f64::max).max(1e-300);
+    let ymin = finite.iter().cloned().fold(0.0f64, f64::min);
     let n = history.len().max(2) - 1;
     let px = |i: usize| ml + (w - ml - mr) * i as f64 / n as f64;
-    let py = |v: f64| mt + (h - mt - mb) * (1.0 - (v / ymax).clamp(0.0, 1.0));
+    let py = |v: f64| mt + (h - mt - mb) * (1.0 - ((v - ymin) / (ymax - ymin)).clamp(0.0, 1.0));
     let mut s = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n\
          <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
-         <text x=\"{}\" y=\"20\" font-family=\"sans-serif\" font-size=\"14\" text-anchor=\"middle\">lucent fit scene: RMSE against iteration</text>\n",
+         <text x=\"{}\" y=\"20\" font-family=\"sans-serif\" font-size=\"14\" text-anchor=\"middle\">lucent fit scene: {label} against iteration</text>\n",
         w / 2.0
     );
     // Axes with ticks at 0, 1/4, …, 1 of the ranges.
@@ -102,7 +124,7 @@ pub fn convergence_svg(history: &[f64]) -> String {
         h - mb
     );
     for k in 0..=4 {
-        let v = ymax * k as f64 / 4.0;
+        let v = ymin + (ymax - ymin) * k as f64 / 4.0;
         let y = py(v);
         s += &format!(
             "<line x1=\"{}\" y1=\"{y:.1}\" x2=\"{ml}\" y2=\"{y:.1}\" stroke=\"black\"/><text x=\"{}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" text-anchor=\"end\">{v:.3e}</text>\n",
@@ -121,7 +143,7 @@ pub fn convergence_svg(history: &[f64]) -> String {
     }
     s += &format!(
         "<text x=\"{}\" y=\"{}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\">iteration</text>\n\
-         <text x=\"16\" y=\"{}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\" transform=\"rotate(-90 16 {})\">RMSE (linear sRGB)</text>\n",
+         <text x=\"16\" y=\"{}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\" transform=\"rotate(-90 16 {})\">{label}</text>\n",
         (ml + w - mr) / 2.0,
         h - 10.0,
         (mt + h - mb) / 2.0,
@@ -230,13 +252,32 @@ pub fn run(args: Args) -> Result<()> {
         Ok(scene)
     };
     let settings_of = |scene: &Scene| IntegratorSettings { kind: kind.unwrap_or(scene.integrator.kind), ..scene.integrator.clone() };
-    let evaluate = |x: &[f64]| -> Result<(Image, Comparison)> {
+    if args.unbiased && spp < 2 {
+        bail!("--unbiased needs --spp ≥ 2 (two independent halves)");
+    }
+    // Returns the render, its comparison and the objective (RMSE, or the unbiased cross error).
+    let evaluate_full = |x: &[f64]| -> Result<(Image, Comparison, f64)> {
         let scene = build(x)?;
-        let img = render_image(&scene, &settings_of(&scene), seed, spp);
+        let settings = settings_of(&scene);
+        let (img, halves) = if args.unbiased {
+            let half = spp / 2;
+            let a = render_image(&scene, &settings, seed, 0..half);
+            let b = render_image(&scene, &settings, seed, half..spp);
+            let (na, nb) = (half as f32, (spp - half) as f32);
+            let rgb = a.rgb.iter().zip(&b.rgb).map(|(p, q)| std::array::from_fn(|c| (na * p[c] + nb * q[c]) / (na + nb))).collect();
+            (Image { width: a.width, height: a.height, rgb }, Some((a, b)))
+        } else {
+            (render_image(&scene, &settings, seed, 0..spp), None)
+        };
         let cmp = compare(&img, &reference, None, args.color_correct)
             .with_context(|| format!("comparing with {}", args.reference.display()))?;
-        Ok((img, cmp))
+        let objective = match &halves {
+            Some((a, b)) => cross_error(a, b, &reference, cmp.metrics.color_matrix.as_ref()),
+            None => cmp.metrics.rmse,
+        };
+        Ok((img, cmp, objective))
     };
+    let evaluate = |x: &[f64]| -> Result<(Image, Comparison)> { evaluate_full(x).map(|(i, c, _)| (i, c)) };
 
     let (_, c0) = evaluate(&x0)?;
     let initial_error = c0.metrics.rmse;
@@ -244,14 +285,14 @@ pub fn run(args: Args) -> Result<()> {
     let quiet = args.quiet;
     let objective = |x: &[f64]| -> Result<f64> {
         evals += 1;
-        let (_, c) = evaluate(x)?;
+        let (_, c, obj) = evaluate_full(x)?;
         if !quiet {
             let shown: Vec<String> = paths.iter().zip(x).map(|(p, v)| format!("{p}={v:.6}")).collect();
-            eprintln!("lucent: evaluation {evals}: rmse {:.6e}  {}", c.metrics.rmse, shown.join(" "));
+            eprintln!("lucent: evaluation {evals}: rmse {:.6e} objective {obj:.6e}  {}", c.metrics.rmse, shown.join(" "));
         }
-        Ok(c.metrics.rmse)
+        Ok(obj)
     };
-    let f_tol = tolerance * initial_error.max(1e-300);
+    let f_tol = tolerance * if args.unbiased { initial_error * initial_error } else { initial_error }.max(1e-300);
     let best = nelder_mead_box(
         objective,
         &x0,
@@ -275,7 +316,7 @@ pub fn run(args: Args) -> Result<()> {
     write_image(&out_dir.join("reference.png"), &reference, 0.0)?;
     write_image(&out_dir.join("error.png"), &err_img, 0.0)?;
     write_image(&out_dir.join("comparison.png"), &side_by_side(&[&shown_render, &reference, &err_img]), 0.0)?;
-    write_text(&out_dir.join("convergence.svg"), &convergence_svg(&best.history))?;
+    write_text(&out_dir.join("convergence.svg"), &convergence_svg(&best.history, if args.unbiased { "mean (a − ref)(b − ref)" } else { "RMSE (linear sRGB)" }))?;
 
     let mut params = serde_json::Map::new();
     for (p, v) in paths.iter().zip(&best.x) {
