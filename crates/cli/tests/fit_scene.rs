@@ -162,4 +162,9 @@ fn bad_input_gives_one_line_errors() {
     assert!(e.contains("not a number"), "{e}");
     let e = run("spectra.lamp.scale=1:30", &["--width", "16", "--height", "12"]);
     assert!(e.contains("32×24"), "{e}");
+    let mask = d.join("mask.png");
+    let r = lucent(&["render", s(&sc), "--spp", "1", "--width", "16", "--height", "12", "--out", s(&mask), "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let e = run("spectra.lamp.scale=1:30", &["--mask", s(&mask)]);
+    assert!(e.contains("mask is 16×12"), "{e}");
 }

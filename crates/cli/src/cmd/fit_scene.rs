@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use render::compare::{compare, error_image, Comparison};
+use render::compare::{compare, error_image, Comparison, Mask};
 use render::film::Film;
 use render::image_io::{read_image, write_atomic, write_image, Image};
 use render::integrator::{render_pass, IntegratorSettings};
@@ -47,6 +47,9 @@ pub struct Args {
     /// comparison.png (render | reference | error) [default: fit-scene]; created if missing.
     #[arg(long, value_name = "DIR")]
     pub out_dir: Option<PathBuf>,
+    /// Only pixels where this image is white (mean channel > 0.5) count (as in `lucent compare`).
+    #[arg(long, value_name = "MASK.png")]
+    pub mask: Option<PathBuf>,
     /// Fit a 3×3 colour matrix (render → reference) at every evaluation before the error.
     #[arg(long)]
     pub color_correct: bool,
@@ -86,18 +89,18 @@ pub fn render_image(scene: &Scene, settings: &IntegratorSettings, seed: u64, pas
 }
 
 /// mean over pixels and channels of (a − r)(b − r), `a` and `b` first multiplied by `m` if given.
-fn cross_error(a: &Image, b: &Image, r: &Image, m: Option<&[[f64; 3]; 3]>) -> f64 {
+fn cross_error(a: &Image, b: &Image, r: &Image, m: Option<&[[f64; 3]; 3]>, mask: &Mask) -> f64 {
     let (a, b) = match m {
         Some(m) => (render::compare::apply_color_matrix(a, m), render::compare::apply_color_matrix(b, m)),
         None => (a.clone(), b.clone()),
     };
     let mut sum = 0.0;
-    for ((pa, pb), pr) in a.rgb.iter().zip(&b.rgb).zip(&r.rgb) {
+    for (((pa, pb), pr), _) in a.rgb.iter().zip(&b.rgb).zip(&r.rgb).zip(&mask.inside).filter(|(_, &inside)| inside) {
         for c in 0..3 {
             sum += (pa[c] as f64 - pr[c] as f64) * (pb[c] as f64 - pr[c] as f64);
         }
     }
-    sum / (3 * r.rgb.len().max(1)) as f64
+    sum / (3 * mask.count().max(1)) as f64
 }
 
 /// Convergence plot: best objective value (named `label`) against iteration, a small hand-written SVG.
@@ -241,6 +244,10 @@ pub fn run(args: Args) -> Result<()> {
             reference.height
         );
     }
+    let mask = match &args.mask {
+        Some(p) => Some(Mask::from_image(&read_image(p)?)),
+        None => None,
+    };
     let out_dir = args.out_dir.clone().unwrap_or_else(|| PathBuf::from("fit-scene"));
     std::fs::create_dir_all(&out_dir).with_context(|| format!("--out-dir {}: cannot create", out_dir.display()))?;
 
@@ -269,10 +276,10 @@ pub fn run(args: Args) -> Result<()> {
         } else {
             (render_image(&scene, &settings, seed, 0..spp), None)
         };
-        let cmp = compare(&img, &reference, None, args.color_correct)
+        let cmp = compare(&img, &reference, mask.as_ref(), args.color_correct)
             .with_context(|| format!("comparing with {}", args.reference.display()))?;
         let objective = match &halves {
-            Some((a, b)) => cross_error(a, b, &reference, cmp.metrics.color_matrix.as_ref()),
+            Some((a, b)) => cross_error(a, b, &reference, cmp.metrics.color_matrix.as_ref(), &cmp.mask),
             None => cmp.metrics.rmse,
         };
         Ok((img, cmp, objective))
