@@ -23,3 +23,4 @@ pub mod microfacet;
 pub mod bxdf;
 pub mod volpath;
 pub mod subsurface;
+pub mod param;
