@@ -155,9 +155,9 @@ fn bunny_is_closed_and_outward() {
 
 #[test]
 fn obj_groups_become_named_meshes() {
-    let cbox = Path::new("/work/shared/data/cornell-box/cbox.obj");
-    let text = std::fs::read_to_string(cbox).ok();
-    // A small inline OBJ with two groups (the shared Cornell box is also read when present).
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cornell-box/cbox.obj");
+    let text = Some(std::fs::read_to_string(&cbox).expect("the repo's copy of the Cornell box OBJ"));
+    // A small inline OBJ with two groups, then the repo's Cornell box (gzip-compressed).
     let d = tmp_dir("obj");
     let p = write(
         &d,
