@@ -4,7 +4,7 @@
 //! `lucent bench` reports the same kernels as Mrays/s.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use glam::Vec3;
+use render::bench_rays::{incoherent_rays, BenchCamera};
 use render::bvh::{Accel, Shape};
 use render::geometry::Ray;
 use render::mesh::TriangleMesh;
@@ -16,49 +16,9 @@ fn dragon() -> Vec<Shape> {
     TriangleMesh::load(&p).expect("bundled dragon").into_iter().map(|(_, m)| Shape::Mesh(m)).collect()
 }
 
-struct Rng(u64);
-impl Rng {
-    fn f32(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
-fn incoherent(accel: &Accel, n: usize) -> Vec<Ray> {
-    let b = accel.bounds();
-    let mut rng = Rng(7);
-    (0..n)
-        .map(|_| {
-            let o = b.min + b.extent() * Vec3::new(rng.f32(), rng.f32(), rng.f32());
-            let z = 1.0 - 2.0 * rng.f32();
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * std::f32::consts::PI * rng.f32();
-            Ray::new(o, Vec3::new(r * phi.cos(), r * phi.sin(), z))
-        })
-        .collect()
-}
-
 fn camera(accel: &Accel, size: u32) -> Vec<Ray> {
-    let b = accel.bounds();
-    let c = b.center();
-    let radius = 0.5 * b.extent().length();
-    let dir = Vec3::new(-0.4, -0.3, -1.0).normalize();
-    let half = 20f32.to_radians();
-    let eye = c - dir * (radius / half.sin());
-    let right = dir.cross(Vec3::Y).normalize() * half.tan();
-    let up = right.cross(dir).normalize() * half.tan();
-    let mut rays = Vec::with_capacity((size * size) as usize);
-    for j in 0..size {
-        for i in 0..size {
-            let x = 2.0 * ((i as f32 + 0.5) / size as f32) - 1.0;
-            let y = 1.0 - 2.0 * ((j as f32 + 0.5) / size as f32);
-            rays.push(Ray::new(eye, dir + x * right + y * up));
-        }
-    }
-    rays
+    let cam = BenchCamera::new(accel);
+    (0..size).flat_map(|j| (0..size).map(move |i| cam.ray(i, j, size))).collect()
 }
 
 fn benches(c: &mut Criterion) {
@@ -72,7 +32,7 @@ fn benches(c: &mut Criterion) {
     g.throughput(Throughput::Elements(cam.len() as u64));
     g.bench_function("camera_rays_256x256", |b| b.iter(|| cam.iter().filter(|r| accel.intersect(r).is_some()).count()));
 
-    let inc = incoherent(&accel, 65536);
+    let inc = incoherent_rays(&accel, 65536, 7);
     g.throughput(Throughput::Elements(inc.len() as u64));
     g.bench_function("incoherent_closest_64k", |b| b.iter(|| inc.iter().filter(|r| accel.intersect(r).is_some()).count()));
     let mut hits = vec![None; inc.len()];

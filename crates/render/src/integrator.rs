@@ -90,6 +90,22 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
     });
 }
 
+/// Path throughput `beta` times the radiance of the environment seen along an escaping `ray`, MIS-weighted against light
+/// sampling from `prev_p` (power heuristic) unless the last direction was not BSDF/phase-sampled
+/// with a density (`no_mis`: camera ray or delta lobe). Zero without an environment.
+#[inline]
+pub(crate) fn environment_emission(scene: &Scene, ray: &Ray, beta: SampledSpectrum, prev_p: Vec3, prev_pdf: f32, no_mis: bool, wl: &SampledWavelengths) -> SampledSpectrum {
+    let Some(ei) = scene.environment else { return Vec4::ZERO };
+    let env = &scene.lights[ei as usize];
+    let le = env.le(Vec3::ZERO, -ray.d, wl);
+    let w = if no_mis {
+        1.0
+    } else {
+        power_heuristic(1.0, prev_pdf, 1.0, scene.light_pmf[ei as usize] * env.pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO))
+    };
+    beta * le * w
+}
+
 /// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
 #[inline]
 pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
@@ -222,16 +238,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
         let hit = scene.accel.intersect(&ray);
         depth += 1;
         let Some(hit) = hit else {
-            if let Some(ei) = scene.environment {
-                let env = &scene.lights[ei as usize];
-                let le = env.le(Vec3::ZERO, -ray.d, wl);
-                let w = if prev_delta {
-                    1.0
-                } else {
-                    power_heuristic(1.0, prev_pdf, 1.0, scene.light_pmf[ei as usize] * env.pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO))
-                };
-                l += beta * le * w;
-            }
+            l += environment_emission(scene, &ray, beta, prev_p, prev_pdf, prev_delta, wl);
             break;
         };
         let s = shade(scene, &ray, &hit);

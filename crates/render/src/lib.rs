@@ -6,6 +6,7 @@
 pub mod geometry;
 pub mod mesh;
 pub mod bvh;
+pub mod bench_rays;
 pub mod sampling;
 pub mod spectral;
 pub mod camera;

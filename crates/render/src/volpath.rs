@@ -40,7 +40,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::geometry::Ray;
-use crate::integrator::IntegratorSettings;
+use crate::integrator::{environment_emission, IntegratorSettings};
 use crate::material::Material;
 use crate::medium::HomogeneousMedium;
 use crate::sampling::{power_heuristic, Frame, Pcg32};
@@ -254,16 +254,7 @@ pub fn li_volpath(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, wl
         }
         depth += 1;
         let Some(hit) = hit else {
-            if let Some(ei) = scene.environment {
-                let env = &scene.lights[ei as usize];
-                let le = env.le(Vec3::ZERO, -ray.d, wl);
-                let w = if prev_no_mis {
-                    1.0
-                } else {
-                    power_heuristic(1.0, prev_pdf, 1.0, scene.light_pmf[ei as usize] * env.pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO))
-                };
-                l += beta * le * w;
-            }
+            l += environment_emission(scene, &ray, beta, prev_p, prev_pdf, prev_no_mis, wl);
             break;
         };
         ray.t_max = f32::INFINITY;

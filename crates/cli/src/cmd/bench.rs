@@ -12,8 +12,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
 
 use anyhow::{bail, Context, Result};
-use glam::Vec3;
 use rayon::prelude::*;
+use render::bench_rays::{incoherent_rays, BenchCamera};
 use render::bvh::{Accel, Shape};
 use render::geometry::Ray;
 use render::mesh::TriangleMesh;
@@ -91,61 +91,14 @@ fn run_rays(args: &Args) -> Result<()> {
     pool.install(|| bench_in_pool(args))
 }
 
-/// Small deterministic generator (SplitMix64) for the ray sets.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-}
-
-/// Incoherent rays: origins uniform in the box, directions uniform on the unit sphere.
-pub fn incoherent_rays(accel: &Accel, n: usize, seed: u64) -> Vec<Ray> {
-    let b = accel.bounds();
-    let mut rng = SplitMix(seed);
-    (0..n)
-        .map(|_| {
-            let o = b.min + b.extent() * Vec3::new(rng.f32(), rng.f32(), rng.f32());
-            let z = 1.0 - 2.0 * rng.f32();
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * std::f32::consts::PI * rng.f32();
-            Ray::new(o, Vec3::new(r * phi.cos(), r * phi.sin(), z))
-        })
-        .collect()
-}
-
-/// Camera of the camera-ray benchmark: eye outside the box looking at its centre, 40° field of view.
-fn camera(accel: &Accel) -> (Vec3, Vec3, Vec3, Vec3) {
-    let b = accel.bounds();
-    let c = b.center();
-    let radius = 0.5 * b.extent().length();
-    let dir = Vec3::new(-0.4, -0.3, -1.0).normalize();
-    let half = 20f32.to_radians();
-    let eye = c - dir * (radius / half.sin()).max(radius * 1.01);
-    let right = dir.cross(Vec3::Y).normalize();
-    let up = right.cross(dir);
-    (eye, dir, right * half.tan(), up * half.tan())
-}
-
 fn trace_camera(accel: &Accel, size: u32) -> u64 {
-    let (eye, dir, right, up) = camera(accel);
-    let inv = 1.0 / size as f32;
+    let cam = BenchCamera::new(accel);
     (0..size)
         .into_par_iter()
         .map(|j| {
             let mut hits = 0u64;
             for i in 0..size {
-                let x = 2.0 * ((i as f32 + 0.5) * inv) - 1.0;
-                let y = 1.0 - 2.0 * ((j as f32 + 0.5) * inv);
-                let ray = Ray::new(eye, dir + x * right + y * up);
+                let ray = cam.ray(i, j, size);
                 hits += accel.intersect(&ray).is_some() as u64;
             }
             hits
@@ -154,18 +107,11 @@ fn trace_camera(accel: &Accel, size: u32) -> u64 {
 }
 
 fn trace_camera_batched(accel: &Accel, size: u32) -> u64 {
-    let (eye, dir, right, up) = camera(accel);
-    let inv = 1.0 / size as f32;
+    let cam = BenchCamera::new(accel);
     (0..size)
         .into_par_iter()
         .map(|j| {
-            let rays: Vec<Ray> = (0..size)
-                .map(|i| {
-                    let x = 2.0 * ((i as f32 + 0.5) * inv) - 1.0;
-                    let y = 1.0 - 2.0 * ((j as f32 + 0.5) * inv);
-                    Ray::new(eye, dir + x * right + y * up)
-                })
-                .collect();
+            let rays: Vec<Ray> = (0..size).map(|i| cam.ray(i, j, size)).collect();
             let mut hits = vec![None; rays.len()];
             accel.intersect_batch(&rays, &mut hits);
             hits.iter().filter(|h| h.is_some()).count() as u64

@@ -1,0 +1,72 @@
+//! The ray sets of the ray benchmarks, shared by `lucent bench` and `cargo bench` so both
+//! measure the same work: camera rays from a pinhole outside the scene's bounding box looking
+//! at its centre, and incoherent rays with origins uniform in the box and directions uniform
+//! on the sphere (the distribution of the Embree figures the issue quotes).
+
+use crate::bvh::Accel;
+use crate::geometry::Ray;
+use glam::Vec3;
+
+/// Small deterministic generator (SplitMix64) for the ray sets.
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    }
+}
+
+/// `n` incoherent rays: origins uniform in the bounding box, directions uniform on the unit sphere.
+pub fn incoherent_rays(accel: &Accel, n: usize, seed: u64) -> Vec<Ray> {
+    let b = accel.bounds();
+    let mut rng = SplitMix(seed);
+    (0..n)
+        .map(|_| {
+            let o = b.min + b.extent() * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+            let z = 1.0 - 2.0 * rng.f32();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * rng.f32();
+            Ray::new(o, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect()
+}
+
+/// Pinhole of the camera-ray benchmark: eye outside the bounding box looking at its centre, 40° field of view.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchCamera {
+    eye: Vec3,
+    dir: Vec3,
+    right: Vec3,
+    up: Vec3,
+}
+
+impl BenchCamera {
+    /// The benchmark camera for this scene.
+    pub fn new(accel: &Accel) -> BenchCamera {
+        let b = accel.bounds();
+        let c = b.center();
+        let radius = 0.5 * b.extent().length();
+        let dir = Vec3::new(-0.4, -0.3, -1.0).normalize();
+        let half = 20f32.to_radians();
+        let eye = c - dir * (radius / half.sin()).max(radius * 1.01);
+        let right = dir.cross(Vec3::Y).normalize();
+        let up = right.cross(dir);
+        BenchCamera { eye, dir, right: right * half.tan(), up: up * half.tan() }
+    }
+
+    /// The ray through the centre of pixel (`i`, `j`) of a `size`×`size` image.
+    #[inline]
+    pub fn ray(&self, i: u32, j: u32, size: u32) -> Ray {
+        let inv = 1.0 / size as f32;
+        let x = 2.0 * ((i as f32 + 0.5) * inv) - 1.0;
+        let y = 1.0 - 2.0 * ((j as f32 + 0.5) * inv);
+        Ray::new(self.eye, self.dir + x * self.right + y * self.up)
+    }
+}
