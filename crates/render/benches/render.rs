@@ -1,5 +1,5 @@
 //! Criterion benchmarks of the ray kernels on the bundled 48k-triangle dragon: BVH build,
-//! camera rays (pinhole outside the box looking at its centre), incoherent closest-hit rays
+//! camera rays (pinhole outside the box looking at its centre; one by one and in 4×4 packets), incoherent closest-hit rays
 //! (origins uniform in the box, directions uniform on the sphere) and shadow (any-hit) rays.
 //! `lucent bench` reports the same kernels as Mrays/s.
 
@@ -31,6 +31,20 @@ fn benches(c: &mut Criterion) {
     let cam = camera(&accel, 256);
     g.throughput(Throughput::Elements(cam.len() as u64));
     g.bench_function("camera_rays_256x256", |b| b.iter(|| cam.iter().filter(|r| accel.intersect(r).is_some()).count()));
+    let bc = BenchCamera::new(&accel);
+    let blocks: Vec<[Ray; 16]> = (0..256).step_by(4).flat_map(|j| (0..256).step_by(4).map(move |i| bc.block(i, j, 256))).collect();
+    let mut out = [None; 16];
+    g.bench_function("camera_rays_256x256_packets_4x4", |b| {
+        b.iter(|| {
+            blocks
+                .iter()
+                .map(|rays| {
+                    accel.intersect_packet(rays, &mut out);
+                    out.iter().filter(|h| h.is_some()).count()
+                })
+                .sum::<usize>()
+        })
+    });
 
     let inc = incoherent_rays(&accel, 65536, 7);
     g.throughput(Throughput::Elements(inc.len() as u64));

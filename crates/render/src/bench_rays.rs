@@ -69,4 +69,13 @@ impl BenchCamera {
         let y = 1.0 - 2.0 * ((j as f32 + 0.5) * inv);
         Ray::new(self.eye, self.dir + x * self.right + y * self.up)
     }
+
+    /// The 16 rays of the 4×4 pixel block whose top-left pixel is (`i`, `j`), ordered as four
+    /// 2×2 quads (the SIMD groups of [`Accel::intersect_packet`]). The block must lie inside the image.
+    pub fn block(&self, i: u32, j: u32, size: u32) -> [Ray; 16] {
+        std::array::from_fn(|k| {
+            let k = k as u32;
+            self.ray(i + k % 2 + 2 * (k / 8), j + (k / 2) % 4, size)
+        })
+    }
 }

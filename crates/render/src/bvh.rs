@@ -797,6 +797,207 @@ impl Accel {
         }
     }
 
+    /// Closest hits of four rays traversed together (a ray packet, for coherent rays such as a
+    /// 2×2 block of camera pixels); see [`Accel::intersect_packet`].
+    pub fn intersect4(&self, rays: &[Ray; 4]) -> [Option<Hit>; 4] {
+        let mut hits = [None; 4];
+        self.intersect_packet(rays, &mut hits);
+        hits
+    }
+
+    /// Closest hits of a packet of coherent rays (such as a block of camera pixels), 4, 8 or 16
+    /// of them: one walk of the tree for the packet, each node's child boxes tested against the
+    /// rays with one SIMD lane per ray, so the node loads, the ordering and the stack are shared.
+    /// Every ray keeps its own active mask, interval and closest hit, and the box and triangle
+    /// tests are the single-ray arithmetic, so `hits[k]` is `intersect(&rays[k])` (the same t and
+    /// primitive; of two primitives hit at exactly the same t either may be reported). A packet
+    /// whose rays differ in direction signs, or has a zero direction component, or another size,
+    /// is traced ray by ray.
+    pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "intersect_packet: rays and hits differ in length");
+        match rays.len() {
+            4 => self.packet::<1>(rays, hits),
+            8 => self.packet::<2>(rays, hits),
+            16 => self.packet::<4>(rays, hits),
+            _ => {
+                for (r, h) in rays.iter().zip(hits.iter_mut()) {
+                    *h = self.intersect(r);
+                }
+            }
+        }
+    }
+
+    /// Packet traversal of `4 * G` rays (`G` SIMD groups of four).
+    #[inline(always)]
+    fn packet<const G: usize>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        if self.nodes.is_empty() {
+            hits.fill(None);
+            return;
+        }
+        let mut pres = [[Pre::new(&rays[0]); 4]; G];
+        for g in 0..G {
+            for l in 0..4 {
+                pres[g][l] = Pre::new(&rays[4 * g + l]);
+            }
+        }
+        let side = pres[0][0].near_side;
+        let coherent = pres.iter().flatten().all(|p| !p.parallel && p.near_side == side);
+        if !coherent || self.stack_needed > STACK {
+            for (r, h) in rays.iter().zip(hits.iter_mut()) {
+                *h = self.intersect(r);
+            }
+            return;
+        }
+        let lanes = |g: usize, f: &dyn Fn(&Ray) -> f32| Vec4::new(f(&rays[4 * g]), f(&rays[4 * g + 1]), f(&rays[4 * g + 2]), f(&rays[4 * g + 3]));
+        let mut o = [[Vec4::ZERO; 3]; G];
+        let mut inv = [[Vec4::ZERO; 3]; G];
+        let mut t_min = [Vec4::ZERO; G];
+        let mut t_max = [[0f32; 4]; G];
+        let mut best: [[Option<(usize, usize, f32, f32)>; 4]; G] = [[None; 4]; G];
+        // Bit 4g + l of a mask is ray l of group g. Rays with an empty or NaN interval never hit.
+        let mut active = 0u32;
+        for g in 0..G {
+            o[g] = [lanes(g, &|r| r.o.x), lanes(g, &|r| r.o.y), lanes(g, &|r| r.o.z)];
+            for a in 0..3 {
+                inv[g][a] = Vec4::new(pres[g][0].inv[a], pres[g][1].inv[a], pres[g][2].inv[a], pres[g][3].inv[a]);
+            }
+            t_min[g] = lanes(g, &|r| r.t_min);
+            t_max[g] = [0, 1, 2, 3].map(|l| rays[4 * g + l].t_max);
+            active |= t_min[g].cmple(Vec4::from_array(t_max[g])).bitmask() << (4 * g);
+        }
+        let [sx, sy, sz] = side;
+        // Rays from one point (a pinhole's): a whole-packet interval test of the four child boxes
+        // first (Boulos et al. 2007, interval arithmetic over the packet's inverse directions), which
+        // rejects, for one box test, the children no ray of the packet can hit.
+        let common = rays.iter().all(|r| r.o == rays[0].o);
+        let o0 = [Vec4::splat(rays[0].o.x), Vec4::splat(rays[0].o.y), Vec4::splat(rays[0].o.z)];
+        let (mut ilo, mut ihi) = ([Vec4::splat(f32::INFINITY); 3], [Vec4::splat(f32::NEG_INFINITY); 3]);
+        let mut tmin_lo = Vec4::splat(f32::INFINITY);
+        for g in 0..G {
+            for a in 0..3 {
+                ilo[a] = ilo[a].min(inv[g][a]);
+                ihi[a] = ihi[a].max(inv[g][a]);
+            }
+            tmin_lo = tmin_lo.min(t_min[g]);
+        }
+        let ilo = ilo.map(|v| Vec4::splat(v.min_element()));
+        let ihi = ihi.map(|v| Vec4::splat(v.max_element()));
+        let tmin_lo = Vec4::splat(tmin_lo.min_element());
+        // (node, ray mask, smallest entry distance of those rays)
+        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        loop {
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let mut c = [(0u32, 0u32, f32::INFINITY); 4];
+                let mut cnt = 0;
+                let mut cand = 0b1111u32;
+                if common {
+                    let mut tmax_hi = Vec4::from_array(t_max[0]);
+                    for tm in &t_max[1..] {
+                        tmax_hi = tmax_hi.max(Vec4::from_array(*tm));
+                    }
+                    let tmax_hi = Vec4::splat(tmax_hi.max_element());
+                    let mut near = tmin_lo;
+                    let mut far = tmax_hi;
+                    for (a, s) in [sx, sy, sz].into_iter().enumerate() {
+                        let dn = Vec4::from_array(node.b[s][a]) - o0[a];
+                        let df = Vec4::from_array(node.b[s ^ 1][a]) - o0[a];
+                        near = near.max((dn * ilo[a]).min(dn * ihi[a]));
+                        far = far.min((df * ilo[a]).max(df * ihi[a]));
+                    }
+                    cand = near.cmple(far * ROUND_UP).bitmask();
+                }
+                for i in 0..4 {
+                    if node.child[i] == EMPTY_CHILD || cand & (1 << i) == 0 {
+                        continue;
+                    }
+                    let (bnx, bny, bnz) = (node.b[sx][0][i], node.b[sy][1][i], node.b[sz][2][i]);
+                    let (bfx, bfy, bfz) = (node.b[sx ^ 1][0][i], node.b[sy ^ 1][1][i], node.b[sz ^ 1][2][i]);
+                    let mut m = 0u32;
+                    let mut key = Vec4::splat(f32::INFINITY);
+                    for g in 0..G {
+                        if (active >> (4 * g)) & 0xF == 0 {
+                            continue;
+                        }
+                        let (og, ig) = (&o[g], &inv[g]);
+                        let tnx = (Vec4::splat(bnx) - og[0]) * ig[0];
+                        let tny = (Vec4::splat(bny) - og[1]) * ig[1];
+                        let tnz = (Vec4::splat(bnz) - og[2]) * ig[2];
+                        let tfx = (Vec4::splat(bfx) - og[0]) * ig[0];
+                        let tfy = (Vec4::splat(bfy) - og[1]) * ig[1];
+                        let tfz = (Vec4::splat(bfz) - og[2]) * ig[2];
+                        let near = tnx.max(tny).max(tnz.max(t_min[g]));
+                        let far = tfx.min(tfy).min(tfz.min(Vec4::from_array(t_max[g]))) * ROUND_UP;
+                        let hit = near.cmple(far);
+                        m |= hit.bitmask() << (4 * g);
+                        key = key.min(Vec4::select(hit, near, Vec4::splat(f32::INFINITY)));
+                    }
+                    m &= active;
+                    if m != 0 {
+                        c[cnt] = (node.child[i], m, key.min_element());
+                        cnt += 1;
+                    }
+                }
+                if cnt > 0 {
+                    // Farthest first onto the stack; descend into the nearest.
+                    for i in 1..cnt {
+                        let x = c[i];
+                        let mut j = i;
+                        while j > 0 && c[j - 1].2 < x.2 {
+                            c[j] = c[j - 1];
+                            j -= 1;
+                        }
+                        c[j] = x;
+                    }
+                    for &e in &c[..cnt - 1] {
+                        self.touch(e.0);
+                        stack[sp] = e;
+                        sp += 1;
+                    }
+                    cur = c[cnt - 1].0;
+                    active = c[cnt - 1].1;
+                    continue;
+                }
+            } else {
+                let first = (cur & LEAF_OFFSET) as usize;
+                let n = ((cur & !LEAF_BIT) >> LEAF_SHIFT) as usize;
+                let mut m = active;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let (g, l) = (k / 4, k % 4);
+                    for p in first..first + n {
+                        self.packet_closest(p, &pres[g][l], &rays[k], &mut t_max[g][l], &mut best[g][l]);
+                    }
+                }
+            }
+            // Pop the next node that may still hold a closer hit for one of its rays.
+            loop {
+                if sp == 0 {
+                    for (k, h) in hits.iter_mut().enumerate() {
+                        let (g, l) = (k / 4, k % 4);
+                        *h = best[g][l].map(|(p, lane, u, v)| self.make_hit(p, lane, u, v, t_max[g][l], &rays[k]));
+                    }
+                    return;
+                }
+                sp -= 1;
+                let (n, m, near) = stack[sp];
+                let mut live = 0u32;
+                for g in 0..G {
+                    live |= Vec4::splat(near).cmple(Vec4::from_array(t_max[g]) * ROUND_UP).bitmask() << (4 * g);
+                }
+                live &= m;
+                if live != 0 {
+                    cur = n;
+                    active = live;
+                    break;
+                }
+            }
+        }
+    }
+
     /// Closest hits of many rays: `hits[i]` is `intersect(&rays[i])`, the same hit bit for bit.
     /// Several traversals are interleaved, each advancing one node at a time in turn, and the
     /// next node of each is loaded early, so their memory accesses overlap: faster than one ray
