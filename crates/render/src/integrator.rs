@@ -356,6 +356,13 @@ pub fn equal_energy_white() -> [f32; 3] {
 /// Samples per second (millions) of `path` on the built-in Cornell box at `width`×`height`,
 /// max 8 bounces, Russian roulette from the 5th, measured over about `seconds` on the current rayon pool.
 pub fn benchmark_cornell(width: u32, height: u32, seconds: f64) -> anyhow::Result<f64> {
+    benchmark_cornell_clocked(width, height, seconds, || 0.0).map(|r| r.0)
+}
+
+/// [`benchmark_cornell`], also reading `clock` (e.g. the process's CPU time, seconds) before and
+/// after the timed passes (the warm-up pass excluded): (Msamples per wall second, Msamples per
+/// `clock` second; NaN when the clock did not advance).
+pub fn benchmark_cornell_clocked(width: u32, height: u32, seconds: f64, clock: impl Fn() -> f64) -> anyhow::Result<(f64, f64)> {
     if width == 0 || height == 0 {
         anyhow::bail!("benchmark resolution must be at least 1×1, got {width}×{height}");
     }
@@ -368,6 +375,7 @@ pub fn benchmark_cornell(width: u32, height: u32, seconds: f64) -> anyhow::Resul
     let mut buf = vec![[0f32; 3]; (width as usize) * (height as usize)];
     render_pass(&scene, &settings, 0, 0, &mut buf); // warm-up
     let start = std::time::Instant::now();
+    let c0 = clock();
     let mut passes = 0u64;
     loop {
         render_pass(&scene, &settings, 1, passes, &mut buf);
@@ -377,5 +385,7 @@ pub fn benchmark_cornell(width: u32, height: u32, seconds: f64) -> anyhow::Resul
         }
     }
     let t = start.elapsed().as_secs_f64();
-    Ok(passes as f64 * buf.len() as f64 / t / 1e6)
+    let c = clock() - c0;
+    let samples = passes as f64 * buf.len() as f64;
+    Ok((samples / t / 1e6, if c > 0.0 { samples / c / 1e6 } else { f64::NAN }))
 }

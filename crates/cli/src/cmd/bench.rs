@@ -43,6 +43,9 @@ pub struct Args {
     /// Repetitions of each ray benchmark (the best is reported).
     #[arg(long, default_value_t = 5)]
     pub reps: u32,
+    /// Also time the Cornell box on one thread and report the speed-up of all threads over one.
+    #[arg(long)]
+    pub scaling: bool,
     /// Seconds of Cornell-box path tracing.
     #[arg(long, default_value_t = 3.0)]
     pub cornell_seconds: f64,
@@ -253,8 +256,8 @@ fn bench_in_pool(args: &Args) -> Result<()> {
         }
     }
     let batched_cpu = (rays.len() as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
-    let cornell = if args.cornell_seconds > 0.0 {
-        match render::integrator::benchmark_cornell(256, 256, args.cornell_seconds) {
+    let cornell_run = |seconds: f64| -> Option<(f64, f64)> {
+        match render::integrator::benchmark_cornell_clocked(256, 256, seconds, cpu_seconds) {
             Ok(v) => Some(v),
             Err(e) => {
                 if !args.json {
@@ -263,8 +266,18 @@ fn bench_in_pool(args: &Args) -> Result<()> {
                 None
             }
         }
+    };
+    let cornell = if args.cornell_seconds > 0.0 { cornell_run(args.cornell_seconds) } else { None };
+    // Thread scaling: the same Cornell benchmark on one thread, in this run.
+    let cornell_1 = if args.scaling && args.cornell_seconds > 0.0 && threads > 1 {
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().context("cannot start a one-thread pool")?;
+        one.install(|| cornell_run(args.cornell_seconds))
     } else {
         None
+    };
+    let speedup = match (cornell, cornell_1) {
+        (Some((n, _)), Some((one, _))) => Some(n / one),
+        _ => None,
     };
 
     if args.json {
@@ -276,7 +289,10 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             "incoherent_mrays_per_s": incoherent_best.max(batched_best),
             "camera_single_mrays_per_s": camera_best,
             "incoherent_single_mrays_per_s": incoherent_best,
-            "cornell_msamples_per_s": cornell,
+            "cornell_msamples_per_s": cornell.map(|c| c.0),
+            "cornell_msamples_per_cpu_s": cornell.map(|c| c.1),
+            "cornell_msamples_per_s_1_thread": cornell_1.map(|c| c.0),
+            "cornell_thread_speedup": speedup,
             "threads": threads,
             "mesh": path.display().to_string(),
             "triangles": triangles,
@@ -315,8 +331,11 @@ fn bench_in_pool(args: &Args) -> Result<()> {
         println!("camera rays     {camera_packet:.2} Mrays/s in 4×4 packets (Accel::intersect_packet), {camera_packet_cpu:.2} per CPU second");
         println!("per CPU second  camera {camera_cpu:.2}, incoherent {incoherent_cpu:.2} Mrays/s single; {camera_batched_cpu:.2}, {batched_cpu:.2} batched (mean, /proc/self/stat)");
         match cornell {
-            Some(v) => println!("Cornell box     {v:.3} Msamples/s (path, 256×256)"),
+            Some((v, c)) => println!("Cornell box     {v:.3} Msamples/s (path, 256×256), {c:.3} per CPU second"),
             None => println!("Cornell box     n/a"),
+        }
+        if let (Some((one, _)), Some(x)) = (cornell_1, speedup) {
+            println!("Cornell box     {one:.3} Msamples/s on 1 thread: speed-up {x:.2}× on {threads} threads");
         }
     }
     Ok(())
