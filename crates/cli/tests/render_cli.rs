@@ -371,3 +371,25 @@ fn lost_checkpoint_folder_still_yields_the_images() {
     let img = read_image(&t.path("img.pfm")).unwrap();
     assert!(img.rgb.iter().any(|p| p[1] > 0.0));
 }
+
+/// `lucent bench --json` prints the keys (the contract) with sane values; the packet,
+/// batched and single-ray camera traversals found the same hits (the command checks and fails
+/// otherwise); `--scaling` adds the one-thread figure. Speeds are not asserted (benchmarks, not tests).
+#[test]
+fn bench_json_has_the_contract_keys() {
+    let out = lucent()
+        .args(["bench", "--json", "--size", "64", "--mrays", "0.02", "--reps", "1", "--cornell-seconds", "0.3", "--scaling", "--threads", "2"])
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["bvh_build_s", "camera_mrays_per_s", "incoherent_mrays_per_s", "cornell_msamples_per_s", "camera_packet_mrays_per_s", "cornell_msamples_per_s_1_thread", "cornell_thread_speedup"] {
+        let x = v[key].as_f64().unwrap_or_else(|| panic!("{key} missing or not a number in {v}"));
+        assert!(x > 0.0 && x.is_finite(), "{key} = {x}");
+    }
+    assert_eq!(v["threads"].as_u64(), Some(2));
+    assert_eq!(v["triangles"].as_u64(), Some(47794), "the bundled 48k dragon");
+    let hit = v["camera_hit_fraction"].as_f64().unwrap();
+    assert!(hit > 0.05 && hit < 0.95, "camera hit fraction {hit}");
+}
