@@ -69,9 +69,9 @@ fn errors(c: &Case, p: &ReflectanceProfile, model: &ReflectanceModel, r_min_mm: 
     e
 }
 
-/// `mc_sp_tol`: tolerance on σ'_s with the Monte Carlo model (the 5 %; marble reaches
-/// +5.2 % — a systematic of the η = 1.5 table, whose 95 % interval excludes the truth — and is
-/// held to 6 %, see docs/inverse.md).
+/// `mc_sp_tol`: tolerance on σ'_s with the Monte Carlo model (the 5 %; the marble needed
+/// the η = 1.5 table rebuilt with 6·10⁵ photons per albedo — with 2·10⁵ its far tail was 10 %
+/// high and σ'_s came back +5.2 %; now −0.2 to −0.7 % over seeds 101, 202, 303, see docs/inverse.md).
 /// `dip_tol`: (σ'_s, σ_a) tolerances for the standard dipole (10 %, 30 % for the milks; the
 /// marble's R(r) is not dipole-shaped at η = 1.5 — see docs/inverse.md — and gets 35 %, 50 %).
 fn round_trip(c: Case, mc_sp_tol: f64, dip_tol: (f64, f64)) {
@@ -102,7 +102,7 @@ fn whole_milk_round_trip() {
 
 #[test]
 fn marble_round_trip() {
-    round_trip(Case { name: "marble", sigma_a_per_mm: 0.0071, sigma_s_prime_per_mm: 3.00, eta: 1.5, seed: 64 }, 0.06, (0.35, 0.50));
+    round_trip(Case { name: "marble", sigma_a_per_mm: 0.0071, sigma_s_prime_per_mm: 3.00, eta: 1.5, seed: 64 }, 0.05, (0.35, 0.50));
 }
 
 #[test]

@@ -1,23 +1,28 @@
-//! Nonlinear least squares for the inverse problems: a small Levenberg–Marquardt solver with
-//! confidence intervals from the Jacobian, and the inference of milk composition (fat content,
-//! homogenization pressure) from measured σ'_s(λ) and σ_a(λ) spectra through the Mie milk model.
+//! Nonlinear least squares for the inverse problems — Levenberg–Marquardt from the maintained
+//! `levenberg-marquardt` crate (a port of MINPACK's LMDER: Moré, "The Levenberg–Marquardt
+//! algorithm: implementation and theory", 1978), with Jacobians by central finite differences and
+//! confidence intervals from the Jacobian at the solution — and the inference of milk composition
+//! (fat content, homogenization pressure) from measured σ'_s(λ) and σ_a(λ) spectra through the Mie
+//! milk model.
 //!
-//! The solver is written for the handful of parameters these problems have (≤ 4): dense normal
-//! equations solved by Gaussian elimination with partial pivoting, Jacobians by central finite
-//! differences, Marquardt's diagonal damping (Marquardt 1963; Moré, "The Levenberg–Marquardt
-//! algorithm: implementation and theory", 1978). The covariance of the estimate is
-//! s²(JᵀJ)⁻¹ with s² = Σr²/(m − n), and 95 % intervals use Student's t with m − n degrees of freedom.
+//! The covariance of the estimate is s²(JᵀJ)⁻¹ with s² = Σr²/(m − n) (J recomputed at the
+//! solution, JᵀJ formed here: the crate reports no covariance), and 95 % intervals use Student's
+//! t with m − n degrees of freedom. Bounds are imposed by the callers' reparametrisations (log
+//! parameters); where a residual function cannot be evaluated (outside its domain) it returns
+//! `None`, which the solver sees as a huge cost, so that the step is rejected and shortened.
 
 use anyhow::{bail, Result};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 /// Options of [`levenberg_marquardt`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LmOptions {
-    /// Most iterations (accepted or rejected steps).
+    /// Most residual evaluations, per parameter plus one (MINPACK's `maxfev` = this × (n + 1)).
     pub max_iterations: usize,
-    /// Stop when a step changes the cost by less than this fraction.
+    /// Stop when a step changes the sum of squares by less than this fraction (MINPACK's `ftol`).
     pub cost_tolerance: f64,
-    /// Stop when every parameter moves by less than this (absolute, in parameter units).
+    /// Stop when a step changes the scaled parameter vector by less than this fraction (`xtol`).
     pub step_tolerance: f64,
     /// Finite-difference step for the Jacobian (absolute, in parameter units).
     pub fd_step: f64,
@@ -43,8 +48,8 @@ pub struct LmFit {
     pub covariance: Option<Vec<Vec<f64>>>,
     /// Degrees of freedom m − n.
     pub dof: usize,
-    /// Iterations taken.
-    pub iterations: usize,
+    /// Residual evaluations the solver made (Jacobian evaluations not counted).
+    pub evaluations: usize,
 }
 
 impl LmFit {
@@ -82,140 +87,118 @@ pub fn student_t_975(dof: usize) -> f64 {
     }
 }
 
-/// Solve the n×n system `a x = b` by Gaussian elimination with partial pivoting; `None` when
-/// a pivot is below `1e-13` of the largest diagonal magnitude (numerically singular).
-pub fn solve_linear(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
-    let n = b.len();
-    let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
-    let mut m: Vec<Vec<f64>> = a.iter().zip(b).map(|(row, &bi)| {
-        let mut r = row.clone();
-        r.push(bi);
-        r
-    }).collect();
-    for col in 0..n {
-        let piv = (col..n).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
-        if !(m[piv][col].abs() > 1e-13 * scale) {
-            return None;
-        }
-        m.swap(col, piv);
-        for row in col + 1..n {
-            let f = m[row][col] / m[col][col];
-            for k in col..=n {
-                m[row][k] -= f * m[col][k];
-            }
-        }
-    }
-    let mut x = vec![0.0; n];
-    for i in (0..n).rev() {
-        let s: f64 = (i + 1..n).map(|k| m[i][k] * x[k]).sum();
-        x[i] = (m[i][n] - s) / m[i][i];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
-/// Inverse of a small symmetric positive (semi)definite matrix, column by column; `None` if singular.
-pub fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
-    let n = a.len();
-    let mut inv = vec![vec![0.0; n]; n];
-    for j in 0..n {
-        let mut e = vec![0.0; n];
-        e[j] = 1.0;
-        let col = solve_linear(a, &e)?;
-        for i in 0..n {
-            inv[i][j] = col[i];
-        }
-    }
-    Some(inv)
-}
-
-/// Jacobian of `f` at `p` by central differences with step `h` (rows: residuals).
+/// Jacobian of `f` at `p` by central differences with step `h` (rows: residuals); one-sided
+/// where one of the two neighbours lies outside the model's domain.
 pub fn jacobian(f: &dyn Fn(&[f64]) -> Option<Vec<f64>>, p: &[f64], h: f64) -> Option<Vec<Vec<f64>>> {
-    let m = f(p)?.len();
+    let r0 = f(p)?;
+    let m = r0.len();
     let mut jac = vec![vec![0.0; p.len()]; m];
     for j in 0..p.len() {
         let mut pp = p.to_vec();
         let mut pm = p.to_vec();
         pp[j] += h;
         pm[j] -= h;
-        let (rp, rm) = (f(&pp)?, f(&pm)?);
+        let (rp, rm, step) = match (f(&pp), f(&pm)) {
+            (Some(a), Some(b)) => (a, b, 2.0 * h),
+            (Some(a), None) => (a, r0.clone(), h),
+            (None, Some(b)) => (r0.clone(), b, h),
+            (None, None) => return None,
+        };
         for i in 0..m {
-            jac[i][j] = (rp[i] - rm[i]) / (2.0 * h);
+            jac[i][j] = (rp[i] - rm[i]) / step;
         }
     }
     Some(jac)
 }
 
-fn cost(r: &[f64]) -> f64 {
-    r.iter().map(|v| v * v).sum()
+/// Residual of every component where the model cannot be evaluated (squares to 1e200: any step
+/// there is rejected by the trust region).
+const OUTSIDE_DOMAIN_RESIDUAL: f64 = 1e100;
+
+/// The crate's view of a residual function: parameters, residuals, Jacobian.
+struct Problem<'a> {
+    f: &'a dyn Fn(&[f64]) -> Option<Vec<f64>>,
+    p: DVector<f64>,
+    m: usize,
+    fd_step: f64,
 }
 
-/// Minimise Σ rᵢ(p)² from `p0` by Levenberg–Marquardt. `residuals` returns `None` where the
-/// model cannot be evaluated (the step is then rejected as if the cost were infinite).
+impl Problem<'_> {
+    fn eval(&self, p: &[f64]) -> Option<Vec<f64>> {
+        (self.f)(p).filter(|r| r.len() == self.m && r.iter().all(|v| v.is_finite()))
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.p.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.p.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(match self.eval(self.p.as_slice()) {
+            Some(r) => DVector::from_vec(r),
+            None => DVector::from_element(self.m, OUTSIDE_DOMAIN_RESIDUAL),
+        })
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let f = |p: &[f64]| self.eval(p);
+        let jac = jacobian(&f, self.p.as_slice(), self.fd_step)?;
+        Some(DMatrix::from_fn(self.m, self.p.len(), |i, j| jac[i][j]))
+    }
+}
+
+/// Minimise Σ rᵢ(p)² from `p0` by Levenberg–Marquardt (the `levenberg-marquardt` crate).
+/// `residuals` returns `None` where the model cannot be evaluated (such steps are rejected).
 pub fn levenberg_marquardt(
     residuals: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
     p0: &[f64],
     options: &LmOptions,
 ) -> Result<LmFit> {
     let n = p0.len();
-    let Some(mut r) = residuals(p0) else {
+    let Some(r0) = residuals(p0).filter(|r| r.iter().all(|v| v.is_finite())) else {
         bail!("the model cannot be evaluated at the starting point");
     };
-    let m = r.len();
-    if m < n {
+    let m = r0.len();
+    if n == 0 || m < n {
         bail!("{m} data points cannot determine {n} parameters");
     }
-    let mut p = p0.to_vec();
-    let mut c = cost(&r);
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut jac = jacobian(residuals, &p, options.fd_step)
-        .ok_or_else(|| anyhow::anyhow!("the model cannot be differentiated at the starting point"))?;
-    while iterations < options.max_iterations {
-        iterations += 1;
-        let (jtj, jtr) = normal_equations(&jac, &r);
-        let mut a = jtj.clone();
-        for i in 0..n {
-            a[i][i] += lambda * jtj[i][i].max(1e-30);
-        }
-        let neg: Vec<f64> = jtr.iter().map(|v| -v).collect();
-        let Some(step) = solve_linear(&a, &neg) else {
-            lambda *= 10.0;
-            if lambda > 1e16 {
-                break;
-            }
-            continue;
-        };
-        let trial: Vec<f64> = p.iter().zip(&step).map(|(a, b)| a + b).collect();
-        match residuals(&trial).filter(|rt| rt.iter().all(|v| v.is_finite())) {
-            Some(rt) if cost(&rt) < c => {
-                let c_new = cost(&rt);
-                let small_step = step.iter().all(|s| s.abs() < options.step_tolerance);
-                let small_cost = (c - c_new) <= options.cost_tolerance * c;
-                p = trial;
-                r = rt;
-                c = c_new;
-                lambda = (lambda / 10.0).max(1e-12);
-                match jacobian(residuals, &p, options.fd_step) {
-                    Some(j) => jac = j,
-                    None => break,
-                }
-                if small_step || small_cost {
-                    break;
-                }
-            }
-            _ => {
-                lambda *= 10.0;
-                if lambda > 1e16 {
-                    break;
-                }
-            }
-        }
+    let problem = Problem { f: residuals, p: DVector::from_column_slice(p0), m, fd_step: options.fd_step };
+    let (problem, report) = LevenbergMarquardt::new()
+        .with_ftol(options.cost_tolerance)
+        .with_xtol(options.step_tolerance)
+        .with_patience(options.max_iterations)
+        .minimize(problem);
+    match report.termination {
+        TerminationReason::User(what) => bail!("the model cannot be differentiated during the fit ({what})"),
+        TerminationReason::Numerical(what) => bail!("the fit met a non-finite {what}"),
+        TerminationReason::WrongDimensions(what) => bail!("the model changed its number of residuals ({what})"),
+        _ => {}
     }
+    let p: Vec<f64> = problem.p.iter().copied().collect();
+    let Some(r) = problem.eval(&p) else { bail!("the fit ended outside the model's domain") };
+    let c: f64 = r.iter().map(|v| v * v).sum();
     let dof = m - n;
-    let (jtj, _) = normal_equations(&jac, &r);
     let s2 = if dof > 0 { c / dof as f64 } else { f64::NAN };
-    let covariance = invert(&jtj).map(|inv| {
-        inv.into_iter().map(|row| row.into_iter().map(|v| v * s2).collect()).collect()
+    let covariance = problem.jacobian().and_then(|j| {
+        let jtj = j.transpose() * &j;
+        // Singular (or nearly: eigenvalue ratio below 1e-13) when a combination of the
+        // parameters does not change the residuals.
+        let eig = jtj.clone().symmetric_eigen().eigenvalues;
+        let (lo, hi) = (eig.min(), eig.max());
+        if !(hi > 0.0 && lo > 1e-13 * hi) {
+            return None;
+        }
+        let inv = jtj.try_inverse()?;
+        Some((0..n).map(|a| (0..n).map(|b| inv[(a, b)] * s2).collect()).collect())
     });
     Ok(LmFit {
         params: p,
@@ -223,23 +206,8 @@ pub fn levenberg_marquardt(
         residuals: r,
         covariance,
         dof,
-        iterations,
+        evaluations: report.number_of_evaluations,
     })
-}
-
-fn normal_equations(jac: &[Vec<f64>], r: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
-    let n = jac.first().map_or(0, |row| row.len());
-    let mut jtj = vec![vec![0.0; n]; n];
-    let mut jtr = vec![0.0; n];
-    for (row, ri) in jac.iter().zip(r) {
-        for a in 0..n {
-            jtr[a] += row[a] * ri;
-            for b in 0..n {
-                jtj[a][b] += row[a] * row[b];
-            }
-        }
-    }
-    (jtj, jtr)
 }
 
 /// Measured spectra of a milk for [`fit_milk`].

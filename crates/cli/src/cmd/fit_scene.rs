@@ -59,7 +59,7 @@ pub struct Args {
     /// Light-transport estimator: path, volpath, direct or ao [default: the scene's].
     #[arg(long, value_name = "NAME")]
     pub integrator: Option<String>,
-    /// Stop when the simplex's errors span less than this (relative to the initial error) [default: 1e-6].
+    /// Stop when the standard deviation of the simplex's errors falls below this (relative to the initial error) [default: 1e-6].
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
     pub tolerance: Option<String>,
     /// Minimise an unbiased estimate of the noise-free squared error instead of the RMSE: the
@@ -307,7 +307,6 @@ pub fn run(args: Args) -> Result<()> {
         &specs.iter().map(|s| s.max).collect::<Vec<_>>(),
         max_iterations,
         f_tol,
-        1e-4,
     )?;
 
     // Final render and outputs.
