@@ -44,7 +44,9 @@ use crate::scene::Scene;
 use crate::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec3, Vec4};
-use optics::bssrdf::{DipoleModel, DirectionalDipole, OpticalProperties, StandardDipole};
+use optics::bssrdf::{
+    DipoleModel, DirectionalDipole, DirectionalLineDipole, OpticalProperties, StandardDipole,
+};
 use optics::spectrum::DenseSpectrum;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -153,7 +155,7 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 }
 
 /// Parse the `subsurface = { … }` table of a `translucent` material (see docs/scene-format.md):
-/// `model` ("standard" | "directional", default directional), exactly one of `preset` (a medium
+/// `model` ("standard" | "directional" | "directional-corrected", default directional), exactly one of `preset` (a medium
 /// of Jensen et al. 2001 or Narasimhan et al. 2006, by name), `milk = { fat_percent,
 /// protein_percent, pressure_mpa }`, or `sigma_s_per_mm` + `sigma_a_per_mm` (number or
 /// [r, g, b]) with optional `g`; optional `points_per_pass` and `rejection_control`.
@@ -179,12 +181,14 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             bail!("subsurface: unknown key `{k}` (expected one of {KEYS:?})");
         }
     }
-    let num = |v: &toml::Value| -> Option<f64> { v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) };
+    let num = |v: &toml::Value| -> Option<f64> {
+        v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+    };
     let model: DipoleModel = match t.get("model") {
         None => DipoleModel::Directional,
         Some(v) => v
             .as_str()
-            .ok_or_else(|| anyhow!("subsurface.model: expected \"standard\" or \"directional\""))?
+            .ok_or_else(|| anyhow!("subsurface.model: expected \"standard\", \"directional\" or \"directional-corrected\""))?
             .parse()
             .context("subsurface.model")?,
     };
@@ -227,12 +231,16 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             .context("subsurface.preset")?
         }
         "milk" => {
-            let m = t["milk"]
-                .as_table()
-                .ok_or_else(|| anyhow!("subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"))?;
+            let m = t["milk"].as_table().ok_or_else(|| {
+                anyhow!(
+                    "subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"
+                )
+            })?;
             let get = |k: &str, d: Option<f64>| -> Result<f64> {
                 match m.get(k) {
-                    Some(v) => num(v).ok_or_else(|| anyhow!("subsurface.milk.{k}: must be a number")),
+                    Some(v) => {
+                        num(v).ok_or_else(|| anyhow!("subsurface.milk.{k}: must be a number"))
+                    }
                     None => d.ok_or_else(|| anyhow!("subsurface.milk.{k}: missing")),
                 }
             };
@@ -240,7 +248,8 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             let protein = get("protein_percent", Some(3.4))?;
             let pressure = get("pressure_mpa", Some(20.0))?;
             let lambda: Vec<f64> = (0..17).map(|k| 375.0 + 25.0 * k as f64).collect();
-            let b = optics::milk::milk_properties(fat, protein, pressure, &lambda).context("subsurface.milk")?;
+            let b = optics::milk::milk_properties(fat, protein, pressure, &lambda)
+                .context("subsurface.milk")?;
             let tab = |v: &[f64]| -> Result<DenseSpectrum> {
                 let s = optics::spectrum::Tabulated::new(lambda.clone(), v.to_vec())?;
                 let (lo, hi) = (v[0], v[v.len() - 1]);
@@ -301,7 +310,9 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         let n = v
             .as_integer()
             .filter(|n| *n >= 1 && *n <= 1 << 24)
-            .ok_or_else(|| anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216"))?;
+            .ok_or_else(|| {
+                anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216")
+            })?;
         mat.points_per_pass = n as usize;
     }
     if let Some(v) = t.get("rejection_control") {
@@ -317,6 +328,7 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
 enum LaneModel {
     Standard(StandardDipole),
     Directional(DirectionalDipole),
+    DirectionalLine(DirectionalLineDipole),
     /// α' = 0 or otherwise nothing diffuses.
     Black,
 }
@@ -327,6 +339,10 @@ impl LaneModel {
         match self {
             LaneModel::Standard(m) => m.sd(xo.distance(xi) as f64),
             LaneModel::Directional(m) => {
+                let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+                m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
+            }
+            LaneModel::DirectionalLine(m) => {
                 let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
                 m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
             }
@@ -401,10 +417,12 @@ pub enum SubsurfaceMode<'a> {
 
 /// Whether `scene` has any translucent object.
 pub fn scene_has_translucent(scene: &Scene) -> bool {
-    scene
-        .objects
-        .iter()
-        .any(|o| matches!(scene.materials[o.material as usize], Material::Translucent(_)))
+    scene.objects.iter().any(|o| {
+        matches!(
+            scene.materials[o.material as usize],
+            Material::Translucent(_)
+        )
+    })
 }
 
 /// Area-uniform point sampler over one shape.
@@ -454,7 +472,10 @@ impl<'a> SurfaceSampler<'a> {
             }
             Shape::Mesh(m) => {
                 let u = rng.next_f32() * self.area;
-                let i = self.cdf.partition_point(|&c| c <= u).min(self.cdf.len() - 1);
+                let i = self
+                    .cdf
+                    .partition_point(|&c| c <= u)
+                    .min(self.cdf.len() - 1);
                 let [a, b, c] = m.triangle(i);
                 let bc = uniform_triangle(rng.next_2d());
                 let p = a * (1.0 - bc.x - bc.y) + b * bc.x + c * bc.y;
@@ -493,7 +514,12 @@ impl SubsurfacePass {
     /// Build the pass state: for each translucent object draw its points, trace them with the
     /// path tracer (translucent surfaces reflect only) and build the kd-tree. `None` when the
     /// scene has no translucent object. Deterministic in (`seed`, `pass`).
-    pub fn build(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass: u64) -> Option<SubsurfacePass> {
+    pub fn build(
+        scene: &Scene,
+        settings: &IntegratorSettings,
+        seed: u64,
+        pass: u64,
+    ) -> Option<SubsurfacePass> {
         if !scene_has_translucent(scene) {
             return None;
         }
@@ -511,7 +537,14 @@ impl SubsurfacePass {
 
     /// Diffusive BSSRDF radiance leaving object `object` at `xo` (outward unit normal `no`)
     /// towards `wo` (unit, outside): T21 · (1/M) Σ S_d L_t / p_i over the accepted points.
-    pub fn radiance(&self, object: u32, xo: Vec3, no: Vec3, wo: Vec3, rng: &mut Pcg32) -> SampledSpectrum {
+    pub fn radiance(
+        &self,
+        object: u32,
+        xo: Vec3,
+        no: Vec3,
+        wo: Vec3,
+        rng: &mut Pcg32,
+    ) -> SampledSpectrum {
         self.radiance_stats(object, xo, no, wo, rng).0
     }
 
@@ -630,11 +663,17 @@ fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBD
         let m = match t.model {
             DipoleModel::Standard => StandardDipole::new(&p).map(LaneModel::Standard),
             DipoleModel::Directional => DirectionalDipole::new(&p).map(LaneModel::Directional),
+            DipoleModel::DirectionalCorrected => {
+                DirectionalLineDipole::new(&p).map(LaneModel::DirectionalLine)
+            }
         };
         if let Ok(m) = m {
             let (ap, str_) = match &m {
                 LaneModel::Standard(d) => (d.props.alpha_prime, d.props.sigma_tr_per_m),
                 LaneModel::Directional(d) => (d.props.alpha_prime, d.props.sigma_tr_per_m),
+                LaneModel::DirectionalLine(d) => {
+                    (d.base.props.alpha_prime, d.base.props.sigma_tr_per_m)
+                }
                 LaneModel::Black => (0.0, f64::INFINITY),
             };
             if ap > 0.0 && str_.is_finite() {
@@ -651,7 +690,11 @@ fn phase_g(phase: &crate::medium::PhaseModel, lambda_nm: f32) -> f64 {
     use crate::medium::PhaseModel;
     match phase {
         PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm) as f64,
-        PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
+        PhaseModel::Tabulated {
+            lambda_nm: ls,
+            tables,
+            ..
+        } => {
             if tables.is_empty() {
                 return 0.0;
             }
@@ -704,7 +747,11 @@ fn build_cloud(
         (0..m)
             .into_par_iter()
             .map(|i| {
-                let mut rng = Pcg32::for_pixel(seed ^ 0xc10d_0000_0000_0000 ^ (object as u64) << 32, pass, i as u64);
+                let mut rng = Pcg32::for_pixel(
+                    seed ^ 0xc10d_0000_0000_0000 ^ (object as u64) << 32,
+                    pass,
+                    i as u64,
+                );
                 let (p, n) = sampler.sample(&mut rng);
                 let d_local = cosine_hemisphere(rng.next_2d());
                 let wi = Frame::from_normal(n).to_world(d_local).normalize();
@@ -775,8 +822,19 @@ fn sample_light_at(
         return None;
     }
     let eps = scene.ray_epsilon_m;
-    let t_max = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) - 2.0 * eps } else { f32::INFINITY };
-    if t_max > 0.0 && scene.accel.occluded(&Ray { o: p + n * eps, d: ls.wi, t_min: 0.0, t_max }) {
+    let t_max = if ls.dist.is_finite() {
+        ls.dist * (1.0 - 1e-4) - 2.0 * eps
+    } else {
+        f32::INFINITY
+    };
+    if t_max > 0.0
+        && scene.accel.occluded(&Ray {
+            o: p + n * eps,
+            d: ls.wi,
+            t_min: 0.0,
+            t_max,
+        })
+    {
         return None;
     }
     let light_pdf = pmf * ls.pdf;
@@ -786,7 +844,12 @@ fn sample_light_at(
         crate::sampling::power_heuristic(1.0, light_pdf, 1.0, cos * std::f32::consts::FRAC_1_PI)
     };
     let lt = ls.li * (fresnel_t(cos, eta) * cos * w / light_pdf * area);
-    lt.is_finite().then_some(CloudPoint { p, n, wi: ls.wi, lt })
+    lt.is_finite().then_some(CloudPoint {
+        p,
+        n,
+        wi: ls.wi,
+        lt,
+    })
 }
 
 /// kd-tree over the points (median split on the longest axis); reorders `points` so every node
@@ -803,7 +866,10 @@ fn build_tree(points: &mut [CloudPoint]) -> Vec<Node> {
     let mut todo = vec![0usize];
     while let Some(ni) = todo.pop() {
         let Node {
-            bounds: b, start, end, ..
+            bounds: b,
+            start,
+            end,
+            ..
         } = nodes[ni];
         let n = (end - start) as usize;
         if n <= LEAF_SIZE {

@@ -3,12 +3,14 @@
 use anyhow::{bail, Context, Result};
 use optics::bssrdf::{
     find_medium, jensen2001_media, narasimhan2006_media, DipoleModel, DirectionalDipole,
-    OpticalProperties, StandardDipole,
+    DirectionalLineDipole, OpticalProperties, StandardDipole,
 };
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Dipole model: `standard` (Jensen et al. 2001) or `directional` (Frisvad et al. 2014).
+    /// Dipole model: `standard` (Jensen et al. 2001), `directional` (Frisvad et al. 2014, as
+    /// published) or `directional-corrected` (our variant: the same theory with the refracted
+    /// ray integrated as a line of sources, `optics::bssrdf::DirectionalLineDipole`).
     #[arg(long, default_value = "standard")]
     model: String,
     /// Relative index of refraction η = n_medium / n_outside.
@@ -212,11 +214,13 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
 
     let standard = StandardDipole::new(&props)?;
     let directional = DirectionalDipole::new(&props)?;
+    let line = DirectionalLineDipole::new(&props)?;
     let profile_fn = |r_mm: f64| -> f64 {
         let r_m = r_mm * 1e-3;
         1e-6 * match model {
             DipoleModel::Standard => standard.rd_profile(r_m),
             DipoleModel::Directional => directional.rd_profile(r_m),
+            DipoleModel::DirectionalCorrected => line.rd_profile(r_m),
         }
     };
     let rd_closed = standard.rd_closed_form();
@@ -224,6 +228,7 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
         match model {
             DipoleModel::Standard => standard.rd_numerical(),
             DipoleModel::Directional => directional.rd_numerical(),
+            DipoleModel::DirectionalCorrected => line.rd_numerical(),
         }
     } else {
         f64::NAN
@@ -233,7 +238,7 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
         .map(|rs| rs.iter().map(|&r| profile_fn(r)).collect());
     let a = match model {
         DipoleModel::Standard => standard.a,
-        DipoleModel::Directional => directional.a,
+        DipoleModel::Directional | DipoleModel::DirectionalCorrected => directional.a,
     };
 
     let mut o = serde_json::Map::new();
