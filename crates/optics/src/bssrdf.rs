@@ -505,18 +505,6 @@ impl DirectionalLineDipole {
         Ok(DirectionalLineDipole { base, nodes })
     }
 
-    /// Monopole exitance term S⁰ (m⁻² sr⁻¹, per unit source power) at offset `x` (source to exit
-    /// point) with extra squared distance `eps2` (m²).
-    #[inline]
-    fn mono(&self, x: V3, eps2: f64, no: V3) -> f64 {
-        let b = &self.base;
-        let st = b.props.sigma_tr_per_m;
-        let d2 = dot(x, x) + eps2;
-        let d = d2.sqrt();
-        b.norm * (-st * d).exp() / (d2 * d)
-            * (b.c_phi * d2 / b.props.d_m + b.c_e * (1.0 + st * d) * dot(x, no))
-    }
-
     /// S_d(xᵢ, ω₁₂; xₒ) (m⁻² sr⁻¹) given the refracted direction `w12` (into the medium); same
     /// arguments as [`DirectionalDipole::sd_refracted`]. Clamped at 0.
     pub fn sd_refracted(&self, xi: V3, ni: V3, w12: V3, xo: V3, no: V3) -> f64 {
@@ -544,12 +532,25 @@ impl DirectionalLineDipole {
         let xv = add_scaled(xi, 2.0 * b.a * b.d_e_m, ni_star);
         let wv = add_scaled(w12, -2.0 * dot(w12, ni_star), ni_star);
         let xov = sub(xo, xv);
+        // Offsets x − tω (source at distance t along ω) through their dot products:
+        // ‖x − tω‖² = ‖x‖² − 2t(x·ω) + t², (x − tω)·nₒ = x·nₒ − t(ω·nₒ).
+        let (xw, xn, wn) = (dot(x, w12), dot(x, no), dot(w12, no));
+        let (v2, vw, vn, wvn) = (dot(xov, xov), dot(xov, wv), dot(xov, no), dot(wv, no));
+        let st = b.props.sigma_tr_per_m;
+        let (cpd, ce) = (b.c_phi / b.props.d_m, b.c_e);
+        let mono = |d2: f64, h: f64| {
+            let d = d2.sqrt();
+            (-st * d).exp() / (d2 * d) * (cpd * d2 + ce * (1.0 + st * d) * h)
+        };
+        // Guard against an exit point on a node (possible only on curved geometry): 10⁻³/σ'_t.
+        let dmin2 = (1e-3 / b.props.sigma_t_prime_per_m).powi(2);
         let mut s = 0.0;
         for &(tk, wk) in &self.nodes {
-            let real = self.mono(add_scaled(x, -tk, w12), eps2, no);
-            let virt = self.mono(add_scaled(xov, -tk, wv), 0.0, no);
+            let real = mono((r2 + tk * (tk - 2.0 * xw)).max(dmin2) + eps2, xn - tk * wn);
+            let virt = mono((v2 + tk * (tk - 2.0 * vw)).max(0.0), vn - tk * wvn);
             s += wk * (real - virt);
         }
+        s *= b.norm;
         s.max(0.0)
     }
 
