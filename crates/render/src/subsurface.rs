@@ -13,11 +13,13 @@
 //! object's surface (pdf 1/A), a cosine-distributed direction ω_i is drawn about the outward
 //! normal and L_i is found by full path tracing (other objects and lights are lit correctly).
 //!
-//! Rejection control: point i is accepted with probability p_i = e^{−σ_tr,min ‖x_o − x_i‖}
-//! (σ_tr,min the smallest transport coefficient over the pass's wavelengths) and its term is
-//! divided by p_i. To keep the cost per shading point from growing linearly with M, the points
+//! Rejection control: point i is accepted with probability p_i = p(‖x_o − x_i‖),
+//! p(d) = e^{−σ_tr,min d}·min(1, (r0/d)³) (σ_tr,min the smallest transport coefficient over the
+//! pass's wavelengths, r0 = `rejection_radius_mfp`/σ'_t,min), and its term is divided by p_i.
+//! Any non-increasing p keeps the scheme below exact; the (r0/d)³ factor follows the dipoles'
+//! mid-range falloff, so far points (small terms, little variance) are rarely evaluated. To keep the cost per shading point from growing linearly with M, the points
 //! are stored in a kd-tree; a node whose box is at distance d_min from x_o bounds every p_i in it
-//! by q = e^{−σ_tr,min d_min}. Nodes that are far (n·q small) or leaves are handled as a whole:
+//! by q = p(d_min). Nodes that are far (n·q small) or leaves are handled as a whole:
 //! candidates are drawn from the node's points with probability q by geometric skipping, and a
 //! candidate is kept with probability p_i/q. Every point is thus accepted with probability exactly
 //! q·p_i/q = p_i whatever the cut, so the estimator is unbiased; its cost is about the number of
@@ -51,6 +53,9 @@ use optics::spectrum::DenseSpectrum;
 use rayon::prelude::*;
 use std::sync::Arc;
 
+/// Default r0 of rejection control, in transport mean free paths ([`Translucent::rejection_radius_mfp`]).
+pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 8.0;
+
 /// Default number of cloud points per pass and translucent object.
 pub const DEFAULT_POINTS_PER_PASS: usize = 16384;
 
@@ -70,8 +75,14 @@ pub struct Translucent {
     pub g: DenseSpectrum,
     /// Cloud points per pass on each object with this material.
     pub points_per_pass: usize,
-    /// Rejection control on (acceptance e^{−σ_tr,min d}); off: every point is accepted.
+    /// Rejection control on (acceptance e^{−σ_tr,min d}·min(1, (r0/d)³)); off: every point is
+    /// accepted.
     pub rejection_control: bool,
+    /// r0 of rejection control in transport mean free paths 1/σ'_t (the largest over the pass's
+    /// wavelengths); beyond r0 the acceptance falls by an extra (r0/d)³, about as fast as the
+    /// dipoles' mid-range falloff, so distant points, which add little variance, are rarely
+    /// evaluated. 0: pure e^{−σ_tr,min d} (the original scheme).
+    pub rejection_radius_mfp: f32,
     /// Take σ_s, σ_a and g from the object's interior `medium` instead (the same coefficients
     /// volumetric path tracing uses; the spectra above are then unused).
     pub from_medium: bool,
@@ -98,6 +109,7 @@ impl Translucent {
             g,
             points_per_pass: DEFAULT_POINTS_PER_PASS,
             rejection_control: true,
+            rejection_radius_mfp: DEFAULT_REJECTION_RADIUS_MFP,
             from_medium: false,
         };
         for l in (360..=830).step_by(5) {
@@ -158,7 +170,8 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 /// `model` ("standard" | "directional" | "directional-corrected", default directional), exactly one of `preset` (a medium
 /// of Jensen et al. 2001 or Narasimhan et al. 2006, by name), `milk = { fat_percent,
 /// protein_percent, pressure_mpa }`, or `sigma_s_per_mm` + `sigma_a_per_mm` (number or
-/// [r, g, b]) with optional `g`; optional `points_per_pass` and `rejection_control`.
+/// [r, g, b]) with optional `g`; optional `points_per_pass`, `rejection_control` and
+/// `rejection_radius_mfp`.
 /// `ior` is the material's index (a preset's own η is used when `ior` is absent).
 /// Errors name the key (relative to the table).
 pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Translucent> {
@@ -172,6 +185,7 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         "g",
         "points_per_pass",
         "rejection_control",
+        "rejection_radius_mfp",
     ];
     let t = table.as_table().ok_or_else(|| {
         anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
@@ -315,6 +329,12 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             })?;
         mat.points_per_pass = n as usize;
     }
+    if let Some(v) = t.get("rejection_radius_mfp") {
+        let r = num(v)
+            .filter(|r| r.is_finite() && *r >= 0.0)
+            .ok_or_else(|| anyhow!("subsurface.rejection_radius_mfp: expected a number >= 0"))?;
+        mat.rejection_radius_mfp = r as f32;
+    }
     if let Some(v) = t.get("rejection_control") {
         mat.rejection_control = v
             .as_bool()
@@ -380,6 +400,8 @@ struct ObjectCloud {
     eta: f32,
     /// Smallest σ_tr over the pass's wavelengths (m⁻¹).
     sigma_tr_min: f32,
+    /// Radius r0 (m) beyond which acceptance falls by an extra (r0/d)³.
+    rc_radius_m: f32,
     rejection_control: bool,
     /// Number of points drawn (the estimator divides by it).
     m: usize,
@@ -567,6 +589,18 @@ impl SubsurfacePass {
         }
         let mut sum = [0f64; N_LAMBDA];
         let sigma = c.sigma_tr_min;
+        let r0 = c.rc_radius_m;
+        // Acceptance p(d) = e^{−σ_tr,min d}·min(1, (r0/d)³), non-increasing in d, so
+        // p(box distance) bounds every point of a node.
+        let accept = |d: f32| -> f32 {
+            let e = (-sigma * d).exp();
+            if d > r0 {
+                let k = r0 / d;
+                e * k * k * k
+            } else {
+                e
+            }
+        };
         let mut eval = |pt: &CloudPoint, p: f32, st: &mut QueryStats| {
             st.accepted += 1;
             for (k, lane) in c.lanes.iter().enumerate() {
@@ -584,7 +618,7 @@ impl SubsurfacePass {
             let node = &c.nodes[stack[sp] as usize];
             st.nodes += 1;
             let q = if c.rejection_control {
-                (-sigma * box_distance(&node.bounds, xo)).exp()
+                accept(box_distance(&node.bounds, xo))
             } else {
                 1.0
             };
@@ -598,7 +632,7 @@ impl SubsurfacePass {
                 if q >= 1.0 {
                     for pt in &c.points[start..end] {
                         let p = if c.rejection_control {
-                            (-sigma * pt.p.distance(xo)).exp()
+                            accept(pt.p.distance(xo))
                         } else {
                             1.0
                         };
@@ -617,7 +651,7 @@ impl SubsurfacePass {
                         }
                         j += skip as usize;
                         let pt = &c.points[j];
-                        let p = (-sigma * pt.p.distance(xo)).exp();
+                        let p = accept(pt.p.distance(xo));
                         if p > 0.0 && rng.next_f32() * q < p {
                             eval(pt, p, &mut st);
                         }
@@ -655,9 +689,11 @@ impl SubsurfacePass {
     }
 }
 
-fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBDA], f32) {
+/// The lanes' models, the smallest σ_tr and the smallest σ'_t over the lanes (m⁻¹).
+fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBDA], f32, f32) {
     let mut lanes = [LaneModel::Black; N_LAMBDA];
     let mut smin = f32::INFINITY;
+    let mut spt_min = f32::INFINITY;
     for (k, lane) in lanes.iter_mut().enumerate() {
         let p = t.properties(wl.lambda_nm[k]);
         let m = match t.model {
@@ -679,10 +715,16 @@ fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBD
             if ap > 0.0 && str_.is_finite() {
                 *lane = m;
                 smin = smin.min(str_ as f32);
+                let spt = p.sigma_s_per_m * (1.0 - p.g) + p.sigma_a_per_m;
+                spt_min = spt_min.min(spt as f32);
             }
         }
     }
-    (lanes, if smin.is_finite() { smin } else { 0.0 })
+    (
+        lanes,
+        if smin.is_finite() { smin } else { 0.0 },
+        spt_min,
+    )
 }
 
 /// Mean cosine of a medium's phase function at `lambda_nm`.
@@ -736,7 +778,7 @@ fn build_cloud(
     pass: u64,
 ) -> ObjectCloud {
     let t = &effective_material(scene, t, object);
-    let (lanes, sigma_tr_min) = lane_models(t, wl);
+    let (lanes, sigma_tr_min, spt_min) = lane_models(t, wl);
     let shape = scene.accel.shape(object as u32);
     let sampler = SurfaceSampler::new(shape);
     let m = t.points_per_pass;
@@ -794,6 +836,11 @@ fn build_cloud(
         lanes,
         eta: t.eta,
         sigma_tr_min,
+        rc_radius_m: if t.rejection_radius_mfp > 0.0 {
+            t.rejection_radius_mfp / spt_min
+        } else {
+            f32::INFINITY
+        },
         rejection_control: t.rejection_control,
         m,
         points,
