@@ -54,7 +54,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Default r0 of rejection control, in transport mean free paths ([`Translucent::rejection_radius_mfp`]).
-pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 8.0;
+pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 4.0;
 
 /// Default number of cloud points per pass and translucent object.
 pub const DEFAULT_POINTS_PER_PASS: usize = 16384;

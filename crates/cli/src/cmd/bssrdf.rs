@@ -308,6 +308,39 @@ mod tests {
         assert!(!o.contains_key("profile"));
     }
 
+    /// `--model directional-corrected` (additive option): at α' = 1, η = 1 its rd is the line-source
+    /// theory's C_φ A d_e/D + C_E over 4C_φ(1/η) (from the d'Eon–Irving fits at η = 1), i.e. about
+    /// 1.037, where the published model gives 1.346; `--model directional` is unchanged.
+    #[test]
+    fn directional_corrected_option() {
+        let run = |m: &str| {
+            eval(&[
+                "--model",
+                m,
+                "--eta",
+                "1",
+                "--sigma-s-per-mm",
+                "1",
+                "--sigma-a-per-mm",
+                "0",
+                "--rd",
+                "--json",
+            ])
+            .unwrap()["rd"]
+                .as_f64()
+                .unwrap()
+        };
+        let (cp, ce) = (optics::bssrdf::c_phi(1.0), optics::bssrdf::c_e(1.0));
+        let a = (1.0 - ce) / (2.0 * cp);
+        let expected = (cp * a * 2.131 + ce) / (4.0 * optics::bssrdf::c_phi(1.0));
+        let corrected = run("directional-corrected");
+        assert!(
+            (corrected - expected).abs() < 1e-4,
+            "{corrected} vs {expected}"
+        );
+        assert!((run("directional") - 1.346).abs() < 2e-3);
+    }
+
     /// `--profile-mm` gives R_d(r) in mm⁻²: the standard dipole at r = 0 equals
     /// α'/(4π)[(1 + σ_tr z_r)e^{−σ_tr z_r}/z_r² + (1 + σ_tr z_v)e^{−σ_tr z_v}/z_v²] evaluated here by hand.
     #[test]
