@@ -17,7 +17,8 @@
 //! p(d) = e^{−σ_tr,min d}·min(1, (r0/d)³) (σ_tr,min the smallest transport coefficient over the
 //! pass's wavelengths, r0 = `rejection_radius_mfp`/σ'_t,min), and its term is divided by p_i.
 //! Any non-increasing p keeps the scheme below exact; the (r0/d)³ factor follows the dipoles'
-//! mid-range falloff, so far points (small terms, little variance) are rarely evaluated. To keep the cost per shading point from growing linearly with M, the points
+//! mid-range falloff, so far points (small terms, little variance) are rarely evaluated.
+//! To keep the cost per shading point from growing linearly with M, the points
 //! are stored in a kd-tree; a node whose box is at distance d_min from x_o bounds every p_i in it
 //! by q = p(d_min). Nodes that are far (n·q small) or leaves are handled as a whole:
 //! candidates are drawn from the node's points with probability q by geometric skipping, and a
@@ -54,7 +55,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Default r0 of rejection control, in transport mean free paths ([`Translucent::rejection_radius_mfp`]).
-pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 4.0;
+pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 3.0;
 
 /// Default number of cloud points per pass and translucent object.
 pub const DEFAULT_POINTS_PER_PASS: usize = 16384;
@@ -167,7 +168,8 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 }
 
 /// Parse the `subsurface = { … }` table of a `translucent` material (see docs/scene-format.md):
-/// `model` ("standard" | "directional" | "directional-corrected", default directional), exactly one of `preset` (a medium
+/// `model` ("standard" | "directional" | "directional-corrected", default directional), exactly
+/// one of `preset` (a medium
 /// of Jensen et al. 2001 or Narasimhan et al. 2006, by name), `milk = { fat_percent,
 /// protein_percent, pressure_mpa }`, or `sigma_s_per_mm` + `sigma_a_per_mm` (number or
 /// [r, g, b]) with optional `g`; optional `points_per_pass`, `rejection_control` and
