@@ -404,13 +404,184 @@ impl DirectionalDipole {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Directional dipole with the ray source integrated along the refracted ray
+// ---------------------------------------------------------------------------------------------
+
+/// Number of Gauss–Laguerre nodes along the refracted ray in [`DirectionalLineDipole`].
+pub const LINE_SOURCE_NODES: usize = 6;
+
+/// Nodes and weights of n-point Gauss–Laguerre quadrature, ∫₀^∞ e^{−s} f(s) ds ≈ Σ wₖ f(sₖ)
+/// (Σ wₖ = 1), by Newton iteration on the three-term recurrence of the Laguerre polynomials.
+pub fn gauss_laguerre(n: usize) -> Vec<(f64, f64)> {
+    assert!(n >= 1);
+    // (L_n(x), L_{n-1}(x)) by (k+1)L_{k+1} = (2k+1−x)L_k − kL_{k−1}.
+    let lag = |x: f64| {
+        let (mut p0, mut p1) = (1.0f64, 1.0 - x);
+        if n == 1 {
+            return (p1, p0);
+        }
+        for k in 1..n {
+            let p2 =
+                ((2 * k + 1) as f64 - x) * p1 / (k + 1) as f64 - k as f64 * p0 / (k + 1) as f64;
+            p0 = p1;
+            p1 = p2;
+        }
+        (p1, p0)
+    };
+    let mut out: Vec<(f64, f64)> = Vec::with_capacity(n);
+    let nf = n as f64;
+    let mut x = 0.0f64;
+    for i in 0..n {
+        // Initial guesses (asymptotic estimates), then Newton: L_n' = n(L_n − L_{n−1})/x.
+        x = match i {
+            0 => 3.0 / (1.0 + 2.4 * nf),
+            1 => x + 15.0 / (1.0 + 2.5 * nf),
+            _ => {
+                let ai = (i - 1) as f64;
+                x + (1.0 + 2.55 * ai) / (1.9 * ai) * (x - out[i - 2].0)
+            }
+        };
+        for _ in 0..100 {
+            let (pn, pm) = lag(x);
+            let dp = nf * (pn - pm) / x;
+            let dx = pn / dp;
+            x -= dx;
+            if dx.abs() <= 1e-15 * x.abs().max(1.0) {
+                break;
+            }
+        }
+        // w = x / ((n+1)² L_{n+1}(x)²), L_{n+1}(x) = ((2n+1−x)L_n − nL_{n−1})/(n+1) = −nL_{n−1}/(n+1) at a root.
+        let (_, pm) = lag(x);
+        let ln1 = -nf * pm / (nf + 1.0);
+        out.push((x, x / ((nf + 1.0) * (nf + 1.0) * ln1 * ln1)));
+    }
+    out
+}
+
+/// The directional dipole's diffusion theory with the ray source integrated along the refracted
+/// ray instead of expanded about its entry point ("directional-corrected"; our variant, not the
+/// published model). Frisvad et al. 2014 derive S'_d from a ray source — the refracted ray as a
+/// line of isotropic sources of density α'σ'_t e^{−σ'_t t} at distance t along ω₁₂ — and replace
+/// it by a point source at xᵢ with a first-order directional term and the regularised distance
+/// d_r. That expansion over-predicts the total diffuse reflectance by 20–70 % (see
+/// [`DirectionalDipole::rd_numerical`]). Here the line is kept: with xₜ = xᵢ + tω₁₂,
+///
+///   S_d = α' ∫₀^∞ σ'_t e^{−σ'_t t} [S⁰(xₒ − xₜ) − S⁰(xₒ − xᵥ − tωᵥ)] dt,
+///   S⁰(x) = 1/(4C_φ(1/η)) · 1/(4π²) · e^{−σ_tr d}/d³ · [C_φ d²/D + C_E(1 + σ_tr d)(x·nₒ)],  d = ‖x‖,
+///
+/// i.e. each source is a monopole (fluence e^{−σ_tr d}/(4πDd), flux −D∇φ) with exitance
+/// C_φφ + C_E E·nₒ, the boundary is the paper's (C_φ, C_E, A, d_e = 2.131D/√α', the image in the
+/// modified tangent plane nᵢ* at height A·d_e, xᵥ = xᵢ + 2Ad_e nᵢ*, ωᵥ the mirrored ω₁₂, so each
+/// source's image is its mirror image) and so is the normalisation; only the source differs. For
+/// back-lit points (μ₀ ≤ 0) the real distances are regularised as in the paper, d² + 1/(3σ_t)².
+/// The integral is evaluated with [`LINE_SOURCE_NODES`]-point Gauss–Laguerre quadrature in σ'_t t:
+/// the total reflectance (plane integral) is exact to ~1e-6, the radial profile within the first
+/// node's depth (0.22/σ'_t) of the entry point is smoothed (the exact profile grows like 1/r there).
+/// On a half-space at normal incidence it reproduces the closed form
+/// α'm[C_φ(1 − e^{−2σ_tr z_b})/(2Dσ_tr) + C_E(1 + e^{−2σ_tr z_b})/2]·1/(4C_φ(1/η)), z_b = Ad_e,
+/// m = σ'_t/(σ'_t + σ_tr) (optics tests), which is within 2–5 % of Monte Carlo at α' = 0.9–0.99.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionalLineDipole {
+    /// The published model's parameters (C_φ, C_E, A, d_e, normalisation).
+    pub base: DirectionalDipole,
+    /// Distances tₖ along the refracted ray (m) and weights (Σ = α').
+    pub nodes: [(f64, f64); LINE_SOURCE_NODES],
+}
+
+impl DirectionalLineDipole {
+    /// Builds the model; fails on invalid properties.
+    pub fn new(p: &OpticalProperties) -> Result<Self> {
+        let base = DirectionalDipole::new(p)?;
+        static GL: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+        let gl = GL.get_or_init(|| gauss_laguerre(LINE_SOURCE_NODES));
+        let mut nodes = [(0.0, 0.0); LINE_SOURCE_NODES];
+        for (k, &(s, w)) in gl.iter().enumerate() {
+            nodes[k] = (
+                s / base.props.sigma_t_prime_per_m,
+                w * base.props.alpha_prime,
+            );
+        }
+        Ok(DirectionalLineDipole { base, nodes })
+    }
+
+    /// S_d(xᵢ, ω₁₂; xₒ) (m⁻² sr⁻¹) given the refracted direction `w12` (into the medium); same
+    /// arguments as [`DirectionalDipole::sd_refracted`]. Clamped at 0.
+    pub fn sd_refracted(&self, xi: V3, ni: V3, w12: V3, xo: V3, no: V3) -> f64 {
+        let b = &self.base;
+        if b.props.alpha_prime <= 0.0 {
+            return 0.0;
+        }
+        let x = sub(xo, xi);
+        let r2 = dot(x, x);
+        let mu0 = -dot(no, w12);
+        let eps2 = if mu0 > 0.0 {
+            0.0
+        } else {
+            let l = 1.0 / (3.0 * b.props.sigma_t_per_m);
+            l * l
+        };
+        let t = cross(ni, x);
+        let tl = dot(t, t).sqrt();
+        let ni_star = if r2 < 1e-30 || tl < 1e-15 * r2.sqrt() {
+            ni
+        } else {
+            let xn = scale(1.0 / r2.sqrt(), x);
+            cross(xn, scale(1.0 / tl, t))
+        };
+        let xv = add_scaled(xi, 2.0 * b.a * b.d_e_m, ni_star);
+        let wv = add_scaled(w12, -2.0 * dot(w12, ni_star), ni_star);
+        let xov = sub(xo, xv);
+        // Offsets x − tω (source at distance t along ω) through their dot products:
+        // ‖x − tω‖² = ‖x‖² − 2t(x·ω) + t², (x − tω)·nₒ = x·nₒ − t(ω·nₒ).
+        let (xw, xn, wn) = (dot(x, w12), dot(x, no), dot(w12, no));
+        let (v2, vw, vn, wvn) = (dot(xov, xov), dot(xov, wv), dot(xov, no), dot(wv, no));
+        let st = b.props.sigma_tr_per_m;
+        let (cpd, ce) = (b.c_phi / b.props.d_m, b.c_e);
+        let mono = |d2: f64, h: f64| {
+            let d = d2.sqrt();
+            (-st * d).exp() / (d2 * d) * (cpd * d2 + ce * (1.0 + st * d) * h)
+        };
+        // Guard against an exit point on a node (possible only on curved geometry): 10⁻³/σ'_t.
+        let dmin2 = (1e-3 / b.props.sigma_t_prime_per_m).powi(2);
+        let mut s = 0.0;
+        for &(tk, wk) in &self.nodes {
+            let real = mono((r2 + tk * (tk - 2.0 * xw)).max(dmin2) + eps2, xn - tk * wn);
+            let virt = mono((v2 + tk * (tk - 2.0 * vw)).max(0.0), vn - tk * wvn);
+            s += wk * (real - virt);
+        }
+        s *= b.norm;
+        s.max(0.0)
+    }
+
+    /// S_d(xᵢ, ωᵢ; xₒ) (m⁻² sr⁻¹) for the direction `wi` towards the light (unit, outside).
+    pub fn sd(&self, xi: V3, ni: V3, wi: V3, xo: V3, no: V3) -> f64 {
+        let w12 = self.base.refract_in(wi, ni);
+        self.sd_refracted(xi, ni, w12, xo, no)
+    }
+
+    /// Radial profile π S_d (m⁻²) on a flat half-space at distance `r_m` under normal incidence.
+    pub fn rd_profile(&self, r_m: f64) -> f64 {
+        let n = [0.0, 0.0, 1.0];
+        PI * self.sd([0.0; 3], n, n, [r_m, 0.0, 0.0], n)
+    }
+
+    /// Total diffuse reflectance π∫S_d dA of a flat half-space under normal incidence (light
+    /// leaving per unit light entering = this × 4C_φ(1/η)).
+    pub fn rd_numerical(&self) -> f64 {
+        integrate_plane(|r| self.rd_profile(r), self.base.props.d_m * 3.0)
+    }
+}
+
 /// A model selector for callers that switch between the two dipoles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DipoleModel {
     /// Jensen et al. 2001.
     Standard,
-    /// Frisvad et al. 2014.
+    /// Frisvad et al. 2014, as published.
     Directional,
+    /// Our line-source variant of the directional dipole ([`DirectionalLineDipole`]).
+    DirectionalCorrected,
 }
 
 impl std::str::FromStr for DipoleModel {
@@ -419,7 +590,8 @@ impl std::str::FromStr for DipoleModel {
         match s {
             "standard" => Ok(DipoleModel::Standard),
             "directional" => Ok(DipoleModel::Directional),
-            _ => bail!("unknown dipole model '{s}' (expected standard or directional)"),
+            "directional-corrected" => Ok(DipoleModel::DirectionalCorrected),
+            _ => bail!("unknown dipole model '{s}' (expected standard, directional or directional-corrected)"),
         }
     }
 }

@@ -13,11 +13,14 @@
 //! object's surface (pdf 1/A), a cosine-distributed direction ω_i is drawn about the outward
 //! normal and L_i is found by full path tracing (other objects and lights are lit correctly).
 //!
-//! Rejection control: point i is accepted with probability p_i = e^{−σ_tr,min ‖x_o − x_i‖}
-//! (σ_tr,min the smallest transport coefficient over the pass's wavelengths) and its term is
-//! divided by p_i. To keep the cost per shading point from growing linearly with M, the points
+//! Rejection control: point i is accepted with probability p_i = p(‖x_o − x_i‖),
+//! p(d) = e^{−σ_tr,min d}·min(1, (r0/d)³) (σ_tr,min the smallest transport coefficient over the
+//! pass's wavelengths, r0 = `rejection_radius_mfp`/σ'_t,min), and its term is divided by p_i.
+//! Any non-increasing p keeps the scheme below exact; the (r0/d)³ factor follows the dipoles'
+//! mid-range falloff, so far points (small terms, little variance) are rarely evaluated.
+//! To keep the cost per shading point from growing linearly with M, the points
 //! are stored in a kd-tree; a node whose box is at distance d_min from x_o bounds every p_i in it
-//! by q = e^{−σ_tr,min d_min}. Nodes that are far (n·q small) or leaves are handled as a whole:
+//! by q = p(d_min). Nodes that are far (n·q small) or leaves are handled as a whole:
 //! candidates are drawn from the node's points with probability q by geometric skipping, and a
 //! candidate is kept with probability p_i/q. Every point is thus accepted with probability exactly
 //! q·p_i/q = p_i whatever the cut, so the estimator is unbiased; its cost is about the number of
@@ -44,10 +47,15 @@ use crate::scene::Scene;
 use crate::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec3, Vec4};
-use optics::bssrdf::{DipoleModel, DirectionalDipole, OpticalProperties, StandardDipole};
+use optics::bssrdf::{
+    DipoleModel, DirectionalDipole, DirectionalLineDipole, OpticalProperties, StandardDipole,
+};
 use optics::spectrum::DenseSpectrum;
 use rayon::prelude::*;
 use std::sync::Arc;
+
+/// Default r0 of rejection control, in transport mean free paths ([`Translucent::rejection_radius_mfp`]).
+pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 3.0;
 
 /// Default number of cloud points per pass and translucent object.
 pub const DEFAULT_POINTS_PER_PASS: usize = 16384;
@@ -68,8 +76,14 @@ pub struct Translucent {
     pub g: DenseSpectrum,
     /// Cloud points per pass on each object with this material.
     pub points_per_pass: usize,
-    /// Rejection control on (acceptance e^{−σ_tr,min d}); off: every point is accepted.
+    /// Rejection control on (acceptance e^{−σ_tr,min d}·min(1, (r0/d)³)); off: every point is
+    /// accepted.
     pub rejection_control: bool,
+    /// r0 of rejection control in transport mean free paths 1/σ'_t (the largest over the pass's
+    /// wavelengths); beyond r0 the acceptance falls by an extra (r0/d)³, about as fast as the
+    /// dipoles' mid-range falloff, so distant points, which add little variance, are rarely
+    /// evaluated. 0: pure e^{−σ_tr,min d} (the original scheme).
+    pub rejection_radius_mfp: f32,
     /// Take σ_s, σ_a and g from the object's interior `medium` instead (the same coefficients
     /// volumetric path tracing uses; the spectra above are then unused).
     pub from_medium: bool,
@@ -96,6 +110,7 @@ impl Translucent {
             g,
             points_per_pass: DEFAULT_POINTS_PER_PASS,
             rejection_control: true,
+            rejection_radius_mfp: DEFAULT_REJECTION_RADIUS_MFP,
             from_medium: false,
         };
         for l in (360..=830).step_by(5) {
@@ -153,10 +168,12 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 }
 
 /// Parse the `subsurface = { … }` table of a `translucent` material (see docs/scene-format.md):
-/// `model` ("standard" | "directional", default directional), exactly one of `preset` (a medium
+/// `model` ("standard" | "directional" | "directional-corrected", default directional), exactly
+/// one of `preset` (a medium
 /// of Jensen et al. 2001 or Narasimhan et al. 2006, by name), `milk = { fat_percent,
 /// protein_percent, pressure_mpa }`, or `sigma_s_per_mm` + `sigma_a_per_mm` (number or
-/// [r, g, b]) with optional `g`; optional `points_per_pass` and `rejection_control`.
+/// [r, g, b]) with optional `g`; optional `points_per_pass`, `rejection_control` and
+/// `rejection_radius_mfp`.
 /// `ior` is the material's index (a preset's own η is used when `ior` is absent).
 /// Errors name the key (relative to the table).
 pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Translucent> {
@@ -170,6 +187,7 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         "g",
         "points_per_pass",
         "rejection_control",
+        "rejection_radius_mfp",
     ];
     let t = table.as_table().ok_or_else(|| {
         anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
@@ -179,12 +197,14 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             bail!("subsurface: unknown key `{k}` (expected one of {KEYS:?})");
         }
     }
-    let num = |v: &toml::Value| -> Option<f64> { v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) };
+    let num = |v: &toml::Value| -> Option<f64> {
+        v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+    };
     let model: DipoleModel = match t.get("model") {
         None => DipoleModel::Directional,
         Some(v) => v
             .as_str()
-            .ok_or_else(|| anyhow!("subsurface.model: expected \"standard\" or \"directional\""))?
+            .ok_or_else(|| anyhow!("subsurface.model: expected \"standard\", \"directional\" or \"directional-corrected\""))?
             .parse()
             .context("subsurface.model")?,
     };
@@ -227,12 +247,16 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             .context("subsurface.preset")?
         }
         "milk" => {
-            let m = t["milk"]
-                .as_table()
-                .ok_or_else(|| anyhow!("subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"))?;
+            let m = t["milk"].as_table().ok_or_else(|| {
+                anyhow!(
+                    "subsurface.milk: expected {{ fat_percent, protein_percent, pressure_mpa }}"
+                )
+            })?;
             let get = |k: &str, d: Option<f64>| -> Result<f64> {
                 match m.get(k) {
-                    Some(v) => num(v).ok_or_else(|| anyhow!("subsurface.milk.{k}: must be a number")),
+                    Some(v) => {
+                        num(v).ok_or_else(|| anyhow!("subsurface.milk.{k}: must be a number"))
+                    }
                     None => d.ok_or_else(|| anyhow!("subsurface.milk.{k}: missing")),
                 }
             };
@@ -240,7 +264,8 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             let protein = get("protein_percent", Some(3.4))?;
             let pressure = get("pressure_mpa", Some(20.0))?;
             let lambda: Vec<f64> = (0..17).map(|k| 375.0 + 25.0 * k as f64).collect();
-            let b = optics::milk::milk_properties(fat, protein, pressure, &lambda).context("subsurface.milk")?;
+            let b = optics::milk::milk_properties(fat, protein, pressure, &lambda)
+                .context("subsurface.milk")?;
             let tab = |v: &[f64]| -> Result<DenseSpectrum> {
                 let s = optics::spectrum::Tabulated::new(lambda.clone(), v.to_vec())?;
                 let (lo, hi) = (v[0], v[v.len() - 1]);
@@ -301,8 +326,16 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
         let n = v
             .as_integer()
             .filter(|n| *n >= 1 && *n <= 1 << 24)
-            .ok_or_else(|| anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216"))?;
+            .ok_or_else(|| {
+                anyhow!("subsurface.points_per_pass: expected an integer in 1..=16777216")
+            })?;
         mat.points_per_pass = n as usize;
+    }
+    if let Some(v) = t.get("rejection_radius_mfp") {
+        let r = num(v)
+            .filter(|r| r.is_finite() && *r >= 0.0)
+            .ok_or_else(|| anyhow!("subsurface.rejection_radius_mfp: expected a number >= 0"))?;
+        mat.rejection_radius_mfp = r as f32;
     }
     if let Some(v) = t.get("rejection_control") {
         mat.rejection_control = v
@@ -317,6 +350,7 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
 enum LaneModel {
     Standard(StandardDipole),
     Directional(DirectionalDipole),
+    DirectionalLine(DirectionalLineDipole),
     /// α' = 0 or otherwise nothing diffuses.
     Black,
 }
@@ -327,6 +361,10 @@ impl LaneModel {
         match self {
             LaneModel::Standard(m) => m.sd(xo.distance(xi) as f64),
             LaneModel::Directional(m) => {
+                let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+                m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
+            }
+            LaneModel::DirectionalLine(m) => {
                 let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
                 m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
             }
@@ -364,6 +402,8 @@ struct ObjectCloud {
     eta: f32,
     /// Smallest σ_tr over the pass's wavelengths (m⁻¹).
     sigma_tr_min: f32,
+    /// Radius r0 (m) beyond which acceptance falls by an extra (r0/d)³.
+    rc_radius_m: f32,
     rejection_control: bool,
     /// Number of points drawn (the estimator divides by it).
     m: usize,
@@ -401,10 +441,12 @@ pub enum SubsurfaceMode<'a> {
 
 /// Whether `scene` has any translucent object.
 pub fn scene_has_translucent(scene: &Scene) -> bool {
-    scene
-        .objects
-        .iter()
-        .any(|o| matches!(scene.materials[o.material as usize], Material::Translucent(_)))
+    scene.objects.iter().any(|o| {
+        matches!(
+            scene.materials[o.material as usize],
+            Material::Translucent(_)
+        )
+    })
 }
 
 /// Area-uniform point sampler over one shape.
@@ -454,7 +496,10 @@ impl<'a> SurfaceSampler<'a> {
             }
             Shape::Mesh(m) => {
                 let u = rng.next_f32() * self.area;
-                let i = self.cdf.partition_point(|&c| c <= u).min(self.cdf.len() - 1);
+                let i = self
+                    .cdf
+                    .partition_point(|&c| c <= u)
+                    .min(self.cdf.len() - 1);
                 let [a, b, c] = m.triangle(i);
                 let bc = uniform_triangle(rng.next_2d());
                 let p = a * (1.0 - bc.x - bc.y) + b * bc.x + c * bc.y;
@@ -493,7 +538,12 @@ impl SubsurfacePass {
     /// Build the pass state: for each translucent object draw its points, trace them with the
     /// path tracer (translucent surfaces reflect only) and build the kd-tree. `None` when the
     /// scene has no translucent object. Deterministic in (`seed`, `pass`).
-    pub fn build(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass: u64) -> Option<SubsurfacePass> {
+    pub fn build(
+        scene: &Scene,
+        settings: &IntegratorSettings,
+        seed: u64,
+        pass: u64,
+    ) -> Option<SubsurfacePass> {
         if !scene_has_translucent(scene) {
             return None;
         }
@@ -511,7 +561,14 @@ impl SubsurfacePass {
 
     /// Diffusive BSSRDF radiance leaving object `object` at `xo` (outward unit normal `no`)
     /// towards `wo` (unit, outside): T21 · (1/M) Σ S_d L_t / p_i over the accepted points.
-    pub fn radiance(&self, object: u32, xo: Vec3, no: Vec3, wo: Vec3, rng: &mut Pcg32) -> SampledSpectrum {
+    pub fn radiance(
+        &self,
+        object: u32,
+        xo: Vec3,
+        no: Vec3,
+        wo: Vec3,
+        rng: &mut Pcg32,
+    ) -> SampledSpectrum {
         self.radiance_stats(object, xo, no, wo, rng).0
     }
 
@@ -534,6 +591,18 @@ impl SubsurfacePass {
         }
         let mut sum = [0f64; N_LAMBDA];
         let sigma = c.sigma_tr_min;
+        let r0 = c.rc_radius_m;
+        // Acceptance p(d) = e^{−σ_tr,min d}·min(1, (r0/d)³), non-increasing in d, so
+        // p(box distance) bounds every point of a node.
+        let accept = |d: f32| -> f32 {
+            let e = (-sigma * d).exp();
+            if d > r0 {
+                let k = r0 / d;
+                e * k * k * k
+            } else {
+                e
+            }
+        };
         let mut eval = |pt: &CloudPoint, p: f32, st: &mut QueryStats| {
             st.accepted += 1;
             for (k, lane) in c.lanes.iter().enumerate() {
@@ -551,7 +620,7 @@ impl SubsurfacePass {
             let node = &c.nodes[stack[sp] as usize];
             st.nodes += 1;
             let q = if c.rejection_control {
-                (-sigma * box_distance(&node.bounds, xo)).exp()
+                accept(box_distance(&node.bounds, xo))
             } else {
                 1.0
             };
@@ -565,7 +634,7 @@ impl SubsurfacePass {
                 if q >= 1.0 {
                     for pt in &c.points[start..end] {
                         let p = if c.rejection_control {
-                            (-sigma * pt.p.distance(xo)).exp()
+                            accept(pt.p.distance(xo))
                         } else {
                             1.0
                         };
@@ -584,7 +653,7 @@ impl SubsurfacePass {
                         }
                         j += skip as usize;
                         let pt = &c.points[j];
-                        let p = (-sigma * pt.p.distance(xo)).exp();
+                        let p = accept(pt.p.distance(xo));
                         if p > 0.0 && rng.next_f32() * q < p {
                             eval(pt, p, &mut st);
                         }
@@ -622,28 +691,42 @@ impl SubsurfacePass {
     }
 }
 
-fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBDA], f32) {
+/// The lanes' models, the smallest σ_tr and the smallest σ'_t over the lanes (m⁻¹).
+fn lane_models(t: &Translucent, wl: &SampledWavelengths) -> ([LaneModel; N_LAMBDA], f32, f32) {
     let mut lanes = [LaneModel::Black; N_LAMBDA];
     let mut smin = f32::INFINITY;
+    let mut spt_min = f32::INFINITY;
     for (k, lane) in lanes.iter_mut().enumerate() {
         let p = t.properties(wl.lambda_nm[k]);
         let m = match t.model {
             DipoleModel::Standard => StandardDipole::new(&p).map(LaneModel::Standard),
             DipoleModel::Directional => DirectionalDipole::new(&p).map(LaneModel::Directional),
+            DipoleModel::DirectionalCorrected => {
+                DirectionalLineDipole::new(&p).map(LaneModel::DirectionalLine)
+            }
         };
         if let Ok(m) = m {
             let (ap, str_) = match &m {
                 LaneModel::Standard(d) => (d.props.alpha_prime, d.props.sigma_tr_per_m),
                 LaneModel::Directional(d) => (d.props.alpha_prime, d.props.sigma_tr_per_m),
+                LaneModel::DirectionalLine(d) => {
+                    (d.base.props.alpha_prime, d.base.props.sigma_tr_per_m)
+                }
                 LaneModel::Black => (0.0, f64::INFINITY),
             };
             if ap > 0.0 && str_.is_finite() {
                 *lane = m;
                 smin = smin.min(str_ as f32);
+                let spt = p.sigma_s_per_m * (1.0 - p.g) + p.sigma_a_per_m;
+                spt_min = spt_min.min(spt as f32);
             }
         }
     }
-    (lanes, if smin.is_finite() { smin } else { 0.0 })
+    (
+        lanes,
+        if smin.is_finite() { smin } else { 0.0 },
+        spt_min,
+    )
 }
 
 /// Mean cosine of a medium's phase function at `lambda_nm`.
@@ -651,7 +734,11 @@ fn phase_g(phase: &crate::medium::PhaseModel, lambda_nm: f32) -> f64 {
     use crate::medium::PhaseModel;
     match phase {
         PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm) as f64,
-        PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
+        PhaseModel::Tabulated {
+            lambda_nm: ls,
+            tables,
+            ..
+        } => {
             if tables.is_empty() {
                 return 0.0;
             }
@@ -693,7 +780,7 @@ fn build_cloud(
     pass: u64,
 ) -> ObjectCloud {
     let t = &effective_material(scene, t, object);
-    let (lanes, sigma_tr_min) = lane_models(t, wl);
+    let (lanes, sigma_tr_min, spt_min) = lane_models(t, wl);
     let shape = scene.accel.shape(object as u32);
     let sampler = SurfaceSampler::new(shape);
     let m = t.points_per_pass;
@@ -704,7 +791,11 @@ fn build_cloud(
         (0..m)
             .into_par_iter()
             .map(|i| {
-                let mut rng = Pcg32::for_pixel(seed ^ 0xc10d_0000_0000_0000 ^ (object as u64) << 32, pass, i as u64);
+                let mut rng = Pcg32::for_pixel(
+                    seed ^ 0xc10d_0000_0000_0000 ^ (object as u64) << 32,
+                    pass,
+                    i as u64,
+                );
                 let (p, n) = sampler.sample(&mut rng);
                 let d_local = cosine_hemisphere(rng.next_2d());
                 let wi = Frame::from_normal(n).to_world(d_local).normalize();
@@ -747,6 +838,11 @@ fn build_cloud(
         lanes,
         eta: t.eta,
         sigma_tr_min,
+        rc_radius_m: if t.rejection_radius_mfp > 0.0 {
+            t.rejection_radius_mfp / spt_min
+        } else {
+            f32::INFINITY
+        },
         rejection_control: t.rejection_control,
         m,
         points,
@@ -775,8 +871,19 @@ fn sample_light_at(
         return None;
     }
     let eps = scene.ray_epsilon_m;
-    let t_max = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) - 2.0 * eps } else { f32::INFINITY };
-    if t_max > 0.0 && scene.accel.occluded(&Ray { o: p + n * eps, d: ls.wi, t_min: 0.0, t_max }) {
+    let t_max = if ls.dist.is_finite() {
+        ls.dist * (1.0 - 1e-4) - 2.0 * eps
+    } else {
+        f32::INFINITY
+    };
+    if t_max > 0.0
+        && scene.accel.occluded(&Ray {
+            o: p + n * eps,
+            d: ls.wi,
+            t_min: 0.0,
+            t_max,
+        })
+    {
         return None;
     }
     let light_pdf = pmf * ls.pdf;
@@ -786,7 +893,12 @@ fn sample_light_at(
         crate::sampling::power_heuristic(1.0, light_pdf, 1.0, cos * std::f32::consts::FRAC_1_PI)
     };
     let lt = ls.li * (fresnel_t(cos, eta) * cos * w / light_pdf * area);
-    lt.is_finite().then_some(CloudPoint { p, n, wi: ls.wi, lt })
+    lt.is_finite().then_some(CloudPoint {
+        p,
+        n,
+        wi: ls.wi,
+        lt,
+    })
 }
 
 /// kd-tree over the points (median split on the longest axis); reorders `points` so every node
@@ -803,7 +915,10 @@ fn build_tree(points: &mut [CloudPoint]) -> Vec<Node> {
     let mut todo = vec![0usize];
     while let Some(ni) = todo.pop() {
         let Node {
-            bounds: b, start, end, ..
+            bounds: b,
+            start,
+            end,
+            ..
         } = nodes[ni];
         let n = (end - start) as usize;
         if n <= LEAF_SIZE {

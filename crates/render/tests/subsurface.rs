@@ -142,9 +142,16 @@ fn with_forced_acceptance(scene: &mut Scene) {
 fn rejection_control_is_unbiased() {
     // For one cloud, the estimate with acceptance forced to 1 is deterministic; the mean of many
     // rejection-controlled estimates at the same point must agree with it within noise.
-    for model in ["standard", "directional"] {
+    // r0 = 8 and 1 transport mean free paths (≈ 10 and 1.2 mm here): the (r0/d)³ falloff
+    // acts on far points, or on most points.
+    for (model, r0) in [
+        ("standard", 8.0),
+        ("directional", 8.0),
+        ("directional-corrected", 8.0),
+        ("directional", 1.0),
+    ] {
         let sub = format!(
-            r#"{{ model = "{model}", sigma_s_per_mm = [1.2, 0.9, 0.6], sigma_a_per_mm = [0.02, 0.01, 0.05], g = 0.2, points_per_pass = 8192 }}"#
+            r#"{{ model = "{model}", sigma_s_per_mm = [1.2, 0.9, 0.6], sigma_a_per_mm = [0.02, 0.01, 0.05], g = 0.2, points_per_pass = 8192, rejection_radius_mfp = {r0} }}"#
         );
         let scene = slab_scene(&sub, 1.4);
         let mut forced = slab_scene(&sub, 1.4);
@@ -283,6 +290,13 @@ fn bad_translucent_input_is_rejected() {
             ),
             "colour",
         ),
+        (
+            base(
+                "type = \"translucent\"\nsubsurface = { preset = \"marble\", rejection_radius_mfp = -2 }",
+                sphere,
+            ),
+            "rejection_radius_mfp",
+        ),
         (base("type = \"translucent\"", sphere), "subsurface"),
         (
             base(
@@ -361,13 +375,17 @@ fn normal_incidence_matches_numerical_rd_for_both_dipoles() {
     // A directional light of irradiance E = 1 at normal incidence on the slab: the stored entries come
     // from light sampling only (a delta light), and L_d(x_o, +n) = T21(0) T12(0) E rd/π, with rd = π∫S_d dA
     // integrated numerically by optics::bssrdf (independent of the renderer's point cloud and tree).
-    use optics::bssrdf::{DirectionalDipole, StandardDipole};
+    use optics::bssrdf::{DirectionalDipole, DirectionalLineDipole, StandardDipole};
     let eta = 1.3;
     let props = OpticalProperties { eta, sigma_s_per_m: 1000.0, sigma_a_per_m: 10.0, g: 0.0 };
     let t = 1.0 - optics::fresnel::fresnel_dielectric(1.0, eta);
     for (model, rd) in [
         ("standard", StandardDipole::new(&props).unwrap().rd_numerical()),
         ("directional", DirectionalDipole::new(&props).unwrap().rd_numerical()),
+        (
+            "directional-corrected",
+            DirectionalLineDipole::new(&props).unwrap().rd_numerical(),
+        ),
     ] {
         let sub = format!(r#"{{ model = "{model}", sigma_s_per_mm = 1.0, sigma_a_per_mm = 0.01, points_per_pass = 65536 }}"#);
         let scene = slab_scene_lit(&sub, eta, "type = \"directional\"\ndirection = [0, -1, 0]\nirradiance = 1");
