@@ -54,8 +54,10 @@ use optics::spectrum::DenseSpectrum;
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// Default r0 of rejection control, in transport mean free paths ([`Translucent::rejection_radius_mfp`]).
-pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 3.0;
+/// Default r0 of rejection control, in transport mean free paths ([`Translucent::rejection_radius_mfp`]):
+/// 0, the tutorial's pure exponential acceptance e^{−σ_tr d}. Scenes may ask for a distance-adaptive
+/// acceptance (r0 > 0; 3 is what the example scenes use, about 10× faster at equal noise on the marble bunny).
+pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 0.0;
 
 /// Default number of cloud points per pass and translucent object.
 pub const DEFAULT_POINTS_PER_PASS: usize = 16384;

@@ -142,9 +142,11 @@ fn with_forced_acceptance(scene: &mut Scene) {
 fn rejection_control_is_unbiased() {
     // For one cloud, the estimate with acceptance forced to 1 is deterministic; the mean of many
     // rejection-controlled estimates at the same point must agree with it within noise.
-    // r0 = 8 and 1 transport mean free paths (≈ 10 and 1.2 mm here): the (r0/d)³ falloff
-    // acts on far points, or on most points.
+    // r0 = 0: the tutorial's pure exponential acceptance (the default); r0 = 8 and 1 transport
+    // mean free paths (≈ 10 and 1.2 mm here): the (r0/d)³ falloff acts on far points, or on most points.
     for (model, r0) in [
+        ("standard", 0.0),
+        ("directional-corrected", 0.0),
         ("standard", 8.0),
         ("directional", 8.0),
         ("directional-corrected", 8.0),
