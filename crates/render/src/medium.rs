@@ -51,14 +51,41 @@ pub struct SharedGrid {
     mu: Vec<f32>,
     /// `values[k * mu.len() + j]`: table k at node j (sr⁻¹).
     values: Vec<f32>,
+    /// `cdf[k * mu.len() + j]`: table k's probability of cos θ < mu[j] (0 at j = 0, 1 at the
+    /// last node), accumulated in f64 from the piecewise-linear values.
+    cdf: Vec<f32>,
+    /// `guide[k * GUIDE + c]`: the last segment j of table k with cdf[j] ≤ c/GUIDE (the search
+    /// for u ∈ [c/GUIDE, (c+1)/GUIDE) starts there).
+    guide: Vec<u32>,
 }
+
+/// Cells of the guide table for inverting a shared-grid CDF.
+const GUIDE: usize = 512;
 
 impl PhaseModel {
     /// Tabulated model; `grid_mu` is the cos θ grid all tables were built on, if they share one.
     pub fn tabulated(lambda_nm: Vec<f32>, tables: Vec<TabulatedPhase>, grid_mu: Option<&[f64]>) -> PhaseModel {
-        let grid = grid_mu.map(|mu| SharedGrid {
-            mu: mu.iter().map(|&m| m as f32).collect(),
-            values: tables.iter().flat_map(|t| mu.iter().map(move |&m| t.eval(m) as f32)).collect(),
+        let grid = grid_mu.map(|mu| {
+            let n = mu.len();
+            let values: Vec<f32> = tables.iter().flat_map(|t| mu.iter().map(move |&m| t.eval(m) as f32)).collect();
+            let mut cdf = Vec::with_capacity(values.len());
+            let mut guide = Vec::with_capacity(tables.len() * GUIDE);
+            for k in 0..tables.len() {
+                let v = &values[k * n..(k + 1) * n];
+                let mut acc = vec![0f64; n];
+                for j in 1..n {
+                    acc[j] = acc[j - 1] + 2.0 * std::f64::consts::PI * 0.5 * (v[j - 1] as f64 + v[j] as f64) * (mu[j] - mu[j - 1]);
+                }
+                let total = acc[n - 1];
+                let c: Vec<f32> = acc.iter().enumerate().map(|(j, a)| if j + 1 == n { 1.0 } else { (a / total) as f32 }).collect();
+                for cell in 0..GUIDE {
+                    let u = cell as f32 / GUIDE as f32;
+                    let j = c.partition_point(|&x| x <= u).saturating_sub(1).min(n - 2);
+                    guide.push(j as u32);
+                }
+                cdf.extend_from_slice(&c);
+            }
+            SharedGrid { mu: mu.iter().map(|&m| m as f32).collect(), values, cdf, guide }
         });
         PhaseModel::Tabulated { lambda_nm, tables, grid }
     }
@@ -77,6 +104,21 @@ pub struct HomogeneousMedium {
     pub phase: PhaseModel,
     /// σ_s = 0 at every wavelength: transmittance is applied deterministically (Beer–Lambert).
     pub pure_absorber: bool,
+}
+
+/// What a path needs of a medium at its carried wavelengths, computed once when it enters the
+/// medium (the wavelengths of a path never change): σ_s, σ_t and, per wavelength, the phase
+/// function's parameters (HG g, or the two tables it interpolates and the weight of the second).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MediumLanes {
+    /// Scattering coefficient σ_s per carried wavelength, m⁻¹.
+    pub sigma_s: SampledSpectrum,
+    /// Extinction coefficient σ_t per carried wavelength, m⁻¹.
+    pub sigma_t: SampledSpectrum,
+    /// HG: g per wavelength; tables: the interpolation weight t of table k+1.
+    phase_w: SampledSpectrum,
+    /// Tables: index k of the lower table per wavelength.
+    table: [u32; N_LAMBDA],
 }
 
 /// A direction sampled from a phase function.
@@ -116,6 +158,25 @@ impl HomogeneousMedium {
         }
         let pure_absorber = sigma_s_per_m.samples().iter().all(|&x| x == 0.0);
         Ok(HomogeneousMedium { name: name.to_string(), sigma_a_per_m, sigma_s_per_m, phase, pure_absorber })
+    }
+
+    /// σ_s, σ_t and the phase-function parameters at the carried wavelengths.
+    #[inline]
+    pub fn lanes(&self, wl: &SampledWavelengths) -> MediumLanes {
+        let (sigma_s, sigma_t) = self.coefficients(wl);
+        let mut w = [0f32; N_LAMBDA];
+        let mut table = [0u32; N_LAMBDA];
+        for i in 0..N_LAMBDA {
+            match &self.phase {
+                PhaseModel::HenyeyGreenstein { g } => w[i] = g.eval(wl.lambda_nm[i]),
+                PhaseModel::Tabulated { lambda_nm: ls, .. } => {
+                    let (k, t) = bracket(ls, wl.lambda_nm[i]);
+                    table[i] = k as u32;
+                    w[i] = t;
+                }
+            }
+        }
+        MediumLanes { sigma_s, sigma_t, phase_w: Vec4::from_array(w), table }
     }
 
     /// (σ_s, σ_t) in m⁻¹ at the carried wavelengths.
@@ -173,26 +234,96 @@ impl HomogeneousMedium {
     /// wavelength's phase function; `u` uniform in [0,1)² and `uc` uniform for the table choice.
     #[inline]
     pub fn phase_sample(&self, wl: &SampledWavelengths, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
-        let l0 = wl.lambda_nm[0];
-        let mu = match &self.phase {
-            PhaseModel::HenyeyGreenstein { g } => hg_sample(g.eval(l0), u.x),
-            PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
-                let (k, t) = bracket(ls, l0);
-                let k = if t > 0.0 && uc < t { k + 1 } else { k };
-                tables[k].sample_cos_theta(u.x as f64) as f32
+        self.phase_sample_lanes(&self.lanes(wl), d, uc, u)
+    }
+
+    /// [`Self::phase_sample`] with the medium's per-wavelength data already at hand. Tables on a
+    /// shared grid are inverted with a guide table and evaluated at all four wavelengths in the
+    /// segment the inversion found (no searches).
+    #[inline]
+    pub fn phase_sample_lanes(&self, lanes: &MediumLanes, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
+        let (mu, p) = match &self.phase {
+            PhaseModel::HenyeyGreenstein { .. } => {
+                let g = lanes.phase_w;
+                let mu = hg_sample(g.x, u.x).clamp(-1.0, 1.0);
+                let dd = Vec4::ONE + g * g - 2.0 * g * mu;
+                let p = (Vec4::ONE - g * g) / (4.0 * PI * dd * dd.max(Vec4::splat(1e-12)).powf(0.5));
+                (mu, p)
+            }
+            PhaseModel::Tabulated { grid: Some(gr), .. } => {
+                let n = gr.mu.len();
+                let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
+                let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
+                let cdf = &gr.cdf[kk * n..(kk + 1) * n];
+                let x = u.x.clamp(0.0, 1.0);
+                let mut j = gr.guide[kk * GUIDE + ((x * GUIDE as f32) as usize).min(GUIDE - 1)] as usize;
+                while j + 2 < n && cdf[j + 1] <= x {
+                    j += 1;
+                }
+                let vk = &gr.values[kk * n..(kk + 1) * n];
+                let h = gr.mu[j + 1] - gr.mu[j];
+                // Density in the segment q(s) ∝ a + (b − a) s, s ∈ [0, 1], scaled to mean 1 over the segment; `target` is the fraction of the segment's
+                // probability below the sample (exactly consistent with the CDF).
+                let (a, b) = (vk[j], vk[j + 1]);
+                let mass = cdf[j + 1] - cdf[j];
+                let s = if !(a + b > 0.0) || !(mass > 0.0) {
+                    0.5
+                } else if (b - a).abs() <= 1e-6 * (a + b) {
+                    ((x - cdf[j]) / mass).clamp(0.0, 1.0)
+                } else {
+                    let (a, b) = (2.0 * a / (a + b), 2.0 * b / (a + b));
+                    let target = ((x - cdf[j]) / mass).clamp(0.0, 1.0);
+                    let disc = (a * a + 2.0 * (b - a) * target).max(0.0);
+                    2.0 * target / (a + disc.sqrt())
+                }
+                .clamp(0.0, 1.0);
+                let mu = (gr.mu[j] + s * h).clamp(-1.0, 1.0);
+                let at = |k: usize| {
+                    let v = &gr.values[k * n + j..k * n + j + 2];
+                    v[0] + s * (v[1] - v[0])
+                };
+                let mut out = [0f32; N_LAMBDA];
+                for (i, o) in out.iter_mut().enumerate() {
+                    let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
+                    *o = if t > 0.0 { at(k) * (1.0 - t) + t * at(k + 1) } else { at(k) };
+                }
+                (mu, Vec4::from_array(out))
+            }
+            PhaseModel::Tabulated { lambda_nm: ls, tables, grid: None } => {
+                let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
+                let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
+                let mu = (tables[kk].sample_cos_theta(u.x as f64) as f32).clamp(-1.0, 1.0);
+                let mut out = [0f32; N_LAMBDA];
+                for (i, o) in out.iter_mut().enumerate() {
+                    let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
+                    let a = tables[k].eval(mu as f64) as f32;
+                    *o = if t > 0.0 && k + 1 < ls.len() { a * (1.0 - t) + t * tables[k + 1].eval(mu as f64) as f32 } else { a };
+                }
+                (mu, Vec4::from_array(out))
             }
         };
-        let mu = mu.clamp(-1.0, 1.0);
         let sin = (1.0 - mu * mu).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
+        let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+        let local = Vec3::new(sin * cp, sin * sp, mu);
         let wi = Frame::from_normal(d).to_world(local).normalize();
-        let p = self.phase_eval(wl, mu);
         let pdf = p.x;
         if !(pdf > 0.0) {
             return None;
         }
         Some(PhaseSample { wi, weight: p / pdf, pdf })
+    }
+
+    /// The similarity-relation equivalent of this medium (an APPROXIMATION, opt-in with
+    /// `similarity = true`): isotropic scattering with the reduced scattering coefficient
+    /// σ_s′(λ) = σ_s(λ)(1 − g(λ)) and the same σ_a. It has the same diffusion-theory transport
+    /// (same σ_tr, same albedo′ and D) as the original, so it agrees deep inside a thick,
+    /// high-albedo medium after many scatterings, but not near boundaries or in thin or
+    /// low-albedo media, nor in single-scattering angular detail; it needs about 1/(1 − g) times
+    /// fewer scattering events (≈ 10× for milk).
+    pub fn similarity(&self) -> Result<HomogeneousMedium> {
+        let sigma_s = DenseSpectrum::from_fn(|l| (self.sigma_s_per_m.eval(l as f32) * (1.0 - self.g_at(l as f32))).max(0.0) as f64);
+        let g = DenseSpectrum::from_fn(|_| 0.0);
+        HomogeneousMedium::new(&format!("{} (similarity relation)", self.name), self.sigma_a_per_m.clone(), sigma_s, PhaseModel::HenyeyGreenstein { g })
     }
 
     /// Mean cosine of the phase function at `lambda_nm` (for documentation and tests).

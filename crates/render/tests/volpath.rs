@@ -8,7 +8,7 @@ use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
 use render::sampling::Pcg32;
 use render::scene::Scene;
 use render::spectral::SampledWavelengths;
-use render::volpath::li_volpath;
+use render::volpath::{li_volpath, li_volpath_with, VolpathOptions};
 use std::path::Path;
 
 fn scene(text: &str) -> Scene {
@@ -156,6 +156,109 @@ fn spectral_free_flights_unbiased_against_single_wavelength() {
     }
     // The two media really differ (the test has power).
     assert!((m1[0] - m100[0]).abs() > 10.0 * (se1[0] + se100[0]), "{} vs {}", m1[0], m100[0]);
+}
+
+/// Mean radiance and standard error per wavelength of `lambdas` over `n` random camera rays
+/// through the 8×8 image of `s`; with `rotate` each path's hero is a random one of the four
+/// (so every wavelength is the hero in a quarter of the paths, as in rendering).
+fn lane_means(s: &Scene, opts: &VolpathOptions, lambdas: [f32; 4], rotate: bool, n: usize, seed: u64) -> ([f64; 4], [f64; 4]) {
+    let settings = volpath(100_000);
+    let mut rng = Pcg32::new(seed, 7);
+    let (mut sum, mut sum2) = ([0f64; 4], [0f64; 4]);
+    for _ in 0..n {
+        let k = if rotate { (rng.next_u32() % 4) as usize } else { 0 };
+        let rot: [f32; 4] = std::array::from_fn(|i| lambdas[(i + k) % 4]);
+        let mut wl = SampledWavelengths::fixed(rot);
+        let (i, j) = (rng.next_u32() % 8, rng.next_u32() % 8);
+        let ray = s.camera.generate_ray(i, j, rng.next_2d());
+        let l: Vec4 = li_volpath_with(s, &settings, opts, ray, &mut wl, &mut rng);
+        for lane in 0..4 {
+            let orig = (lane + k) % 4;
+            let v = l[lane] as f64;
+            sum[orig] += v;
+            sum2[orig] += v * v;
+        }
+    }
+    let nf = n as f64;
+    let m: [f64; 4] = std::array::from_fn(|i| sum[i] / nf);
+    let se: [f64; 4] = std::array::from_fn(|i| ((sum2[i] / nf - m[i] * m[i]).max(0.0) / nf).sqrt());
+    (m, se)
+}
+
+/// A phase function that differs strongly between the carried wavelengths (HG g = 0.9 below
+/// 550 nm, g = −0.3 above) in a dense, slightly absorbing sphere: every lane must match a render
+/// in which all four wavelengths have that lane's g (no spectral MIS at work), and its standard
+/// error must stay small — the phase-function ratios are part of the spectral-MIS densities, so no
+/// lane carries a product of dozens of ratios p_j(μ)/p₀(μ).
+#[test]
+fn chromatic_phase_function_unbiased_and_bounded() {
+    use optics::spectrum::DenseSpectrum;
+    use render::medium::{HomogeneousMedium, PhaseModel};
+    let base = r#"{ sigma_a_per_mm = 0.3, sigma_s_per_mm = 12, g = 0 }"#;
+    let with_g = |g: Box<dyn Fn(f64) -> f64>| -> Scene {
+        let mut s = scene(&sphere_scene(r#"type = "interface""#, base, 8));
+        let m = &s.media[0];
+        s.media[0] = HomogeneousMedium::new("m", m.sigma_a_per_m.clone(), m.sigma_s_per_m.clone(), PhaseModel::HenyeyGreenstein { g: DenseSpectrum::from_fn(g) }).unwrap();
+        s
+    };
+    let mixed = with_g(Box::new(|l| if l < 550.0 { 0.9 } else { -0.3 }));
+    let fwd = with_g(Box::new(|_| 0.9));
+    let back = with_g(Box::new(|_| -0.3));
+    let opts = VolpathOptions::default();
+    let lambdas = [450.0f32, 500.0, 600.0, 650.0];
+    let (m, se) = lane_means(&mixed, &opts, lambdas, true, 30_000, 21);
+    let (mf, sef) = lane_means(&fwd, &opts, [500.0; 4], false, 15_000, 22);
+    let (mb, seb) = lane_means(&back, &opts, [600.0; 4], false, 15_000, 23);
+    eprintln!("chromatic phase: {m:?} ± {se:?}; g 0.9: {} ± {}; g −0.3: {} ± {}", mf[0], sef[0], mb[0], seb[0]);
+    for i in 0..4 {
+        let (r, rse) = if i < 2 { (mf[0], sef[0]) } else { (mb[0], seb[0]) };
+        let tol = 4.0 * (se[i] * se[i] + rse * rse).sqrt();
+        assert!((m[i] - r).abs() < tol, "lane {i} ({} nm): {} ± {} vs single-g {r} ± {rse}", lambdas[i], m[i], se[i]);
+        assert!(se[i] < 2.0 * (if i < 2 { sef[0] } else { seb[0] }) * 2f64.sqrt(), "lane {i}: standard error {} vs single-g {}", se[i], rse);
+    }
+    // The two phase functions give clearly different radiance (the test has power).
+    assert!((mf[0] - mb[0]).abs() > 10.0 * (sef[0] + seb[0]), "{} vs {}", mf[0], mb[0]);
+}
+
+/// The event-count roulette (survive with probability ½ after 256, 1024, … real collisions, weight
+/// ×2) is unbiased: a dense, high-albedo sphere (σ_s = 40 /mm, g = 0.5, albedo 0.998; hundreds of
+/// collisions per path) rendered with the roulette starting after 4 collisions (so that most
+/// paths play it several times) agrees with the render without it.
+#[test]
+fn event_count_roulette_unbiased() {
+    let s = scene(&sphere_scene(r#"type = "dielectric"
+ior = 1.33"#, r#"{ sigma_a_per_mm = 0.08, sigma_s_per_mm = 40, g = 0.5 }"#, 8));
+    let lambdas = [450.0f32, 520.0, 600.0, 680.0];
+    let (m0, se0) = lane_means(&s, &VolpathOptions { event_rr_start: u32::MAX }, lambdas, true, 8_000, 31);
+    let (m1, se1) = lane_means(&s, &VolpathOptions { event_rr_start: 4 }, lambdas, true, 16_000, 32);
+    // Mean over the four wavelengths; the lanes of one path are correlated (identical here, the
+    // medium is grey), so the standard error of their mean is bounded by the mean of theirs.
+    let (a, sa) = (m0.iter().sum::<f64>() / 4.0, se0.iter().sum::<f64>() / 4.0);
+    let (b, sb) = (m1.iter().sum::<f64>() / 4.0, se1.iter().sum::<f64>() / 4.0);
+    eprintln!("event roulette: without {a} ± {sa}, from 4 collisions {b} ± {sb}");
+    assert!((a - b).abs() < 4.0 * (sa * sa + sb * sb).sqrt(), "without {a} ± {sa} vs with {b} ± {sb}");
+    // Absorption visibly darkens the sphere (radiance 1 without it): the collisions matter.
+    assert!(1.0 - a > 10.0 * sa, "{a} ± {sa}");
+}
+
+/// `similarity = true` replaces a medium by isotropic scattering with σ_s(1 − g); a non-boolean
+/// value is an error naming the field.
+#[test]
+fn similarity_option_reduces_the_medium() {
+    let s = scene(&sphere_scene(r#"type = "interface""#, r#"{ sigma_a_per_mm = 0.1, sigma_s_per_mm = 20, g = 0.8, similarity = true }"#, 4));
+    let m = &s.media[0];
+    for l in [450.0f32, 650.0] {
+        assert!((m.sigma_s_per_m.eval(l) - 20.0 * 0.2 * 1000.0).abs() < 1e-2, "{}", m.sigma_s_per_m.eval(l));
+        assert!((m.sigma_a_per_m.eval(l) - 100.0).abs() < 1e-3);
+        assert_eq!(m.g_at(l), 0.0);
+    }
+    let milk = scene(&sphere_scene(r#"type = "interface""#, r#"{ milk = { fat_percent = 3.5 }, similarity = true }"#, 4));
+    let exact = scene(&sphere_scene(r#"type = "interface""#, r#"{ milk = { fat_percent = 3.5 } }"#, 4));
+    let (a, b) = (&milk.media[0], &exact.media[0]);
+    let reduced = b.sigma_s_per_m.eval(550.0) * (1.0 - b.g_at(550.0));
+    assert!((a.sigma_s_per_m.eval(550.0) / reduced - 1.0).abs() < 1e-5 && a.g_at(550.0) == 0.0);
+    let e = scene_err(&sphere_scene(r#"type = "interface""#, r#"{ sigma_a_per_mm = 0.1, sigma_s_per_mm = 20, similarity = 1 }"#, 4));
+    assert!(e.contains("similarity") && e.contains("true or false"), "{e}");
 }
 
 /// Against the layered-slab Monte Carlo (`render::slab`, MCML-style, independent code): a thick
@@ -395,3 +498,4 @@ medium = { preset = "Regular Milk" }
     let g = m.g_at(550.0) as f64;
     assert!((g - mm.g[1]).abs() < 0.1, "{g} vs {:?}", mm.g);
 }
+
