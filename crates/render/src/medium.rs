@@ -440,6 +440,159 @@ pub fn from_bulk(name: &str, b: &optics::media::BulkProperties, use_table: bool)
 }
 
 
+/// A lower bound on the distance from a point to the nearest surface of the scene, on a grid over
+/// a medium's bounding box: inside it, a free flight shorter than the bound cannot reach a surface,
+/// so `volpath` skips the ray cast (exactly: the result is the same, only cheaper).
+///
+/// Cells (size h) that any surface may touch are marked: every cell overlapping a triangle's
+/// bounding box, and every cell whose centre lies within √3·h/2 of a sphere's surface. An exact
+/// Euclidean distance transform (Felzenszwalb & Huttenlocher 2012) gives, per cell, the distance
+/// d to the nearest marked cell centre; a point of the cell is then at least (d − √3)·h from any
+/// surface point inside the grid, and at least its distance to the grid's faces from any surface
+/// outside it.
+#[derive(Clone, Debug)]
+pub struct FreeFlightGrid {
+    min: Vec3,
+    max: Vec3,
+    cell_m: f32,
+    n: [usize; 3],
+    /// Per cell (x fastest), the bound in m (≤ 0: no guarantee).
+    bound_m: Vec<f32>,
+}
+
+impl FreeFlightGrid {
+    /// The grid for the region `region` (m), about `cells` cells along its longest side, with the
+    /// scene's shapes.
+    pub fn build(region: &crate::geometry::Aabb, shapes: &[crate::bvh::Shape], cells: usize) -> FreeFlightGrid {
+        let ext = region.max - region.min;
+        let h = (ext.max_element() / cells.max(1) as f32).max(1e-9);
+        let min = region.min - Vec3::splat(2.0 * h);
+        let n = [0, 1, 2].map(|a| (((ext[a] + 4.0 * h) / h).ceil() as usize).max(1));
+        let max = min + Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * h;
+        let idx = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
+        let mut marked = vec![false; n[0] * n[1] * n[2]];
+        let cell_range = |lo: Vec3, hi: Vec3| -> Option<[std::ops::Range<usize>; 3]> {
+            let mut r: [std::ops::Range<usize>; 3] = [0..0, 0..0, 0..0];
+            for a in 0..3 {
+                if !(hi[a] >= min[a] && lo[a] <= max[a]) {
+                    return None;
+                }
+                let a0 = (((lo[a] - min[a]) / h).floor().max(0.0) as usize).min(n[a] - 1);
+                let a1 = (((hi[a] - min[a]) / h).floor().max(0.0) as usize).min(n[a] - 1);
+                r[a] = a0..a1 + 1;
+            }
+            Some(r)
+        };
+        for shape in shapes {
+            match shape {
+                crate::bvh::Shape::Mesh(m) => {
+                    for t in &m.indices {
+                        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                        // A margin of 1e-3 h keeps triangles on a cell face marked on both sides.
+                        let e = Vec3::splat(1e-3 * h);
+                        let Some([ri, rj, rk]) = cell_range(a.min(b).min(c) - e, a.max(b).max(c) + e) else { continue };
+                        for k in rk {
+                            for j in rj.clone() {
+                                for i in ri.clone() {
+                                    marked[idx(i, j, k)] = true;
+                                }
+                            }
+                        }
+                    }
+                }
+                crate::bvh::Shape::Sphere(sp) => {
+                    let r = Vec3::splat(sp.radius + h);
+                    let Some([ri, rj, rk]) = cell_range(sp.center - r, sp.center + r) else { continue };
+                    for k in rk {
+                        for j in rj.clone() {
+                            for i in ri.clone() {
+                                let c = min + (Vec3::new(i as f32, j as f32, k as f32) + Vec3::splat(0.5)) * h;
+                                if ((c - sp.center).length() - sp.radius).abs() <= 0.87 * h {
+                                    marked[idx(i, j, k)] = true;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Squared distance (in cells) to the nearest marked cell centre, one axis at a time.
+        let big = 1e20f32;
+        let mut d2: Vec<f32> = marked.iter().map(|&m| if m { 0.0 } else { big }).collect();
+        let mut line = Vec::new();
+        let mut out = Vec::new();
+        for axis in 0..3 {
+            let (len, o1, o2) = match axis {
+                0 => (n[0], n[1], n[2]),
+                1 => (n[1], n[0], n[2]),
+                _ => (n[2], n[0], n[1]),
+            };
+            for u in 0..o1 {
+                for v in 0..o2 {
+                    let at = |t: usize| match axis {
+                        0 => idx(t, u, v),
+                        1 => idx(u, t, v),
+                        _ => idx(u, v, t),
+                    };
+                    line.clear();
+                    line.extend((0..len).map(|t| d2[at(t)]));
+                    edt_1d(&line, &mut out);
+                    for t in 0..len {
+                        d2[at(t)] = out[t];
+                    }
+                }
+            }
+        }
+        let bound_m = d2.iter().map(|&q| if q >= big * 0.5 { f32::INFINITY } else { (q.sqrt() - 1.7321) * h }).collect();
+        FreeFlightGrid { min, max, cell_m: h, n, bound_m }
+    }
+
+    /// A distance (m) within which no surface lies around `p` (0 when unknown).
+    #[inline]
+    pub fn free_distance(&self, p: Vec3) -> f32 {
+        let to_faces = (p - self.min).min(self.max - p).min_element();
+        if !(to_faces > 0.0) {
+            return 0.0;
+        }
+        let c = (p - self.min) / self.cell_m;
+        let (i, j, k) = ((c.x as usize).min(self.n[0] - 1), (c.y as usize).min(self.n[1] - 1), (c.z as usize).min(self.n[2] - 1));
+        self.bound_m[(k * self.n[1] + j) * self.n[0] + i].min(to_faces).max(0.0)
+    }
+}
+
+/// Exact 1-D squared-distance transform of `f` (0 at marked cells, huge elsewhere):
+/// out[q] = min_p (q − p)² + f[p] (lower envelope of parabolas).
+fn edt_1d(f: &[f32], out: &mut Vec<f32>) {
+    let n = f.len();
+    out.clear();
+    out.resize(n, 0.0);
+    let mut v = vec![0usize; n];
+    let mut z = vec![0f32; n + 1];
+    let mut k = 0usize;
+    z[0] = f32::NEG_INFINITY;
+    z[1] = f32::INFINITY;
+    let cross = |q: usize, p: usize| ((f[q] + (q * q) as f32) - (f[p] + (p * p) as f32)) / (2.0 * (q as f32 - p as f32));
+    for q in 1..n {
+        let mut s = cross(q, v[k]);
+        while k > 0 && s <= z[k] {
+            k -= 1;
+            s = cross(q, v[k]);
+        }
+        k += 1;
+        v[k] = q;
+        z[k] = s;
+        z[k + 1] = f32::INFINITY;
+    }
+    k = 0;
+    for (q, o) in out.iter_mut().enumerate() {
+        while z[k + 1] < q as f32 {
+            k += 1;
+        }
+        let d = q as f32 - v[k] as f32;
+        *o = d * d + f[v[k]];
+    }
+}
+
 /// Signed volume (m³, positive when the triangles' normals point outwards) of a closed
 /// triangle mesh. Vertices are welded by exact position; every edge must be shared by exactly two
 /// triangles traversing it in opposite directions (closed and consistently oriented), else the

@@ -62,6 +62,9 @@ pub struct Scene {
     pub environment: Option<u32>,
     /// Homogeneous participating media (object interiors and the global medium).
     pub media: Vec<crate::medium::HomogeneousMedium>,
+    /// Per medium, the free-flight distance bounds over its bounding objects (`volpath` skips ray
+    /// casts for collisions closer than them); `None` for the global medium and pure absorbers.
+    pub medium_grids: Vec<Option<crate::medium::FreeFlightGrid>>,
     /// Index into `media` of the medium filling space outside every medium-bounding object
     /// (the camera's medium), if any.
     pub global_medium: Option<u32>,
@@ -1133,7 +1136,27 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         acc
     }).collect();
 
+    let medium_grids = (0..media.len())
+        .map(|m| {
+            if media[m].pure_absorber {
+                return None;
+            }
+            let mut region: Option<crate::geometry::Aabb> = None;
+            for (o, info) in objects.iter().enumerate() {
+                if info.interior_medium == Some(m as u32) {
+                    let b = accel.shape(o as u32).bounds();
+                    region = Some(match region {
+                        None => b,
+                        Some(r) => crate::geometry::Aabb { min: r.min.min(b.min), max: r.max.max(b.max) },
+                    });
+                }
+            }
+            region.map(|r| crate::medium::FreeFlightGrid::build(&r, accel.shapes(), 64))
+        })
+        .collect();
+
     Ok(Scene {
+        medium_grids,
         camera,
         accel,
         objects,

@@ -34,9 +34,13 @@
 //! cost most of the time (whole milk: 10 % of the paths, those with more than 2000 collisions,
 //! took ~80 % of the collisions and brought ~5 % of the light). After `EVENT_RR_START` real
 //! collisions, and again after 4×, 16×, … as many, a path survives with probability ½ and its
-//! throughput is doubled (unbiased; survivors of k rounds carry 2^k ≈ √(events/start), the
+//! throughput is doubled (unbiased; survivors of k rounds carry 2^k, growing as √events, the
 //! weight that balances a roughly constant expected contribution against a cost growing with the
 //! events, as in efficiency-aware roulette).
+//!
+//! Free flights that end closer to their origin than the medium's free-distance bound
+//! (`Scene::medium_grids`, a conservative distance-to-any-surface grid over the medium's bounding
+//! objects) skip the ray cast: no surface can lie in between, so the result is bit-for-bit the same.
 //!
 //! Media that do not scatter at any wavelength (pure absorbers) are not sampled at all: the
 //! Beer–Lambert transmittance e^{−σ_a t} multiplies the throughput deterministically.
@@ -74,11 +78,14 @@ pub const EVENT_RR_START: u32 = 256;
 pub struct VolpathOptions {
     /// Real collisions at which the event-count roulette starts (`u32::MAX`: never).
     pub event_rr_start: u32,
+    /// Skip the ray cast of a free flight that ends within the medium's free-distance bound
+    /// ([`crate::medium::FreeFlightGrid`]; same result, less time).
+    pub free_flight_grid: bool,
 }
 
 impl Default for VolpathOptions {
     fn default() -> Self {
-        VolpathOptions { event_rr_start: EVENT_RR_START }
+        VolpathOptions { event_rr_start: EVENT_RR_START, free_flight_grid: true }
     }
 }
 
@@ -265,7 +272,12 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             }
         }
         ray.t_max = t_coll;
-        let hit = scene.accel.intersect(&ray);
+        // No surface within the free-distance bound around the origin: the collision is real
+        // without a ray cast.
+        let surely_inside = t_coll.is_finite()
+            && options.free_flight_grid
+            && medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m);
+        let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
                 // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u).
