@@ -51,14 +51,41 @@ pub struct SharedGrid {
     mu: Vec<f32>,
     /// `values[k * mu.len() + j]`: table k at node j (sr⁻¹).
     values: Vec<f32>,
+    /// `cdf[k * mu.len() + j]`: table k's probability of cos θ < mu[j] (0 at j = 0, 1 at the
+    /// last node), accumulated in f64 from the piecewise-linear values.
+    cdf: Vec<f32>,
+    /// `guide[k * GUIDE + c]`: the last segment j of table k with cdf[j] ≤ c/GUIDE (the search
+    /// for u ∈ [c/GUIDE, (c+1)/GUIDE) starts there).
+    guide: Vec<u32>,
 }
+
+/// Cells of the guide table for inverting a shared-grid CDF.
+const GUIDE: usize = 512;
 
 impl PhaseModel {
     /// Tabulated model; `grid_mu` is the cos θ grid all tables were built on, if they share one.
     pub fn tabulated(lambda_nm: Vec<f32>, tables: Vec<TabulatedPhase>, grid_mu: Option<&[f64]>) -> PhaseModel {
-        let grid = grid_mu.map(|mu| SharedGrid {
-            mu: mu.iter().map(|&m| m as f32).collect(),
-            values: tables.iter().flat_map(|t| mu.iter().map(move |&m| t.eval(m) as f32)).collect(),
+        let grid = grid_mu.map(|mu| {
+            let n = mu.len();
+            let values: Vec<f32> = tables.iter().flat_map(|t| mu.iter().map(move |&m| t.eval(m) as f32)).collect();
+            let mut cdf = Vec::with_capacity(values.len());
+            let mut guide = Vec::with_capacity(tables.len() * GUIDE);
+            for k in 0..tables.len() {
+                let v = &values[k * n..(k + 1) * n];
+                let mut acc = vec![0f64; n];
+                for j in 1..n {
+                    acc[j] = acc[j - 1] + 2.0 * std::f64::consts::PI * 0.5 * (v[j - 1] as f64 + v[j] as f64) * (mu[j] - mu[j - 1]);
+                }
+                let total = acc[n - 1];
+                let c: Vec<f32> = acc.iter().enumerate().map(|(j, a)| if j + 1 == n { 1.0 } else { (a / total) as f32 }).collect();
+                for cell in 0..GUIDE {
+                    let u = cell as f32 / GUIDE as f32;
+                    let j = c.partition_point(|&x| x <= u).saturating_sub(1).min(n - 2);
+                    guide.push(j as u32);
+                }
+                cdf.extend_from_slice(&c);
+            }
+            SharedGrid { mu: mu.iter().map(|&m| m as f32).collect(), values, cdf, guide }
         });
         PhaseModel::Tabulated { lambda_nm, tables, grid }
     }
@@ -77,6 +104,21 @@ pub struct HomogeneousMedium {
     pub phase: PhaseModel,
     /// σ_s = 0 at every wavelength: transmittance is applied deterministically (Beer–Lambert).
     pub pure_absorber: bool,
+}
+
+/// What a path needs of a medium at its carried wavelengths, computed once when it enters the
+/// medium (the wavelengths of a path never change): σ_s, σ_t and, per wavelength, the phase
+/// function's parameters (HG g, or the two tables it interpolates and the weight of the second).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MediumLanes {
+    /// Scattering coefficient σ_s per carried wavelength, m⁻¹.
+    pub sigma_s: SampledSpectrum,
+    /// Extinction coefficient σ_t per carried wavelength, m⁻¹.
+    pub sigma_t: SampledSpectrum,
+    /// HG: g per wavelength; tables: the interpolation weight t of table k+1.
+    phase_w: SampledSpectrum,
+    /// Tables: index k of the lower table per wavelength.
+    table: [u32; N_LAMBDA],
 }
 
 /// A direction sampled from a phase function.
@@ -116,6 +158,25 @@ impl HomogeneousMedium {
         }
         let pure_absorber = sigma_s_per_m.samples().iter().all(|&x| x == 0.0);
         Ok(HomogeneousMedium { name: name.to_string(), sigma_a_per_m, sigma_s_per_m, phase, pure_absorber })
+    }
+
+    /// σ_s, σ_t and the phase-function parameters at the carried wavelengths.
+    #[inline]
+    pub fn lanes(&self, wl: &SampledWavelengths) -> MediumLanes {
+        let (sigma_s, sigma_t) = self.coefficients(wl);
+        let mut w = [0f32; N_LAMBDA];
+        let mut table = [0u32; N_LAMBDA];
+        for i in 0..N_LAMBDA {
+            match &self.phase {
+                PhaseModel::HenyeyGreenstein { g } => w[i] = g.eval(wl.lambda_nm[i]),
+                PhaseModel::Tabulated { lambda_nm: ls, .. } => {
+                    let (k, t) = bracket(ls, wl.lambda_nm[i]);
+                    table[i] = k as u32;
+                    w[i] = t;
+                }
+            }
+        }
+        MediumLanes { sigma_s, sigma_t, phase_w: Vec4::from_array(w), table }
     }
 
     /// (σ_s, σ_t) in m⁻¹ at the carried wavelengths.
@@ -173,26 +234,96 @@ impl HomogeneousMedium {
     /// wavelength's phase function; `u` uniform in [0,1)² and `uc` uniform for the table choice.
     #[inline]
     pub fn phase_sample(&self, wl: &SampledWavelengths, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
-        let l0 = wl.lambda_nm[0];
-        let mu = match &self.phase {
-            PhaseModel::HenyeyGreenstein { g } => hg_sample(g.eval(l0), u.x),
-            PhaseModel::Tabulated { lambda_nm: ls, tables, .. } => {
-                let (k, t) = bracket(ls, l0);
-                let k = if t > 0.0 && uc < t { k + 1 } else { k };
-                tables[k].sample_cos_theta(u.x as f64) as f32
+        self.phase_sample_lanes(&self.lanes(wl), d, uc, u)
+    }
+
+    /// [`Self::phase_sample`] with the medium's per-wavelength data already at hand. Tables on a
+    /// shared grid are inverted with a guide table and evaluated at all four wavelengths in the
+    /// segment the inversion found (no searches).
+    #[inline]
+    pub fn phase_sample_lanes(&self, lanes: &MediumLanes, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
+        let (mu, p) = match &self.phase {
+            PhaseModel::HenyeyGreenstein { .. } => {
+                let g = lanes.phase_w;
+                let mu = hg_sample(g.x, u.x).clamp(-1.0, 1.0);
+                let dd = Vec4::ONE + g * g - 2.0 * g * mu;
+                let p = (Vec4::ONE - g * g) / (4.0 * PI * dd * dd.max(Vec4::splat(1e-12)).powf(0.5));
+                (mu, p)
+            }
+            PhaseModel::Tabulated { grid: Some(gr), .. } => {
+                let n = gr.mu.len();
+                let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
+                let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
+                let cdf = &gr.cdf[kk * n..(kk + 1) * n];
+                let x = u.x.clamp(0.0, 1.0);
+                let mut j = gr.guide[kk * GUIDE + ((x * GUIDE as f32) as usize).min(GUIDE - 1)] as usize;
+                while j + 2 < n && cdf[j + 1] <= x {
+                    j += 1;
+                }
+                let vk = &gr.values[kk * n..(kk + 1) * n];
+                let h = gr.mu[j + 1] - gr.mu[j];
+                // Density in the segment q(s) ∝ a + (b − a) s, s ∈ [0, 1], scaled to mean 1 over the segment; `target` is the fraction of the segment's
+                // probability below the sample (exactly consistent with the CDF).
+                let (a, b) = (vk[j], vk[j + 1]);
+                let mass = cdf[j + 1] - cdf[j];
+                let s = if !(a + b > 0.0) || !(mass > 0.0) {
+                    0.5
+                } else if (b - a).abs() <= 1e-6 * (a + b) {
+                    ((x - cdf[j]) / mass).clamp(0.0, 1.0)
+                } else {
+                    let (a, b) = (2.0 * a / (a + b), 2.0 * b / (a + b));
+                    let target = ((x - cdf[j]) / mass).clamp(0.0, 1.0);
+                    let disc = (a * a + 2.0 * (b - a) * target).max(0.0);
+                    2.0 * target / (a + disc.sqrt())
+                }
+                .clamp(0.0, 1.0);
+                let mu = (gr.mu[j] + s * h).clamp(-1.0, 1.0);
+                let at = |k: usize| {
+                    let v = &gr.values[k * n + j..k * n + j + 2];
+                    v[0] + s * (v[1] - v[0])
+                };
+                let mut out = [0f32; N_LAMBDA];
+                for (i, o) in out.iter_mut().enumerate() {
+                    let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
+                    *o = if t > 0.0 { at(k) * (1.0 - t) + t * at(k + 1) } else { at(k) };
+                }
+                (mu, Vec4::from_array(out))
+            }
+            PhaseModel::Tabulated { lambda_nm: ls, tables, grid: None } => {
+                let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
+                let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
+                let mu = (tables[kk].sample_cos_theta(u.x as f64) as f32).clamp(-1.0, 1.0);
+                let mut out = [0f32; N_LAMBDA];
+                for (i, o) in out.iter_mut().enumerate() {
+                    let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
+                    let a = tables[k].eval(mu as f64) as f32;
+                    *o = if t > 0.0 && k + 1 < ls.len() { a * (1.0 - t) + t * tables[k + 1].eval(mu as f64) as f32 } else { a };
+                }
+                (mu, Vec4::from_array(out))
             }
         };
-        let mu = mu.clamp(-1.0, 1.0);
         let sin = (1.0 - mu * mu).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
+        let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+        let local = Vec3::new(sin * cp, sin * sp, mu);
         let wi = Frame::from_normal(d).to_world(local).normalize();
-        let p = self.phase_eval(wl, mu);
         let pdf = p.x;
         if !(pdf > 0.0) {
             return None;
         }
         Some(PhaseSample { wi, weight: p / pdf, pdf })
+    }
+
+    /// The similarity-relation equivalent of this medium (an APPROXIMATION, opt-in with
+    /// `similarity = true`): isotropic scattering with the reduced scattering coefficient
+    /// σ_s′(λ) = σ_s(λ)(1 − g(λ)) and the same σ_a. It has the same diffusion-theory transport
+    /// (same σ_tr, same albedo′ and D) as the original, so it agrees deep inside a thick,
+    /// high-albedo medium after many scatterings, but not near boundaries or in thin or
+    /// low-albedo media, nor in single-scattering angular detail; it needs about 1/(1 − g) times
+    /// fewer scattering events (≈ 10× for milk).
+    pub fn similarity(&self) -> Result<HomogeneousMedium> {
+        let sigma_s = DenseSpectrum::from_fn(|l| (self.sigma_s_per_m.eval(l as f32) * (1.0 - self.g_at(l as f32))).max(0.0) as f64);
+        let g = DenseSpectrum::from_fn(|_| 0.0);
+        HomogeneousMedium::new(&format!("{} (similarity relation)", self.name), self.sigma_a_per_m.clone(), sigma_s, PhaseModel::HenyeyGreenstein { g })
     }
 
     /// Mean cosine of the phase function at `lambda_nm` (for documentation and tests).
@@ -308,6 +439,159 @@ pub fn from_bulk(name: &str, b: &optics::media::BulkProperties, use_table: bool)
     HomogeneousMedium::new(name, sigma_a, sigma_s, phase)
 }
 
+
+/// A lower bound on the distance from a point to the nearest surface of the scene, on a grid over
+/// a medium's bounding box: inside it, a free flight shorter than the bound cannot reach a surface,
+/// so `volpath` skips the ray cast (exactly: the result is the same, only cheaper).
+///
+/// Cells (size h) that any surface may touch are marked: every cell overlapping a triangle's
+/// bounding box, and every cell whose centre lies within √3·h/2 of a sphere's surface. An exact
+/// Euclidean distance transform (Felzenszwalb & Huttenlocher 2012) gives, per cell, the distance
+/// d to the nearest marked cell centre; a point of the cell is then at least (d − √3)·h from any
+/// surface point inside the grid, and at least its distance to the grid's faces from any surface
+/// outside it.
+#[derive(Clone, Debug)]
+pub struct FreeFlightGrid {
+    min: Vec3,
+    max: Vec3,
+    cell_m: f32,
+    n: [usize; 3],
+    /// Per cell (x fastest), the bound in m (≤ 0: no guarantee).
+    bound_m: Vec<f32>,
+}
+
+impl FreeFlightGrid {
+    /// The grid for the region `region` (m), about `cells` cells along its longest side, with the
+    /// scene's shapes.
+    pub fn build(region: &crate::geometry::Aabb, shapes: &[crate::bvh::Shape], cells: usize) -> FreeFlightGrid {
+        let ext = region.max - region.min;
+        let h = (ext.max_element() / cells.max(1) as f32).max(1e-9);
+        let min = region.min - Vec3::splat(2.0 * h);
+        let n = [0, 1, 2].map(|a| (((ext[a] + 4.0 * h) / h).ceil() as usize).max(1));
+        let max = min + Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * h;
+        let idx = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
+        let mut marked = vec![false; n[0] * n[1] * n[2]];
+        let cell_range = |lo: Vec3, hi: Vec3| -> Option<[std::ops::Range<usize>; 3]> {
+            let mut r: [std::ops::Range<usize>; 3] = [0..0, 0..0, 0..0];
+            for a in 0..3 {
+                if !(hi[a] >= min[a] && lo[a] <= max[a]) {
+                    return None;
+                }
+                let a0 = (((lo[a] - min[a]) / h).floor().max(0.0) as usize).min(n[a] - 1);
+                let a1 = (((hi[a] - min[a]) / h).floor().max(0.0) as usize).min(n[a] - 1);
+                r[a] = a0..a1 + 1;
+            }
+            Some(r)
+        };
+        for shape in shapes {
+            match shape {
+                crate::bvh::Shape::Mesh(m) => {
+                    for t in &m.indices {
+                        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                        // A margin of 1e-3 h keeps triangles on a cell face marked on both sides.
+                        let e = Vec3::splat(1e-3 * h);
+                        let Some([ri, rj, rk]) = cell_range(a.min(b).min(c) - e, a.max(b).max(c) + e) else { continue };
+                        for k in rk {
+                            for j in rj.clone() {
+                                for i in ri.clone() {
+                                    marked[idx(i, j, k)] = true;
+                                }
+                            }
+                        }
+                    }
+                }
+                crate::bvh::Shape::Sphere(sp) => {
+                    let r = Vec3::splat(sp.radius + h);
+                    let Some([ri, rj, rk]) = cell_range(sp.center - r, sp.center + r) else { continue };
+                    for k in rk {
+                        for j in rj.clone() {
+                            for i in ri.clone() {
+                                let c = min + (Vec3::new(i as f32, j as f32, k as f32) + Vec3::splat(0.5)) * h;
+                                if ((c - sp.center).length() - sp.radius).abs() <= 0.87 * h {
+                                    marked[idx(i, j, k)] = true;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Squared distance (in cells) to the nearest marked cell centre, one axis at a time.
+        let big = 1e20f32;
+        let mut d2: Vec<f32> = marked.iter().map(|&m| if m { 0.0 } else { big }).collect();
+        let mut line = Vec::new();
+        let mut out = Vec::new();
+        for axis in 0..3 {
+            let (len, o1, o2) = match axis {
+                0 => (n[0], n[1], n[2]),
+                1 => (n[1], n[0], n[2]),
+                _ => (n[2], n[0], n[1]),
+            };
+            for u in 0..o1 {
+                for v in 0..o2 {
+                    let at = |t: usize| match axis {
+                        0 => idx(t, u, v),
+                        1 => idx(u, t, v),
+                        _ => idx(u, v, t),
+                    };
+                    line.clear();
+                    line.extend((0..len).map(|t| d2[at(t)]));
+                    edt_1d(&line, &mut out);
+                    for t in 0..len {
+                        d2[at(t)] = out[t];
+                    }
+                }
+            }
+        }
+        let bound_m = d2.iter().map(|&q| if q >= big * 0.5 { f32::INFINITY } else { (q.sqrt() - 1.7321) * h }).collect();
+        FreeFlightGrid { min, max, cell_m: h, n, bound_m }
+    }
+
+    /// A distance (m) within which no surface lies around `p` (0 when unknown).
+    #[inline]
+    pub fn free_distance(&self, p: Vec3) -> f32 {
+        let to_faces = (p - self.min).min(self.max - p).min_element();
+        if !(to_faces > 0.0) {
+            return 0.0;
+        }
+        let c = (p - self.min) / self.cell_m;
+        let (i, j, k) = ((c.x as usize).min(self.n[0] - 1), (c.y as usize).min(self.n[1] - 1), (c.z as usize).min(self.n[2] - 1));
+        self.bound_m[(k * self.n[1] + j) * self.n[0] + i].min(to_faces).max(0.0)
+    }
+}
+
+/// Exact 1-D squared-distance transform of `f` (0 at marked cells, huge elsewhere):
+/// out[q] = min_p (q − p)² + f[p] (lower envelope of parabolas).
+fn edt_1d(f: &[f32], out: &mut Vec<f32>) {
+    let n = f.len();
+    out.clear();
+    out.resize(n, 0.0);
+    let mut v = vec![0usize; n];
+    let mut z = vec![0f32; n + 1];
+    let mut k = 0usize;
+    z[0] = f32::NEG_INFINITY;
+    z[1] = f32::INFINITY;
+    let cross = |q: usize, p: usize| ((f[q] + (q * q) as f32) - (f[p] + (p * p) as f32)) / (2.0 * (q as f32 - p as f32));
+    for q in 1..n {
+        let mut s = cross(q, v[k]);
+        while k > 0 && s <= z[k] {
+            k -= 1;
+            s = cross(q, v[k]);
+        }
+        k += 1;
+        v[k] = q;
+        z[k] = s;
+        z[k + 1] = f32::INFINITY;
+    }
+    k = 0;
+    for (q, o) in out.iter_mut().enumerate() {
+        while z[k + 1] < q as f32 {
+            k += 1;
+        }
+        let d = q as f32 - v[k] as f32;
+        *o = d * d + f[v[k]];
+    }
+}
 
 /// Signed volume (m³, positive when the triangles' normals point outwards) of a closed
 /// triangle mesh. Vertices are welded by exact position; every edge must be shared by exactly two

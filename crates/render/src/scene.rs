@@ -62,6 +62,9 @@ pub struct Scene {
     pub environment: Option<u32>,
     /// Homogeneous participating media (object interiors and the global medium).
     pub media: Vec<crate::medium::HomogeneousMedium>,
+    /// Per medium, the free-flight distance bounds over its bounding objects (`volpath` skips ray
+    /// casts for collisions closer than them); `None` for the global medium and pure absorbers.
+    pub medium_grids: Vec<Option<crate::medium::FreeFlightGrid>>,
     /// Index into `media` of the medium filling space outside every medium-bounding object
     /// (the camera's medium), if any.
     pub global_medium: Option<u32>,
@@ -1133,7 +1136,27 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         acc
     }).collect();
 
+    let medium_grids = (0..media.len())
+        .map(|m| {
+            if media[m].pure_absorber {
+                return None;
+            }
+            let mut region: Option<crate::geometry::Aabb> = None;
+            for (o, info) in objects.iter().enumerate() {
+                if info.interior_medium == Some(m as u32) {
+                    let b = accel.shape(o as u32).bounds();
+                    region = Some(match region {
+                        None => b,
+                        Some(r) => crate::geometry::Aabb { min: r.min.min(b.min), max: r.max.max(b.max) },
+                    });
+                }
+            }
+            region.map(|r| crate::medium::FreeFlightGrid::build(&r, accel.shapes(), 64))
+        })
+        .collect();
+
     Ok(Scene {
+        medium_grids,
         camera,
         accel,
         objects,
@@ -1157,7 +1180,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
 // ---------------------------------------------------------------------------------------------
 // Media
 
-const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase"];
+const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase", "similarity"];
 
 /// Milk presets (fat wt-%, protein wt-%, homogenisation pressure MPa) for `medium = { preset = … }`.
 pub const MILK_PRESETS: &[(&str, f64, f64, f64)] =
@@ -1168,8 +1191,25 @@ pub fn milk_wavelengths_nm() -> Vec<f64> {
     (0..17).map(|k| 375.0 + 25.0 * k as f64).collect()
 }
 
-/// Parse a `medium = { … }` value (see docs/scene-format.md); errors name the field.
+/// Parse a `medium = { … }` value (see docs/scene-format.md); errors name the field. With
+/// `similarity = true` the medium is replaced by its similarity-relation equivalent (an
+/// approximation, see [`crate::medium::HomogeneousMedium::similarity`]).
 fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
+    let similarity = match v.get_ref().as_table().and_then(|t| t.get("similarity")) {
+        None => false,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(_) => return Err(cx.err(&v.span(), &format!("{field}.similarity"), "must be true or false")),
+    };
+    let m = medium_desc_exact(cx, sp, v, field, unit_m)?;
+    if similarity {
+        m.similarity().map_err(|e| cx.err(&v.span(), &format!("{field}.similarity"), format!("{e:#}")))
+    } else {
+        Ok(m)
+    }
+}
+
+/// [`medium_desc`] without the similarity option.
+fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
     use crate::medium::{from_bulk, HomogeneousMedium, PhaseModel};
     let span = v.span();
     let t = v.get_ref().as_table().ok_or_else(|| cx.err(&span, field, "expected a table such as { sigma_a_per_mm = 0.01, sigma_s_per_mm = 1, g = 0 } or { milk = { ... } }"))?;
