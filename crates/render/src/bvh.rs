@@ -596,6 +596,20 @@ impl Packet {
     }
 }
 
+/// Sort a node's hit children by entry distance `key`, farthest first (insertion sort: at most 4).
+#[inline(always)]
+fn far_first<T: Copy>(c: &mut [T], key: impl Fn(&T) -> f32) {
+    for i in 1..c.len() {
+        let x = c[i];
+        let mut j = i;
+        while j > 0 && key(&c[j - 1]) < key(&x) {
+            c[j] = c[j - 1];
+            j -= 1;
+        }
+        c[j] = x;
+    }
+}
+
 /// 1 + 2γ₃: makes the far slab distance conservative against rounding (pbrt-v4).
 const ROUND_UP: f32 = 1.000_000_4;
 
@@ -755,15 +769,7 @@ impl Accel {
                 }
                 if cnt > 1 {
                     // Farthest first onto the stack; descend into the nearest.
-                    for i in 1..cnt {
-                        let x = c[i];
-                        let mut j = i;
-                        while j > 0 && c[j - 1].1 < x.1 {
-                            c[j] = c[j - 1];
-                            j -= 1;
-                        }
-                        c[j] = x;
-                    }
+                    far_first(&mut c[..cnt], |e| e.1);
                     for &e in &c[..cnt - 1] {
                         self.touch(e.0);
                         stack[sp] = e;
@@ -942,15 +948,7 @@ impl Accel {
                 }
                 if cnt > 0 {
                     // Farthest first onto the stack; descend into the nearest.
-                    for i in 1..cnt {
-                        let x = c[i];
-                        let mut j = i;
-                        while j > 0 && c[j - 1].2 < x.2 {
-                            c[j] = c[j - 1];
-                            j -= 1;
-                        }
-                        c[j] = x;
-                    }
+                    far_first(&mut c[..cnt], |e| e.2);
                     for &e in &c[..cnt - 1] {
                         self.touch(e.0);
                         stack[sp] = e;
@@ -1054,15 +1052,7 @@ impl Accel {
                 cnt += 1;
             }
             if cnt > 0 {
-                for i in 1..cnt {
-                    let x = c[i];
-                    let mut j = i;
-                    while j > 0 && c[j - 1].1 < x.1 {
-                        c[j] = c[j - 1];
-                        j -= 1;
-                    }
-                    c[j] = x;
-                }
+                far_first(&mut c[..cnt], |e| e.1);
                 for &e in &c[..cnt - 1] {
                     tr.stack[tr.sp] = e;
                     tr.sp += 1;
