@@ -20,7 +20,6 @@
 
 use crate::bvh::Hit;
 use crate::geometry::Ray;
-use crate::bxdf::SmoothConductor;
 use crate::material::{Bsdf, Material};
 use crate::subsurface::{SubsurfaceMode, SubsurfacePass};
 use crate::sampling::{cosine_hemisphere, power_heuristic, Frame, Pcg32};
@@ -262,12 +261,13 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
         }
         let mat = &scene.materials[obj.material as usize];
         let bsdf = match (mat, sss) {
-            // Translucent with a BSSRDF: the boundary's specular reflection, plus the diffusive term.
+            // Translucent with a BSSRDF: the boundary's surface reflection (mirror, or the rough
+            // dielectric's reflection lobe), plus the diffusive term.
             (Material::Translucent(t), SubsurfaceMode::ReflectOnly | SubsurfaceMode::Bssrdf(_)) => {
                 if let SubsurfaceMode::Bssrdf(p) = sss {
                     l += beta * p.radiance(s.object, s.p, s.ng, wo, rng);
                 }
-                Bsdf::SmoothConductor(SmoothConductor { eta: Vec4::splat(t.eta), k: Vec4::ZERO })
+                t.boundary_reflection()
             }
             _ => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0), // back face: η → 1/η; dispersion: hero only
         };

@@ -60,7 +60,7 @@ pub enum Material {
         table: &'static CoatingTable,
     },
     /// Translucent object (closed mesh) rendered with a dipole BSSRDF (`crate::subsurface`); as a
-    /// BSDF it is its smooth dielectric boundary (what volumetric path tracing sees).
+    /// BSDF it is its smooth or rough dielectric boundary (what volumetric path tracing sees).
     Translucent(std::sync::Arc<crate::subsurface::Translucent>),
 }
 
@@ -191,7 +191,7 @@ impl Material {
                 distrib: TrowbridgeReitz::isotropic(*alpha),
                 table,
             }),
-            Material::Translucent(t) => Bsdf::SmoothDielectric { lobe: SmoothDielectric { eta: t.eta }, dispersive: false },
+            Material::Translucent(t) => t.boundary_dielectric(),
         }
     }
 }

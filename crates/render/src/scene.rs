@@ -778,7 +778,14 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                     None => None,
                     Some(v) => Some(as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &format!("{field}.ior"), "must be a number"))?),
                 };
-                let t = crate::subsurface::translucent_from_toml(ior, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
+                if m.alpha.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.alpha"), "not allowed for a translucent material (give the boundary's roughness r ∈ [0, 1], α = r²)"));
+                }
+                let roughness = match &m.roughness {
+                    None => None,
+                    Some(v) => Some(as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &format!("{field}.roughness"), "must be a number in [0, 1]"))?),
+                };
+                let t = crate::subsurface::translucent_from_toml(ior, roughness, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
                 Material::Translucent(std::sync::Arc::new(t))
             }
             "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,

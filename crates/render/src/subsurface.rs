@@ -2,9 +2,10 @@
 //! with rejection control (Jensen et al. 2001; Frisvad, Hachisuka & Kjeldsen 2014; Dal Corso &
 //! Frisvad 2018; the tutorial's "Progressive rendering of subsurface scattering").
 //!
-//! A [`Translucent`] material is a closed object with a smooth dielectric boundary of relative
-//! index η whose interior is described by σ_s(λ), σ_a(λ), g(λ). Its appearance is the specular
-//! reflection of the boundary (traced by the path tracer) plus the diffusive BSSRDF term
+//! A [`Translucent`] material is a closed object with a smooth or GGX-rough dielectric boundary of
+//! relative index η whose interior is described by σ_s(λ), σ_a(λ), g(λ). Its appearance is the
+//! surface reflection of the boundary (a mirror, or the rough dielectric's reflection lobe; traced
+//! by the path tracer) plus the diffusive BSSRDF term
 //!
 //! L_d(x_o, ω_o) = T21(ω_o) · (1/M) Σ_i S_d(x_i, ω_i; x_o) · L_t,i,
 //! L_t,i = T12(ω_i) · L_i(x_i, ω_i) · π · A,
@@ -41,7 +42,9 @@
 use crate::bvh::Shape;
 use crate::geometry::{Aabb, Ray};
 use crate::integrator::IntegratorSettings;
-use crate::material::Material;
+use crate::bxdf::{RoughConductor, RoughDielectric, SmoothConductor, SmoothDielectric};
+use crate::material::{Bsdf, Material};
+use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle, Frame, Pcg32};
 use crate::scene::Scene;
 use crate::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
@@ -89,6 +92,12 @@ pub struct Translucent {
     /// Take σ_s, σ_a and g from the object's interior `medium` instead (the same coefficients
     /// volumetric path tracing uses; the spectra above are then unused).
     pub from_medium: bool,
+    /// GGX (Trowbridge–Reitz) α of the boundary; below `microfacet::SMOOTH_ALPHA` the boundary is
+    /// smooth (the scene key `roughness` r gives α = r², as for `rough_dielectric`). Only the
+    /// boundary's reflection lobe (and, for `volpath`, its transmission) is rough; the diffusion
+    /// term keeps the Fresnel transmittances T12, T21 at the macro normal (pbrt-v3's
+    /// `SubsurfaceMaterial`), see docs/subsurface.md.
+    pub boundary_alpha: f32,
 }
 
 impl Translucent {
@@ -114,6 +123,7 @@ impl Translucent {
             rejection_control: true,
             rejection_radius_mfp: DEFAULT_REJECTION_RADIUS_MFP,
             from_medium: false,
+            boundary_alpha: 0.0,
         };
         for l in (360..=830).step_by(5) {
             let p = t.properties(l as f32);
@@ -140,6 +150,47 @@ impl Translucent {
             DenseSpectrum::from_fn(|_| sigma_a_per_m),
             DenseSpectrum::from_fn(|_| g),
         )
+    }
+
+    /// Set the boundary's perceptual roughness r ∈ [0, 1] (α = r², `microfacet::roughness_to_alpha`);
+    /// 0 is the smooth boundary.
+    pub fn set_roughness(&mut self, roughness: f64) -> Result<()> {
+        if !(0.0..=1.0).contains(&roughness) {
+            bail!("roughness: must be in [0, 1] (0: smooth boundary), got {roughness}");
+        }
+        self.boundary_alpha = crate::microfacet::roughness_to_alpha(roughness as f32);
+        Ok(())
+    }
+
+    /// The boundary's microfacet distribution (isotropic GGX of α = `boundary_alpha`).
+    pub fn boundary_distrib(&self) -> TrowbridgeReitz {
+        TrowbridgeReitz::isotropic(self.boundary_alpha)
+    }
+
+    /// The boundary's surface reflection alone (what the path tracer continues with on top of the
+    /// BSSRDF term): a mirror with the dielectric Fresnel reflectance F(η) when smooth, else the
+    /// rough dielectric's reflection lobe D G2 F / (4 cos θo cos θi), importance-sampled by visible
+    /// normals and evaluable (light sampling and MIS apply). Written as a conductor of index η + 0i,
+    /// whose Fresnel reflectance is the dielectric one.
+    pub fn boundary_reflection(&self) -> Bsdf {
+        let distrib = self.boundary_distrib();
+        let (eta, k) = (Vec4::splat(self.eta), Vec4::ZERO);
+        if distrib.effectively_smooth() {
+            Bsdf::SmoothConductor(SmoothConductor { eta, k })
+        } else {
+            Bsdf::RoughConductor(RoughConductor { distrib, eta, k })
+        }
+    }
+
+    /// The boundary as a full dielectric interface (reflection and refraction; front face), what
+    /// `volpath` and paths without a point cloud see: smooth, or GGX-rough (Walter et al. 2007).
+    pub fn boundary_dielectric(&self) -> Bsdf {
+        let distrib = self.boundary_distrib();
+        if distrib.effectively_smooth() || self.eta == 1.0 {
+            Bsdf::SmoothDielectric { lobe: SmoothDielectric { eta: self.eta }, dispersive: false }
+        } else {
+            Bsdf::RoughDielectric { lobe: RoughDielectric { distrib, eta: self.eta }, dispersive: false }
+        }
     }
 
     /// Optical properties at one wavelength (nm).
@@ -176,9 +227,10 @@ pub fn rgb_coefficients_to_spectrum(rgb: [f64; 3]) -> DenseSpectrum {
 /// protein_percent, pressure_mpa }`, or `sigma_s_per_mm` + `sigma_a_per_mm` (number or
 /// [r, g, b]) with optional `g`; optional `points_per_pass`, `rejection_control` and
 /// `rejection_radius_mfp`.
-/// `ior` is the material's index (a preset's own η is used when `ior` is absent).
+/// `ior` is the material's index (a preset's own η is used when `ior` is absent); `roughness` the
+/// material's boundary roughness r ∈ [0, 1] (α = r²; absent or 0: smooth).
 /// Errors name the key (relative to the table).
-pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Translucent> {
+pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &toml::Value) -> Result<Translucent> {
     const KEYS: &[&str] = &[
         "model",
         "from_medium",
@@ -344,6 +396,9 @@ pub fn translucent_from_toml(ior: Option<f64>, table: &toml::Value) -> Result<Tr
             .as_bool()
             .ok_or_else(|| anyhow!("subsurface.rejection_control: expected true or false"))?;
     }
+    if let Some(r) = roughness {
+        mat.set_roughness(r)?;
+    }
     Ok(mat)
 }
 
@@ -433,11 +488,11 @@ pub struct SubsurfacePass {
 /// How the path tracer treats translucent materials.
 #[derive(Clone, Copy)]
 pub enum SubsurfaceMode<'a> {
-    /// As their smooth dielectric boundary (light enters the interior; volumetric path tracing).
+    /// As their dielectric boundary, smooth or rough (light enters the interior; volumetric path tracing).
     Dielectric,
-    /// Specular reflection of the boundary only (paths traced from cloud points).
+    /// Surface reflection of the boundary only (paths traced from cloud points).
     ReflectOnly,
-    /// Specular reflection plus the BSSRDF term from this pass's cloud (camera paths).
+    /// Surface reflection plus the BSSRDF term from this pass's cloud (camera paths).
     Bssrdf(&'a SubsurfacePass),
 }
 

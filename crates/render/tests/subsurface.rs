@@ -1,8 +1,15 @@
 //! Point-cloud BSSRDF rendering (issue 5, rendering part): rejection control is unbiased, a flat
 //! slab under uniform light reproduces the standard dipole's closed-form total diffuse
-//! reflectance, zero albedo gives zero, the cost per shading point is far below M, bad input.
+//! reflectance, zero albedo gives zero, the cost per shading point is far below M, bad input;
+//! the rough boundary: roughness 0 is the smooth boundary bit for bit, the rough reflection lobe
+//! integrates to its directional albedo and leaves the diffusion term (T12, T21 at the macro
+//! normal) unchanged.
 
 use glam::Vec3;
+use render::geometry::Ray;
+use render::integrator::li_path_mode;
+use render::spectral::SampledWavelengths;
+use render::subsurface::SubsurfaceMode;
 use optics::bssrdf::{OpticalProperties, StandardDipole};
 use render::material::Material;
 use render::sampling::Pcg32;
@@ -18,6 +25,11 @@ fn slab_scene(sub: &str, ior: f64) -> Scene {
 
 /// The slab box of [`slab_scene`] with the given `[[lights]]` body.
 fn slab_scene_lit(sub: &str, ior: f64, light: &str) -> Scene {
+    slab_scene_with(sub, ior, "", light)
+}
+
+/// The slab box of [`slab_scene`] with extra lines in the material table (e.g. `roughness = 0.3`).
+fn slab_scene_with(sub: &str, ior: f64, extra: &str, light: &str) -> Scene {
     let a = 100.0;
     let h = 100.0;
     let q = |c: [[f64; 3]; 4]| {
@@ -49,6 +61,7 @@ height = 8
 [materials.slab]
 type = "translucent"
 ior = {ior}
+{extra}
 subsurface = {sub}
 [[objects]]
 name = "slab"
@@ -299,6 +312,27 @@ fn bad_translucent_input_is_rejected() {
             ),
             "rejection_radius_mfp",
         ),
+        (
+            base(
+                "type = \"translucent\"\nroughness = 1.5\nsubsurface = { preset = \"marble\" }",
+                sphere,
+            ),
+            "materials.m: roughness: must be in [0, 1]",
+        ),
+        (
+            base(
+                "type = \"translucent\"\nroughness = \"rough\"\nsubsurface = { preset = \"marble\" }",
+                sphere,
+            ),
+            "materials.m.roughness",
+        ),
+        (
+            base(
+                "type = \"translucent\"\nalpha = 0.1\nsubsurface = { preset = \"marble\" }",
+                sphere,
+            ),
+            "materials.m.alpha",
+        ),
         (base("type = \"translucent\"", sphere), "subsurface"),
         (
             base(
@@ -412,3 +446,142 @@ fn normal_incidence_matches_numerical_rd_for_both_dipoles() {
         assert!((m - expected).abs() < 4.0 * se + 0.003 * expected, "{model}: {m} ± {se} vs {expected}");
     }
 }
+
+/// Directional albedo E(μo) = ∫ f_r cos θi dωi of the GGX (Trowbridge–Reitz, height-correlated
+/// Smith G2) reflection lobe of a dielectric of index `eta` with roughness `alpha`, by a midpoint
+/// product rule over (θi, φi) in f64: written here from the closed forms of D and Λ, independent
+/// of the renderer's lobe, sampling and MIS.
+fn ggx_reflection_albedo(mu_o: f64, alpha: f64, eta: f64) -> f64 {
+    use std::f64::consts::PI;
+    let a2 = alpha * alpha;
+    let lambda = |cos: f64| {
+        let tan2 = (1.0 - cos * cos).max(0.0) / (cos * cos);
+        0.5 * (-1.0 + (1.0 + a2 * tan2).sqrt())
+    };
+    let wo = [(1.0 - mu_o * mu_o).max(0.0).sqrt(), 0.0, mu_o];
+    let (nt, np) = (1200, 1200);
+    let mut sum = 0.0;
+    for i in 0..nt {
+        let th = (i as f64 + 0.5) / nt as f64 * PI / 2.0;
+        let (st, ct) = th.sin_cos();
+        for j in 0..np {
+            let ph = (j as f64 + 0.5) / np as f64 * 2.0 * PI;
+            let wi = [st * ph.cos(), st * ph.sin(), ct];
+            let h = [wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]];
+            let hl = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+            let h = [h[0] / hl, h[1] / hl, h[2] / hl];
+            let ch = h[2];
+            let tan2h = (1.0 - ch * ch).max(0.0) / (ch * ch);
+            let d = a2 / (PI * ch.powi(4) * (a2 + tan2h).powi(2));
+            let g2 = 1.0 / (1.0 + lambda(mu_o) + lambda(ct));
+            let f = optics::fresnel::fresnel_dielectric(wo[0] * h[0] + wo[2] * h[2], eta);
+            // f_r cos θi = D G2 F / (4 μo); dω = sin θ dθ dφ.
+            sum += d * g2 * f / (4.0 * mu_o) * st;
+        }
+    }
+    sum * (PI / 2.0 / nt as f64) * (2.0 * PI / np as f64)
+}
+
+/// Mean and standard error of `n` radiance estimates (lane 0; the scenes are grey) of camera paths
+/// that hit the slab's top near the origin from direction `wo` (upper hemisphere).
+fn boundary_estimate(scene: &Scene, mode: SubsurfaceMode, wo: Vec3, wl: Option<SampledWavelengths>, n: usize, seed: u64) -> (f64, f64) {
+    let mut rng = Pcg32::new(seed, 1);
+    let xs: Vec<f64> = (0..n)
+        .map(|k| {
+            let mut wl = wl.unwrap_or_else(|| SampledWavelengths::sample(rng.next_f32()));
+            // x_o on a rank-1 (R2) lattice over the central 40 × 40 mm (80 mm ≈ 14/σ_tr from the
+            // edges in the diffusion test): the cloud's noise is spatially correlated, so spreading
+            // the queries averages it down.
+            let (u, v) = ((k as f64 * 0.754_877_666_2).fract(), (k as f64 * 0.569_840_291).fract());
+            let off = Vec3::new((-0.02 + 0.04 * u) as f32, 0.0, (-0.02 + 0.04 * v) as f32);
+            let ray = Ray { o: off + wo * 0.05, d: -wo, t_min: 0.0, t_max: f32::INFINITY };
+            li_path_mode(scene, &scene.integrator, ray, &mut wl, &mut rng, mode, 0.0).x as f64
+        })
+        .collect();
+    mean_se(&xs)
+}
+
+#[test]
+fn zero_roughness_is_the_smooth_boundary_bit_for_bit() {
+    // The potato scene as shipped, with `roughness = 0` added, and with `roughness = 0.3`: one
+    // pass of `path` (point cloud + boundary reflection) and of `volpath` (boundary as a dielectric).
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let text = std::fs::read_to_string(dir.join("potato.toml")).unwrap();
+    assert!(text.contains("type = \"translucent\"\nior = 1.3\n"));
+    let with = |r: &str| text.replace("type = \"translucent\"\nior = 1.3\n", &format!("type = \"translucent\"\nior = 1.3\nroughness = {r}\n"));
+    let render = |t: &str, kind: render::integrator::IntegratorKind| {
+        let mut scene = Scene::from_toml_str(t, "potato.toml", &dir).unwrap();
+        scene.set_resolution(16, 12);
+        let mut settings = scene.integrator.clone();
+        settings.kind = kind;
+        settings.max_depth = 12;
+        let mut xyz = vec![[0f32; 3]; 16 * 12];
+        render::integrator::render_pass(&scene, &settings, 4, 1, &mut xyz);
+        xyz
+    };
+    for kind in [render::integrator::IntegratorKind::Path, render::integrator::IntegratorKind::Volpath] {
+        let base = render(&text, kind);
+        assert_eq!(base, render(&with("0"), kind), "{kind:?}: roughness = 0 differs from the smooth boundary");
+        assert_ne!(base, render(&with("0.3"), kind), "{kind:?}: roughness = 0.3 has no effect");
+    }
+}
+
+#[test]
+fn rough_boundary_reflection_integrates_to_its_albedo() {
+    // Uniform environment L = 1 above a slab (η = 1.5): with the cloud's term left out
+    // (ReflectOnly), a camera path sees the boundary's surface reflection only, whose value is the
+    // lobe's directional albedo E(μo): F(μo) for the smooth boundary, the GGX reflection lobe's
+    // albedo for roughness r = 0.3 (α = 0.09), reached through light sampling + BSDF sampling + MIS.
+    let eta = 1.5;
+    let sub = r#"{ model = "standard", sigma_s_per_mm = 1.0, sigma_a_per_mm = 0.01, points_per_pass = 16 }"#;
+    let env = "type = \"environment\"\nradiance = 1";
+    let smooth = slab_scene_with(sub, eta, "", env);
+    let rough = slab_scene_with(sub, eta, "roughness = 0.3", env);
+    for mu in [1.0f64, 0.5, 0.2] {
+        let wo = Vec3::new((1.0 - mu * mu).sqrt() as f32, mu as f32, 0.0);
+        let f = optics::fresnel::fresnel_dielectric(mu, eta);
+        let (ms, ses) = boundary_estimate(&smooth, SubsurfaceMode::ReflectOnly, wo, None, 64, 1);
+        assert!((ms - f).abs() < 1e-5 * f.max(1.0) && ses < 1e-6, "smooth μo = {mu}: {ms} ± {ses} vs F = {f}");
+        let e = ggx_reflection_albedo(mu, 0.09, eta);
+        let (m, se) = boundary_estimate(&rough, SubsurfaceMode::ReflectOnly, wo, None, 20000, 2);
+        println!("μo = {mu}: rough {m:.5} ± {se:.5}, E_GGX {e:.5}; smooth F = {f:.5}");
+        assert!(se < 0.01 * e, "μo = {mu}: too noisy: {se}");
+        assert!((m - e).abs() < 4.0 * se + 2e-3 * e, "μo = {mu}: rough boundary {m} ± {se} vs E = {e}");
+    }
+    // The lobe is not the mirror: at grazing view the rough albedo is measurably below F.
+    let (e, f) = (ggx_reflection_albedo(0.2, 0.09, eta), optics::fresnel::fresnel_dielectric(0.2, eta));
+    assert!(f - e > 0.01, "E = {e}, F = {f}");
+}
+
+#[test]
+fn rough_boundary_keeps_the_diffusion_closed_form() {
+    // The flat slab of `slab_matches_closed_form_total_diffuse_reflectance` with roughness 0.3,
+    // seen by full camera paths (boundary lobe + BSSRDF term): L = E(μo) + T21(μo) R_d (1 − F̄),
+    // the diffusion part unchanged because T12 and T21 stay at the macro normal.
+    let eta = 1.3;
+    let scene = slab_scene_with(
+        r#"{ model = "standard", sigma_s_per_mm = 1.0, sigma_a_per_mm = 0.01, points_per_pass = 65536 }"#,
+        eta,
+        "roughness = 0.3",
+        "type = \"environment\"\nradiance = 1",
+    );
+    let dip = StandardDipole::new(&OpticalProperties { eta, sigma_s_per_m: 1000.0, sigma_a_per_m: 10.0, g: 0.0 }).unwrap();
+    let fbar = fresnel_hemispherical(eta);
+    for (mu, seed) in [(1.0f64, 7u64), (0.5, 8)] {
+        let wo = Vec3::new((1.0 - mu * mu).sqrt() as f32, mu as f32, 0.0);
+        let t21 = 1.0 - optics::fresnel::fresnel_dielectric(mu, eta);
+        let e = ggx_reflection_albedo(mu, 0.09, eta);
+        let expected = e + t21 * dip.rd_closed_form() * (1.0 - fbar);
+        let mut pass_means = Vec::new();
+        for pass in 0..24u64 {
+            let p = SubsurfacePass::build(&scene, &scene.integrator, seed, pass).unwrap();
+            let (m, _) = boundary_estimate(&scene, SubsurfaceMode::Bssrdf(&p), wo, Some(p.wl), 400, 100 + pass);
+            pass_means.push(m);
+        }
+        let (m, se) = mean_se(&pass_means);
+        println!("μo = {mu}: estimate {m:.5} ± {se:.5}, E + T21 R_d (1 − F̄) = {expected:.5} (E = {e:.5})");
+        assert!(se < 0.02 * expected, "too noisy to test: se {se}");
+        assert!((m - expected).abs() < 4.0 * se + 0.003 * expected, "μo = {mu}: {m} ± {se} vs {expected}");
+    }
+}
+
