@@ -840,12 +840,7 @@ impl Accel {
             hits.fill(None);
             return;
         }
-        let mut pres = [[Pre::new(&rays[0]); 4]; G];
-        for g in 0..G {
-            for l in 0..4 {
-                pres[g][l] = Pre::new(&rays[4 * g + l]);
-            }
-        }
+        let pres: [[Pre; 4]; G] = std::array::from_fn(|g| std::array::from_fn(|l| Pre::new(&rays[4 * g + l])));
         let side = pres[0][0].near_side;
         let coherent = pres.iter().flatten().all(|p| !p.parallel && p.near_side == side);
         if !coherent || self.stack_needed > STACK {
