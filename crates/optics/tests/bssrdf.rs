@@ -234,11 +234,10 @@ fn rotate(q: [[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|i| q[i][0] * v[0] + q[i][1] * v[1] + q[i][2] * v[2])
 }
 
-/// The directional dipole depends only on relative geometry: a rigid rotation and translation of
-/// the whole configuration leaves S_d unchanged (oblique incidence, exit normal tilted).
-#[test]
-fn directional_dipole_is_invariant_under_rigid_motion() {
-    let m = DirectionalDipole::new(&props(1.3, 1.0, 0.01, 0.0)).unwrap();
+/// Asserts that `sd(x_i, n_i, ω_i, x_o, n_o)` depends only on relative geometry: a rigid rotation
+/// (about the axis (1,2,3)/√14 by 0.9 rad, Rodrigues) and translation of the whole configuration
+/// (oblique incidence, exit normal tilted) leaves it unchanged to 1e-10. Returns the unmoved value.
+fn assert_rigid_invariance(sd: impl Fn([f64; 3], [f64; 3], [f64; 3], [f64; 3], [f64; 3]) -> f64) -> f64 {
     let s = std::f64::consts::FRAC_1_SQRT_2;
     let ni = [0.0, 0.0, 1.0];
     let wi = [s, 0.0, s];
@@ -248,31 +247,27 @@ fn directional_dipole_is_invariant_under_rigid_motion() {
         v.map(|x| x / l)
     };
     let xo = [0.7e-3, 0.4e-3, -0.1e-3];
-    let base = m.sd([0.0; 3], ni, wi, xo, no);
+    let base = sd([0.0; 3], ni, wi, xo, no);
     assert!(base > 0.0);
-    // Rotation about the axis (1,2,3)/√14 by 0.9 rad (Rodrigues), then a translation.
     let k = [1.0 / 14f64.sqrt(), 2.0 / 14f64.sqrt(), 3.0 / 14f64.sqrt()];
     let (c, sn) = (0.9f64.cos(), 0.9f64.sin());
-    let mut q = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            let kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
-            q[i][j] = if i == j { c } else { 0.0 } + sn * kx[i][j] + (1.0 - c) * k[i] * k[j];
-        }
-    }
+    let kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
+    let q: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| if i == j { c } else { 0.0 } + sn * kx[i][j] + (1.0 - c) * k[i] * k[j]));
     let t = [3e-3, -1e-3, 2e-3];
     let mv = |p: [f64; 3]| {
         let r = rotate(q, p);
         [r[0] + t[0], r[1] + t[1], r[2] + t[2]]
     };
-    let moved = m.sd(
-        mv([0.0; 3]),
-        rotate(q, ni),
-        rotate(q, wi),
-        mv(xo),
-        rotate(q, no),
-    );
+    let moved = sd(mv([0.0; 3]), rotate(q, ni), rotate(q, wi), mv(xo), rotate(q, no));
     assert!((moved / base - 1.0).abs() < 1e-10, "{moved} vs {base}");
+    base
+}
+
+/// The directional dipole depends only on relative geometry.
+#[test]
+fn directional_dipole_is_invariant_under_rigid_motion() {
+    let m = DirectionalDipole::new(&props(1.3, 1.0, 0.01, 0.0)).unwrap();
+    assert_rigid_invariance(|xi, ni, wi, xo, no| m.sd(xi, ni, wi, xo, no));
 }
 
 /// Normal incidence on a plane: the 2-D Cartesian integral of π S_d over the plane (the general
@@ -762,26 +757,9 @@ fn directional_corrected_profile_against_adaptive_line_integral() {
 #[test]
 fn directional_corrected_is_invariant_and_non_negative() {
     let line = DirectionalLineDipole::new(&props(1.3, 1.0, 0.01, 0.0)).unwrap();
+    assert_rigid_invariance(|xi, ni, wi, xo, no| line.sd(xi, ni, wi, xo, no));
     let s = std::f64::consts::FRAC_1_SQRT_2;
-    let ni = [0.0, 0.0, 1.0];
-    let wi = [s, 0.0, s];
-    let no = {
-        let v: [f64; 3] = [0.2, 0.1, 1.0];
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        v.map(|x| x / l)
-    };
-    let xo = [0.7e-3, 0.4e-3, -0.1e-3];
-    let base = line.sd([0.0; 3], ni, wi, xo, no);
-    assert!(base > 0.0);
-    let (c, sn) = (0.9f64.cos(), 0.9f64.sin());
-    let q = [[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]];
-    let t = [3e-3, -1e-3, 2e-3];
-    let mv = |p: [f64; 3]| {
-        let r = rotate(q, p);
-        [r[0] + t[0], r[1] + t[1], r[2] + t[2]]
-    };
-    let moved = line.sd(mv([0.0; 3]), rotate(q, ni), rotate(q, wi), mv(xo), rotate(q, no));
-    assert!((moved / base - 1.0).abs() < 1e-10, "{moved} vs {base}");
+    let (ni, wi) = ([0.0, 0.0, 1.0], [s, 0.0, s]);
     // Back-lit exit point (normal facing away from the refracted ray) and a grid of others.
     for i in 0..200 {
         let a = i as f64 * 0.37;

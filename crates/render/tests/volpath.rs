@@ -119,30 +119,8 @@ fn spectral_free_flights_unbiased_against_single_wavelength() {
     let thin = r#"{ sigma_a_per_mm = 0.3, sigma_s_per_mm = 0.7, g = 0.3 }"#;
     let dense = r#"{ sigma_a_per_mm = 30, sigma_s_per_mm = 70, g = 0.3 }"#;
     let mat = r#"type = "interface""#;
-    let settings = volpath(100_000);
-    // Mean radiance per lane over random camera rays through the sphere's image.
-    let run = |s: &Scene, lambdas: [f32; 4], rotate: bool, n: usize, seed: u64| -> ([f64; 4], [f64; 4]) {
-        let mut rng = Pcg32::new(seed, 7);
-        let (mut sum, mut sum2) = ([0f64; 4], [0f64; 4]);
-        for _ in 0..n {
-            let k = if rotate { (rng.next_u32() % 4) as usize } else { 0 };
-            let rot: [f32; 4] = std::array::from_fn(|i| lambdas[(i + k) % 4]);
-            let mut wl = SampledWavelengths::fixed(rot);
-            let (i, j) = (rng.next_u32() % 8, rng.next_u32() % 8);
-            let ray = s.camera.generate_ray(i, j, rng.next_2d());
-            let l: Vec4 = li_volpath(s, &settings, ray, &mut wl, &mut rng);
-            for lane in 0..4 {
-                let orig = (lane + k) % 4;
-                let v = l[lane] as f64;
-                sum[orig] += v;
-                sum2[orig] += v * v;
-            }
-        }
-        let nf = n as f64;
-        let m: [f64; 4] = std::array::from_fn(|i| sum[i] / nf);
-        let se: [f64; 4] = std::array::from_fn(|i| ((sum2[i] / nf - m[i] * m[i]).max(0.0) / nf).sqrt());
-        (m, se)
-    };
+    let opts = VolpathOptions::default();
+    let run = |s: &Scene, lambdas: [f32; 4], rotate: bool, n: usize, seed: u64| lane_means(s, &opts, lambdas, rotate, n, seed);
     let lambdas = [450.0f32, 500.0, 600.0, 650.0];
     let (m, se) = run(&scene(&sphere_scene(mat, mixed, 8)), lambdas, true, 40_000, 3);
     let (m1, se1) = run(&scene(&sphere_scene(mat, thin, 8)), [500.0; 4], false, 40_000, 4);
