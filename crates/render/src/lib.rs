@@ -24,4 +24,5 @@ pub mod microfacet;
 pub mod bxdf;
 pub mod volpath;
 pub mod subsurface;
+pub mod line_dipole4;
 pub mod param;

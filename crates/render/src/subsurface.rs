@@ -47,6 +47,7 @@ use crate::material::{Bsdf, Material};
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle, Frame, Pcg32};
 use crate::scene::Scene;
+use crate::line_dipole4::{refract_in, LineDipole4};
 use crate::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec3, Vec4};
@@ -413,18 +414,14 @@ enum LaneModel {
 }
 
 impl LaneModel {
+    /// S_d for the refracted direction `w12` (into the medium) of a cloud point.
     #[inline]
-    fn sd(&self, xi: Vec3, ni: Vec3, wi: Vec3, xo: Vec3, no: Vec3) -> f64 {
+    fn sd(&self, xi: Vec3, ni: Vec3, w12: Vec3, xo: Vec3, no: Vec3) -> f64 {
+        let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
         match self {
             LaneModel::Standard(m) => m.sd(xo.distance(xi) as f64),
-            LaneModel::Directional(m) => {
-                let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
-                m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
-            }
-            LaneModel::DirectionalLine(m) => {
-                let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
-                m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
-            }
+            LaneModel::Directional(m) => m.sd_refracted(c(xi), c(ni), c(w12), c(xo), c(no)),
+            LaneModel::DirectionalLine(m) => m.sd_refracted(c(xi), c(ni), c(w12), c(xo), c(no)),
             LaneModel::Black => 0.0,
         }
     }
@@ -436,8 +433,8 @@ struct CloudPoint {
     p: Vec3,
     /// Outward unit normal.
     n: Vec3,
-    /// Direction towards the light (outside, unit).
-    wi: Vec3,
+    /// Refracted direction ω₁₂ into the medium (unit) of the direction towards the light.
+    w12: Vec3,
     /// L_t = T12 L_i π A at the pass's wavelengths.
     lt: Vec4,
 }
@@ -456,6 +453,8 @@ const LEAF_SIZE: usize = 8;
 /// The point cloud of one translucent object for one pass.
 struct ObjectCloud {
     lanes: [LaneModel; N_LAMBDA],
+    /// The lanes packed for the four-wide evaluation (line-source directional dipole only).
+    packed: Option<LineDipole4>,
     eta: f32,
     /// Smallest σ_tr over the pass's wavelengths (m⁻¹).
     sigma_tr_min: f32,
@@ -660,12 +659,17 @@ impl SubsurfacePass {
                 e
             }
         };
+        let mut sum4 = Vec4::ZERO;
         let mut eval = |pt: &CloudPoint, p: f32, st: &mut QueryStats| {
             st.accepted += 1;
+            if let Some(pk) = &c.packed {
+                sum4 += pk.sd_refracted(pt.p, pt.n, pt.w12, xo, no) * pt.lt * p.recip();
+                return;
+            }
             for (k, lane) in c.lanes.iter().enumerate() {
                 let lt = pt.lt[k];
                 if lt != 0.0 {
-                    sum[k] += lane.sd(pt.p, pt.n, pt.wi, xo, no) * lt as f64 / p as f64;
+                    sum[k] += lane.sd(pt.p, pt.n, pt.w12, xo, no) * lt as f64 / p as f64;
                 }
             }
         };
@@ -728,6 +732,9 @@ impl SubsurfacePass {
         }
         let t21 = fresnel_t(cos_o, c.eta);
         let scale = t21 as f64 / c.m as f64;
+        for k in 0..N_LAMBDA {
+            sum[k] += sum4[k] as f64;
+        }
         (
             Vec4::new(
                 (sum[0] * scale) as f32,
@@ -882,7 +889,8 @@ fn build_cloud(
                     li = Vec4::ZERO;
                 }
                 let lt = li * (fresnel_t(d_local.z, t.eta) * std::f32::consts::PI * area);
-                [Some(CloudPoint { p, n, wi, lt }), light]
+                let w12 = refract_in(wi, n, t.eta);
+                [Some(CloudPoint { p, n, w12, lt }), light]
             })
             .flat_map_iter(|pair| pair.into_iter().flatten())
             .filter(|c| c.lt != Vec4::ZERO)
@@ -891,8 +899,15 @@ fn build_cloud(
         Vec::new()
     };
     let nodes = build_tree(&mut points);
+    let packed = (t.model == DipoleModel::DirectionalCorrected).then(|| {
+        LineDipole4::new(lanes.each_ref().map(|l| match l {
+            LaneModel::DirectionalLine(m) => Some(m),
+            _ => None,
+        }))
+    });
     ObjectCloud {
         lanes,
+        packed,
         eta: t.eta,
         sigma_tr_min,
         rc_radius_m: if t.rejection_radius_mfp > 0.0 {
@@ -953,7 +968,7 @@ fn sample_light_at(
     lt.is_finite().then_some(CloudPoint {
         p,
         n,
-        wi: ls.wi,
+        w12: refract_in(ls.wi, n, eta),
         lt,
     })
 }
