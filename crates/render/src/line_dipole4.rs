@@ -42,6 +42,27 @@ pub fn exp4(x: Vec4) -> Vec4 {
     Vec4::select(x.cmplt(Vec4::splat(-87.0)), Vec4::ZERO, e)
 }
 
+/// e^x for one value, the same approximation as [`exp4`] (x ≤ 88; below −87 the result is 0).
+#[inline(always)]
+pub fn exp1(x: f32) -> f32 {
+    const LOG2E: f32 = std::f32::consts::LOG2_E;
+    const LN2_HI: f32 = 0.693_145_75;
+    const LN2_LO: f32 = 1.428_606_8e-6;
+    const ROUND: f32 = 12_582_912.0;
+    if !(x >= -87.0) {
+        return 0.0;
+    }
+    let xc = x.min(88.0);
+    let n = (xc * LOG2E + ROUND) - ROUND;
+    let r = xc - n * LN2_HI - n * LN2_LO;
+    let p = ((((((1.0 / 720.0) * r + 1.0 / 120.0) * r + 1.0 / 24.0) * r + 1.0 / 6.0) * r + 0.5)
+        * r
+        + 1.0)
+        * r
+        + 1.0;
+    p * f32::from_bits(((n as i32 + 127) << 23) as u32)
+}
+
 /// Lane-wise square root (one `sqrtps` after optimisation).
 #[inline(always)]
 fn sqrt4(x: Vec4) -> Vec4 {
@@ -192,6 +213,17 @@ mod tests {
             x += 0.0917;
         }
         assert!(worst < 4e-7, "worst relative error {worst}");
+        let mut worst1 = 0f64;
+        let mut x = -87.0f32;
+        while x < 80.0 {
+            worst1 = worst1.max((exp1(x) as f64 / (x as f64).exp() - 1.0).abs());
+            x += 0.0371;
+        }
+        assert!(worst1 < 4e-7, "worst relative error of exp1 {worst1}");
+        assert_eq!(
+            [exp1(-88.0), exp1(f32::NEG_INFINITY), exp1(f32::NAN), exp1(0.0)],
+            [0.0, 0.0, 0.0, 1.0]
+        );
         let e = exp4(Vec4::new(-88.0, -1000.0, 0.0, f32::NEG_INFINITY));
         assert_eq!(e, Vec4::new(0.0, 0.0, 1.0, 0.0));
     }

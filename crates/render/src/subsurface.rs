@@ -47,7 +47,7 @@ use crate::material::{Bsdf, Material};
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle, Frame, Pcg32};
 use crate::scene::Scene;
-use crate::line_dipole4::{refract_in, LineDipole4};
+use crate::line_dipole4::{exp1, refract_in, LineDipole4};
 use crate::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec3, Vec4};
@@ -651,7 +651,7 @@ impl SubsurfacePass {
         // Acceptance p(d) = e^{−σ_tr,min d}·min(1, (r0/d)³), non-increasing in d, so
         // p(box distance) bounds every point of a node.
         let accept = |d: f32| -> f32 {
-            let e = (-sigma * d).exp();
+            let e = exp1(-sigma * d);
             if d > r0 {
                 let k = r0 / d;
                 e * k * k * k
@@ -692,7 +692,9 @@ impl SubsurfacePass {
             if node.left == 0 || n * q < 4.0 || sp + 2 > stack.len() {
                 // Candidates with probability q by geometric skipping, then keep with p/q.
                 let (start, end) = (node.start as usize, node.end as usize);
-                if q >= 1.0 {
+                if q >= 1.0 || node.left == 0 {
+                    // Every point of a leaf is tested directly: with at most LEAF_SIZE points
+                    // this is cheaper than drawing geometric skips.
                     for pt in &c.points[start..end] {
                         let p = if c.rejection_control {
                             accept(pt.p.distance(xo))
