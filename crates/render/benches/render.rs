@@ -64,5 +64,49 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(render_benches, benches);
+/// S_d of the line-source directional dipole for four wavelengths (marble, Jensen et al. 2001,
+/// at 450/500/550/650 nm-like coefficients) on exit points around an entry point on a plane:
+/// the reference `optics` model (f64, one lane at a time) against the packed f32 evaluator the
+/// point-cloud queries use.
+fn subsurface(c: &mut Criterion) {
+    use glam::Vec3;
+    use optics::bssrdf::{DirectionalLineDipole, OpticalProperties};
+    use render::line_dipole4::{refract_in, LineDipole4};
+    let lanes: Vec<DirectionalLineDipole> = [(3000.0, 7.1), (2800.0, 5.5), (2620.0, 4.1), (2190.0, 2.1)]
+        .iter()
+        .map(|&(s, a)| {
+            DirectionalLineDipole::new(&OpticalProperties { eta: 1.5, sigma_s_per_m: s, sigma_a_per_m: a, g: 0.0 })
+                .expect("marble")
+        })
+        .collect();
+    let packed = LineDipole4::new([Some(&lanes[0]), Some(&lanes[1]), Some(&lanes[2]), Some(&lanes[3])]);
+    let n = Vec3::Z;
+    let w12 = refract_in(Vec3::new(0.3, 0.1, 0.95).normalize(), n, 1.5);
+    let exits: Vec<Vec3> = (0..1024)
+        .map(|i| {
+            let r = 4e-3 * ((i as f32 + 0.5) / 1024.0).sqrt();
+            let phi = i as f32 * 2.399_963;
+            Vec3::new(r * phi.cos(), r * phi.sin(), 0.0)
+        })
+        .collect();
+    let mut g = c.benchmark_group("subsurface");
+    g.throughput(Throughput::Elements(exits.len() as u64));
+    g.bench_function("sd_line_dipole_reference_4_lanes", |b| {
+        b.iter(|| {
+            let mut s = 0.0;
+            for xo in &exits {
+                for m in &lanes {
+                    s += m.sd_refracted([0.0; 3], [0.0, 0.0, 1.0], [w12.x as f64, w12.y as f64, w12.z as f64], [xo.x as f64, xo.y as f64, 0.0], [0.0, 0.0, 1.0]);
+                }
+            }
+            black_box(s)
+        })
+    });
+    g.bench_function("sd_line_dipole_packed_4_lanes", |b| {
+        b.iter(|| exits.iter().map(|&xo| packed.sd_refracted(Vec3::ZERO, n, w12, xo, n)).sum::<glam::Vec4>())
+    });
+    g.finish();
+}
+
+criterion_group!(render_benches, benches, subsurface);
 criterion_main!(render_benches);
