@@ -393,3 +393,36 @@ fn bench_json_has_the_contract_keys() {
     let hit = v["camera_hit_fraction"].as_f64().unwrap();
     assert!(hit > 0.05 && hit < 0.95, "camera hit fraction {hit}");
 }
+
+/// `lucent bench bssrdf --json` (BSSRDF vs volpath, time to equal noise) on a tiny marble bunny:
+/// the keys are present, both estimators see the same object (region means within 15 %, the
+/// BSSRDF being a model), the speed-up is σ²·CPU of volpath over that of the BSSRDF, and bad
+/// arguments are one-line errors. Speeds are not asserted.
+#[test]
+fn bench_bssrdf_json_reports_both_estimators() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let out = lucent()
+        .args(["bench", "bssrdf", "--json", "--width", "48", "--height", "48", "--volpath-spp", "8", "--bssrdf-spp", "4", "--threads", "2"])
+        .current_dir(root)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let num = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} missing or not a number in {v}"));
+    for key in ["volpath_cpu_s", "volpath_sigma_y", "bssrdf_cpu_s", "bssrdf_sigma_y", "volpath_mean_y", "bssrdf_mean_y"] {
+        let x = num(key);
+        assert!(x >= 0.0 && x.is_finite(), "{key} = {x}");
+    }
+    let (vm, bm) = (num("volpath_mean_y"), num("bssrdf_mean_y"));
+    assert!(vm > 0.1 && (bm / vm - 1.0).abs() < 0.15, "region means: volpath {vm}, BSSRDF {bm}");
+    let s2 = |p: &str| num(&format!("{p}_sigma_y")).powi(2) * num(&format!("{p}_cpu_s"));
+    let speedup = num("bssrdf_speedup_vs_volpath");
+    assert!((speedup - s2("volpath") / s2("bssrdf")).abs() <= 1e-9 * speedup, "{v}");
+    assert_eq!(v["volpath_spp"].as_u64(), Some(8));
+    for bad in [&["--seeds", "1"][..], &["--region", "0.6,0.2,0.5,0.9"], &["--bssrdf-spp", "0"], &["scenes/cornell-box.toml"]] {
+        let out = lucent().args(["bench", "bssrdf", "--width", "8", "--height", "8"]).args(bad).current_dir(root).output().unwrap();
+        assert!(!out.status.success(), "{bad:?} was accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.trim().lines().count() == 1 && err.starts_with("lucent: error: "), "{bad:?}: {err}");
+    }
+}

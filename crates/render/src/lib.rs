@@ -25,4 +25,5 @@ pub mod bxdf;
 pub mod volpath;
 pub mod subsurface;
 pub mod line_dipole4;
+pub mod noise_cost;
 pub mod param;

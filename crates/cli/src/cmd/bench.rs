@@ -55,11 +55,14 @@ pub struct Args {
 pub enum Which {
     /// Lorenz-Mie and milk-spectrum timings.
     Mie(super::bench_mie::Args),
+    /// BSSRDF (point-cloud method) vs volumetric path tracing: CPU time to equal noise.
+    Bssrdf(super::bench_bssrdf::Args),
 }
 
 pub fn run(args: Args) -> Result<()> {
     match args.which {
         Some(Which::Mie(a)) => super::bench_mie::run(a),
+        Some(Which::Bssrdf(a)) => super::bench_bssrdf::run(a),
         None => run_rays(&args),
     }
 }

@@ -1,6 +1,7 @@
 //! One file per subcommand.
 pub mod bench;
 pub mod bench_mie;
+pub mod bench_bssrdf;
 pub mod bssrdf;
 pub mod compare;
 pub mod fit;
