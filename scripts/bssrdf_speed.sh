@@ -27,7 +27,8 @@ out, sa, sb, vspp, bspp = sys.argv[1:]
 def pfm(p):
     with open(p, "rb") as f:
         f.readline(); w, h = map(int, f.readline().split()); sc = float(f.readline())
-        return np.frombuffer(f.read(), dtype="<f4" if sc < 0 else ">f4").reshape(h, w, 3).astype(np.float64)
+        # PFM rows run bottom to top: flip so that y fractions count from the top, as in render_pass.
+        return np.frombuffer(f.read(), dtype="<f4" if sc < 0 else ">f4").reshape(h, w, 3)[::-1].astype(np.float64)
 def cpu(p):
     return sum(map(float, open(p).read().split()[-2:]))
 res = {}
