@@ -5,6 +5,11 @@ usage: region_means.py REFERENCE.pfm OTHER.pfm [OTHER2.pfm ...] --regions NAME:x
 Regions are fractions of the image width/height (x right, y down). Prints a Markdown table of the
 luminance-like mean (R+G+B)/3 per region with its standard error (from 8×8-pixel block means) and
 the relative difference of each OTHER to REFERENCE.
+
+An argument A.pfm+B.pfm+… is one estimate made of independent renders (different seeds): its mean
+is their mean and its standard error the spread of their region means / √n. Use this for BSSRDF
+renders: every pixel of a pass shares the pass's point cloud, so their error is correlated across
+the image and the 8×8-block estimate understates it.
 """
 import sys
 import numpy as np
@@ -22,6 +27,11 @@ def read_pfm(path):
 
 
 def stats(img, r):
+    if isinstance(img, list):
+        if len(img) == 1:
+            return stats(img[0], r)
+        ms = [stats(i, r)[0] for i in img]
+        return float(np.mean(ms)), float(np.std(ms, ddof=1) / np.sqrt(len(ms)))
     h, w = img.shape[:2]
     x0, y0, x1, y1 = r
     sub = img[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)].mean(axis=2)
@@ -34,11 +44,12 @@ def main():
     args = sys.argv[1:]
     k = args.index("--regions")
     files, regs = args[:k], args[k + 1:]
-    imgs = [read_pfm(f) for f in files]
+    imgs = [[read_pfm(p) for p in f.split("+")] for f in files]
     regions = []
     for r in regs:
         name, box = r.split(":")
         regions.append((name, tuple(float(v) for v in box.split(","))))
+    files = [f if "+" not in f else f"{f.split('+')[0]}+{len(f.split('+')) - 1} more" for f in files]
     head = "| region | " + " | ".join(files) + " | " + " | ".join(f"Δ {f}" for f in files[1:]) + " |"
     print(head)
     print("|" + "---|" * (1 + 2 * len(files) - 1))
