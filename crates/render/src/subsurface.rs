@@ -98,13 +98,13 @@ pub struct Translucent {
     /// term keeps the Fresnel transmittances T12, T21 at the macro normal (pbrt-v3's
     /// `SubsurfaceMaterial`), see docs/subsurface.md.
     pub boundary_alpha: f32,
-    /// Edge images (`edge_images = true`, "directional-corrected" only): each cloud point on a
-    /// mesh also carries the plane of the nearest other face of the object (the nearest surface
-    /// point whose face normal is at least 60° from the point's normal, within 4/σ_tr of the most
-    /// transparent wavelength), and S_d is evaluated with the dipole mirrored in that plane
-    /// subtracted ([`DirectionalLineDipole::sd_refracted_edge`]): the image solution of a
-    /// right-angle edge. Off by default; spheres have no edges.
-    pub edge_images: bool,
+    /// Subsurface bounces of the point cloud (`bounces`, default 1): with N > 1 each pass builds
+    /// N clouds in turn, and the paths traced from the points of each cloud see translucent
+    /// surfaces with the BSSRDF term of the cloud before it (the first sees them as reflectors
+    /// only). Light that leaves the object by subsurface scattering, is sent back by its
+    /// surroundings (a glass around milk) and enters again is then counted up to N − 1 times
+    /// instead of dropped. The scene uses the largest N of its translucent materials.
+    pub bounces: u32,
 }
 
 impl Translucent {
@@ -131,7 +131,7 @@ impl Translucent {
             rejection_radius_mfp: DEFAULT_REJECTION_RADIUS_MFP,
             from_medium: false,
             boundary_alpha: 0.0,
-            edge_images: false,
+            bounces: 1,
         };
         for l in (360..=830).step_by(5) {
             let p = t.properties(l as f32);
@@ -250,7 +250,7 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
         "points_per_pass",
         "rejection_control",
         "rejection_radius_mfp",
-        "edge_images",
+        "bounces",
     ];
     let t = table.as_table().ok_or_else(|| {
         anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
@@ -405,13 +405,12 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
             .as_bool()
             .ok_or_else(|| anyhow!("subsurface.rejection_control: expected true or false"))?;
     }
-    if let Some(v) = t.get("edge_images") {
-        mat.edge_images = v
-            .as_bool()
-            .ok_or_else(|| anyhow!("subsurface.edge_images: expected true or false"))?;
-        if mat.edge_images && mat.model != DipoleModel::DirectionalCorrected {
-            bail!("subsurface.edge_images: only for model = \"directional-corrected\"");
-        }
+    if let Some(v) = t.get("bounces") {
+        let n = v
+            .as_integer()
+            .filter(|n| (1..=8).contains(n))
+            .ok_or_else(|| anyhow!("subsurface.bounces: expected an integer in 1..=8"))?;
+        mat.bounces = n as u32;
     }
     if let Some(r) = roughness {
         mat.set_roughness(r)?;
@@ -430,10 +429,8 @@ enum LaneModel {
 }
 
 impl LaneModel {
-    /// S_d of the lane; `edge` = (outward unit normal, offset in m) of the point's edge plane, or
-    /// a zero vector for none (only the corrected directional model uses it).
     #[inline]
-    fn sd(&self, xi: Vec3, ni: Vec3, wi: Vec3, xo: Vec3, no: Vec3, edge: Vec4) -> f64 {
+    fn sd(&self, xi: Vec3, ni: Vec3, wi: Vec3, xo: Vec3, no: Vec3) -> f64 {
         match self {
             LaneModel::Standard(m) => m.sd(xo.distance(xi) as f64),
             LaneModel::Directional(m) => {
@@ -442,12 +439,7 @@ impl LaneModel {
             }
             LaneModel::DirectionalLine(m) => {
                 let c = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
-                if edge.x == 0.0 && edge.y == 0.0 && edge.z == 0.0 {
-                    m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
-                } else {
-                    let en = [edge.x as f64, edge.y as f64, edge.z as f64];
-                    m.sd_edge(c(xi), c(ni), c(wi), c(xo), c(no), en, edge.w as f64)
-                }
+                m.sd(c(xi), c(ni), c(wi), c(xo), c(no))
             }
             LaneModel::Black => 0.0,
         }
@@ -464,8 +456,6 @@ struct CloudPoint {
     wi: Vec3,
     /// L_t = T12 L_i π A at the pass's wavelengths.
     lt: Vec4,
-    /// Edge plane (outward unit normal xyz, offset w in m: x·n = w), zero when none.
-    edge: Vec4,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -631,15 +621,36 @@ impl SubsurfacePass {
             return None;
         }
         let wl = Self::pass_wavelengths(seed, pass);
-        let mut clouds = Vec::with_capacity(scene.objects.len());
-        for (oi, obj) in scene.objects.iter().enumerate() {
-            let Material::Translucent(t) = &scene.materials[obj.material as usize] else {
-                clouds.push(None);
-                continue;
+        let bounces = scene
+            .materials
+            .iter()
+            .filter_map(|m| match m {
+                Material::Translucent(t) => Some(t.bounces),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(1)
+            .max(1);
+        // Generations g = N−1, …, 0; generation 0 (the camera's) keeps the seed stream of the
+        // single-cloud scheme, so `bounces = 1` is unchanged bit for bit.
+        let mut prev: Option<SubsurfacePass> = None;
+        for g in (0..bounces as u64).rev() {
+            let seed_g = if g == 0 { seed } else { seed ^ g.wrapping_mul(0x9e37_79b9_7f4a_7c15) };
+            let mode = match &prev {
+                None => SubsurfaceMode::ReflectOnly,
+                Some(p) => SubsurfaceMode::Bssrdf(p),
             };
-            clouds.push(Some(build_cloud(scene, settings, t, oi, &wl, seed, pass)));
+            let mut clouds = Vec::with_capacity(scene.objects.len());
+            for (oi, obj) in scene.objects.iter().enumerate() {
+                let Material::Translucent(t) = &scene.materials[obj.material as usize] else {
+                    clouds.push(None);
+                    continue;
+                };
+                clouds.push(Some(build_cloud(scene, settings, t, oi, &wl, seed_g, pass, mode)));
+            }
+            prev = Some(SubsurfacePass { wl, clouds });
         }
-        Some(SubsurfacePass { wl, clouds })
+        prev
     }
 
     /// Diffusive BSSRDF radiance leaving object `object` at `xo` (outward unit normal `no`)
@@ -691,7 +702,7 @@ impl SubsurfacePass {
             for (k, lane) in c.lanes.iter().enumerate() {
                 let lt = pt.lt[k];
                 if lt != 0.0 {
-                    sum[k] += lane.sd(pt.p, pt.n, pt.wi, xo, no, pt.edge) * lt as f64 / p as f64;
+                    sum[k] += lane.sd(pt.p, pt.n, pt.wi, xo, no) * lt as f64 / p as f64;
                 }
             }
         };
@@ -853,6 +864,7 @@ fn effective_material(scene: &Scene, t: &Translucent, object: usize) -> Transluc
     t
 }
 
+#[allow(clippy::too_many_arguments)]
 fn build_cloud(
     scene: &Scene,
     settings: &IntegratorSettings,
@@ -861,6 +873,7 @@ fn build_cloud(
     wl: &SampledWavelengths,
     seed: u64,
     pass: u64,
+    mode: SubsurfaceMode,
 ) -> ObjectCloud {
     let t = &effective_material(scene, t, object);
     let (lanes, sigma_tr_min, spt_min) = lane_models(t, wl);
@@ -870,9 +883,6 @@ fn build_cloud(
     let area = sampler.area;
     let eps = scene.ray_epsilon_m;
     let any_lane = lanes.iter().any(|l| !matches!(l, LaneModel::Black));
-    let edges = (t.edge_images && sigma_tr_min > 0.0)
-        .then(|| EdgeFinder::new(shape, sampler.orient, 4.0 / sigma_tr_min))
-        .flatten();
     let mut points: Vec<CloudPoint> = if any_lane {
         (0..m)
             .into_par_iter()
@@ -883,7 +893,6 @@ fn build_cloud(
                     i as u64,
                 );
                 let (p, n) = sampler.sample(&mut rng);
-                let edge = edges.as_ref().map_or(Vec4::ZERO, |e| e.plane(p, n));
                 let d_local = cosine_hemisphere(rng.next_2d());
                 let wi = Frame::from_normal(n).to_world(d_local).normalize();
                 let ray = Ray {
@@ -893,8 +902,7 @@ fn build_cloud(
                     t_max: f32::INFINITY,
                 };
                 // Light sample (next-event estimation), MIS-weighted against the cosine direction.
-                let light = sample_light_at(scene, p, n, wl, &mut rng, t.eta, area)
-                    .map(|c| CloudPoint { edge, ..c });
+                let light = sample_light_at(scene, p, n, wl, &mut rng, t.eta, area);
                 let cos_pdf = d_local.z * std::f32::consts::FRAC_1_PI;
                 let mut wl_path = *wl;
                 let mut li = crate::integrator::li_path_mode(
@@ -903,7 +911,7 @@ fn build_cloud(
                     ray,
                     &mut wl_path,
                     &mut rng,
-                    SubsurfaceMode::ReflectOnly,
+                    mode,
                     cos_pdf,
                 );
                 if wl_path.secondary_terminated() {
@@ -913,7 +921,7 @@ fn build_cloud(
                     li = Vec4::ZERO;
                 }
                 let lt = li * (fresnel_t(d_local.z, t.eta) * std::f32::consts::PI * area);
-                [Some(CloudPoint { p, n, wi, lt, edge }), light]
+                [Some(CloudPoint { p, n, wi, lt }), light]
             })
             .flat_map_iter(|pair| pair.into_iter().flatten())
             .filter(|c| c.lt != Vec4::ZERO)
@@ -986,88 +994,7 @@ fn sample_light_at(
         n,
         wi: ls.wi,
         lt,
-        edge: Vec4::ZERO,
     })
-}
-
-/// Finds, for a surface point of a mesh, the plane of the nearest other face: the closest point
-/// of any triangle whose outward face normal n_e makes an angle of at least 60° with the point's
-/// normal (n_e·n ≤ 1/2), within `max_dist_m`. Brute force over the triangles (bounding-sphere
-/// culled): meant for the small meshes of objects with edges (cost O(M × triangles) per pass).
-struct EdgeFinder {
-    /// Per triangle: vertices, outward unit normal, bounding-sphere centre and radius.
-    tris: Vec<([Vec3; 3], Vec3, Vec3, f32)>,
-    max_dist_m: f32,
-}
-
-impl EdgeFinder {
-    fn new(shape: &Shape, orient: f32, max_dist_m: f32) -> Option<EdgeFinder> {
-        let Shape::Mesh(m) = shape else { return None };
-        let tris = (0..m.indices.len())
-            .filter_map(|i| {
-                let [a, b, c] = m.triangle(i);
-                let n = (b - a).cross(c - a).normalize_or_zero() * orient;
-                if n == Vec3::ZERO {
-                    return None;
-                }
-                let ctr = (a + b + c) / 3.0;
-                let r = ctr.distance(a).max(ctr.distance(b)).max(ctr.distance(c));
-                Some(([a, b, c], n, ctr, r))
-            })
-            .collect();
-        Some(EdgeFinder { tris, max_dist_m })
-    }
-
-    /// (n_e, n_e·x_e) of the nearest qualifying point x_e, or zero.
-    fn plane(&self, p: Vec3, n: Vec3) -> Vec4 {
-        let mut best = self.max_dist_m;
-        let mut out = Vec4::ZERO;
-        for (v, ne, ctr, r) in &self.tris {
-            if ne.dot(n) > 0.5 || ctr.distance(p) - r >= best {
-                continue;
-            }
-            let q = closest_point_triangle(p, v[0], v[1], v[2]);
-            let d = q.distance(p);
-            if d < best {
-                best = d;
-                out = ne.extend(ne.dot(q));
-            }
-        }
-        out
-    }
-}
-
-/// Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection, §5.1.5).
-fn closest_point_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let den = 1.0 / (va + vb + vc);
-    a + ab * (vb * den) + ac * (vc * den)
 }
 
 /// kd-tree over the points (median split on the longest axis); reorders `points` so every node
