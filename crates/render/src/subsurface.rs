@@ -32,9 +32,12 @@
 //! path of the pass (camera and cloud) at the same four hero wavelengths, drawn from (seed,
 //! pass); passes average over wavelengths as they do over everything else.
 //!
-//! Limitation: the paths traced from cloud points see translucent surfaces as their specular
-//! reflection only (the previous pass's cloud is not kept), so light that leaves one translucent
-//! surface by subsurface scattering and reaches another translucent point is dropped.
+//! Limitation (default `bounces = 1`): the paths traced from cloud points see translucent
+//! surfaces as their specular reflection only, so light that leaves one translucent surface by
+//! subsurface scattering and reaches a translucent point (another object, or the same one via its
+//! surroundings, e.g. a glass around milk) is dropped. With `bounces = N` each pass builds N
+//! clouds, the paths of each seeing translucent surfaces with the BSSRDF term of the one before
+//! ([`Translucent::bounces`]), which counts that light up to N − 1 times.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
