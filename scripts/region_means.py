@@ -4,7 +4,8 @@
 usage: region_means.py REFERENCE.pfm OTHER.pfm [OTHER2.pfm ...] --regions NAME:x0,y0,x1,y1 ...
 Regions are fractions of the image width/height (x right, y down). Prints a Markdown table of the
 luminance-like mean (R+G+B)/3 per region with its standard error (from 8×8-pixel block means) and
-the relative difference of each OTHER to REFERENCE.
+the relative difference of each OTHER to REFERENCE. With --channels, one table row per region and
+channel (R, G, B of linear sRGB) instead of the (R+G+B)/3 mean.
 
 An argument A.pfm+B.pfm+… is one estimate made of independent renders (different seeds): its mean
 is their mean and its standard error the spread of their region means / √n. Use this for BSSRDF
@@ -26,15 +27,16 @@ def read_pfm(path):
     return img
 
 
-def stats(img, r):
+def stats(img, r, channel=None):
     if isinstance(img, list):
         if len(img) == 1:
-            return stats(img[0], r)
-        ms = [stats(i, r)[0] for i in img]
+            return stats(img[0], r, channel)
+        ms = [stats(i, r, channel)[0] for i in img]
         return float(np.mean(ms)), float(np.std(ms, ddof=1) / np.sqrt(len(ms)))
     h, w = img.shape[:2]
     x0, y0, x1, y1 = r
-    sub = img[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)].mean(axis=2)
+    sub = img[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)]
+    sub = sub.mean(axis=2) if channel is None else sub[:, :, channel]
     bh, bw = max(1, sub.shape[0] // 8), max(1, sub.shape[1] // 8)
     blocks = [sub[i:i + bh, j:j + bw].mean() for i in range(0, sub.shape[0] - bh + 1, bh) for j in range(0, sub.shape[1] - bw + 1, bw)]
     return sub.mean(), np.std(blocks, ddof=1) / np.sqrt(len(blocks))
@@ -42,6 +44,10 @@ def stats(img, r):
 
 def main():
     args = sys.argv[1:]
+    channels = [None]
+    if "--channels" in args:
+        args.remove("--channels")
+        channels = [0, 1, 2]
     k = args.index("--regions")
     files, regs = args[:k], args[k + 1:]
     imgs = [[read_pfm(p) for p in f.split("+")] for f in files]
@@ -54,11 +60,13 @@ def main():
     print(head)
     print("|" + "---|" * (1 + 2 * len(files) - 1))
     for name, r in regions:
-        s = [stats(im, r) for im in imgs]
-        ref = s[0][0]
-        cells = [f"{m:.4f} ± {e:.4f}" for m, e in s]
-        rel = [f"{100 * (m - ref) / ref:+.1f} %" for m, _ in s[1:]]
-        print(f"| {name} | " + " | ".join(cells) + " | " + " | ".join(rel) + " |")
+        for c in channels:
+            s = [stats(im, r, c) for im in imgs]
+            ref = s[0][0]
+            cells = [f"{m:.4f} ± {e:.4f}" for m, e in s]
+            rel = [f"{100 * (m - ref) / ref:+.1f} %" for m, _ in s[1:]]
+            label = name if c is None else f"{name} {'RGB'[c]}"
+            print(f"| {label} | " + " | ".join(cells) + " | " + " | ".join(rel) + " |")
 
 
 if __name__ == "__main__":

@@ -508,6 +508,43 @@ impl DirectionalLineDipole {
     /// S_d(xᵢ, ω₁₂; xₒ) (m⁻² sr⁻¹) given the refracted direction `w12` (into the medium); same
     /// arguments as [`DirectionalDipole::sd_refracted`]. Clamped at 0.
     pub fn sd_refracted(&self, xi: V3, ni: V3, w12: V3, xo: V3, no: V3) -> f64 {
+        self.sd_refracted_signed(xi, ni, w12, xo, no).max(0.0)
+    }
+
+    /// [`DirectionalLineDipole::sd_refracted`] with an edge image: the whole dipole (the line of
+    /// sources and its image in the source's own extrapolated plane) mirrored in a second boundary
+    /// plane {x : x·`edge_n` = `edge_c_m`} (unit outward normal, offset in m) moved out by the
+    /// extrapolation height z_b = A·d_e, and subtracted:
+    ///
+    ///   S_d,edge(xᵢ, ω₁₂; xₒ) = max(0, S_d(xᵢ, nᵢ, ω₁₂; xₒ) − S_d(Mxᵢ, Mnᵢ, Mω₁₂; xₒ)),
+    ///
+    /// M the reflection in {x·n_e = c + z_b}. When the two planes are perpendicular this is the
+    /// four-image solution of the diffusion equation in a right-angle wedge with zero fluence on
+    /// both extrapolated planes (exact within diffusion theory for exit points on the source's
+    /// face); otherwise it is the first image of the method of images (for parallel planes, the
+    /// first term of the multipole of Donner & Jensen 2005). Light that the half-space dipole
+    /// would let out on the source's face beyond the edge is thereby removed near the edge.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sd_refracted_edge(
+        &self,
+        xi: V3,
+        ni: V3,
+        w12: V3,
+        xo: V3,
+        no: V3,
+        edge_n: V3,
+        edge_c_m: f64,
+    ) -> f64 {
+        let c = edge_c_m + self.base.a * self.base.d_e_m;
+        let xm = add_scaled(xi, 2.0 * (c - dot(xi, edge_n)), edge_n);
+        let mirror = |v: V3| add_scaled(v, -2.0 * dot(v, edge_n), edge_n);
+        let direct = self.sd_refracted_signed(xi, ni, w12, xo, no);
+        let image = self.sd_refracted_signed(xm, mirror(ni), mirror(w12), xo, no);
+        (direct - image).max(0.0)
+    }
+
+    /// [`DirectionalLineDipole::sd_refracted`] before the clamp at 0.
+    fn sd_refracted_signed(&self, xi: V3, ni: V3, w12: V3, xo: V3, no: V3) -> f64 {
         let b = &self.base;
         if b.props.alpha_prime <= 0.0 {
             return 0.0;
@@ -550,14 +587,20 @@ impl DirectionalLineDipole {
             let virt = mono((v2 + tk * (tk - 2.0 * vw)).max(0.0), vn - tk * wvn);
             s += wk * (real - virt);
         }
-        s *= b.norm;
-        s.max(0.0)
+        s * b.norm
     }
 
     /// S_d(xᵢ, ωᵢ; xₒ) (m⁻² sr⁻¹) for the direction `wi` towards the light (unit, outside).
     pub fn sd(&self, xi: V3, ni: V3, wi: V3, xo: V3, no: V3) -> f64 {
         let w12 = self.base.refract_in(wi, ni);
         self.sd_refracted(xi, ni, w12, xo, no)
+    }
+
+    /// [`DirectionalLineDipole::sd_refracted_edge`] for the direction `wi` towards the light.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sd_edge(&self, xi: V3, ni: V3, wi: V3, xo: V3, no: V3, edge_n: V3, edge_c_m: f64) -> f64 {
+        let w12 = self.base.refract_in(wi, ni);
+        self.sd_refracted_edge(xi, ni, w12, xo, no, edge_n, edge_c_m)
     }
 
     /// Radial profile π S_d (m⁻²) on a flat half-space at distance `r_m` under normal incidence.

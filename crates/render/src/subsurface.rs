@@ -32,9 +32,12 @@
 //! path of the pass (camera and cloud) at the same four hero wavelengths, drawn from (seed,
 //! pass); passes average over wavelengths as they do over everything else.
 //!
-//! Limitation: the paths traced from cloud points see translucent surfaces as their specular
-//! reflection only (the previous pass's cloud is not kept), so light that leaves one translucent
-//! surface by subsurface scattering and reaches another translucent point is dropped.
+//! Limitation (default `bounces = 1`): the paths traced from cloud points see translucent
+//! surfaces as their specular reflection only, so light that leaves one translucent surface by
+//! subsurface scattering and reaches a translucent point (another object, or the same one via its
+//! surroundings, e.g. a glass around milk) is dropped. With `bounces = N` each pass builds N
+//! clouds, the paths of each seeing translucent surfaces with the BSSRDF term of the one before
+//! ([`Translucent::bounces`]), which counts that light up to N − 1 times.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -99,6 +102,13 @@ pub struct Translucent {
     /// term keeps the Fresnel transmittances T12, T21 at the macro normal (pbrt-v3's
     /// `SubsurfaceMaterial`), see docs/subsurface.md.
     pub boundary_alpha: f32,
+    /// Subsurface bounces of the point cloud (`bounces`, default 1): with N > 1 each pass builds
+    /// N clouds in turn, and the paths traced from the points of each cloud see translucent
+    /// surfaces with the BSSRDF term of the cloud before it (the first sees them as reflectors
+    /// only). Light that leaves the object by subsurface scattering, is sent back by its
+    /// surroundings (a glass around milk) and enters again is then counted up to N − 1 times
+    /// instead of dropped. The scene uses the largest N of its translucent materials.
+    pub bounces: u32,
 }
 
 impl Translucent {
@@ -125,6 +135,7 @@ impl Translucent {
             rejection_radius_mfp: DEFAULT_REJECTION_RADIUS_MFP,
             from_medium: false,
             boundary_alpha: 0.0,
+            bounces: 1,
         };
         for l in (360..=830).step_by(5) {
             let p = t.properties(l as f32);
@@ -243,6 +254,7 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
         "points_per_pass",
         "rejection_control",
         "rejection_radius_mfp",
+        "bounces",
     ];
     let t = table.as_table().ok_or_else(|| {
         anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
@@ -396,6 +408,13 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
         mat.rejection_control = v
             .as_bool()
             .ok_or_else(|| anyhow!("subsurface.rejection_control: expected true or false"))?;
+    }
+    if let Some(v) = t.get("bounces") {
+        let n = v
+            .as_integer()
+            .filter(|n| (1..=8).contains(n))
+            .ok_or_else(|| anyhow!("subsurface.bounces: expected an integer in 1..=8"))?;
+        mat.bounces = n as u32;
     }
     if let Some(r) = roughness {
         mat.set_roughness(r)?;
@@ -604,15 +623,36 @@ impl SubsurfacePass {
             return None;
         }
         let wl = Self::pass_wavelengths(seed, pass);
-        let mut clouds = Vec::with_capacity(scene.objects.len());
-        for (oi, obj) in scene.objects.iter().enumerate() {
-            let Material::Translucent(t) = &scene.materials[obj.material as usize] else {
-                clouds.push(None);
-                continue;
+        let bounces = scene
+            .materials
+            .iter()
+            .filter_map(|m| match m {
+                Material::Translucent(t) => Some(t.bounces),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(1)
+            .max(1);
+        // Generations g = N−1, …, 0; generation 0 (the camera's) keeps the seed stream of the
+        // single-cloud scheme, so `bounces = 1` is unchanged bit for bit.
+        let mut prev: Option<SubsurfacePass> = None;
+        for g in (0..bounces as u64).rev() {
+            let seed_g = if g == 0 { seed } else { seed ^ g.wrapping_mul(0x9e37_79b9_7f4a_7c15) };
+            let mode = match &prev {
+                None => SubsurfaceMode::ReflectOnly,
+                Some(p) => SubsurfaceMode::Bssrdf(p),
             };
-            clouds.push(Some(build_cloud(scene, settings, t, oi, &wl, seed, pass)));
+            let mut clouds = Vec::with_capacity(scene.objects.len());
+            for (oi, obj) in scene.objects.iter().enumerate() {
+                let Material::Translucent(t) = &scene.materials[obj.material as usize] else {
+                    clouds.push(None);
+                    continue;
+                };
+                clouds.push(Some(build_cloud(scene, settings, t, oi, &wl, seed_g, pass, mode)));
+            }
+            prev = Some(SubsurfacePass { wl, clouds });
         }
-        Some(SubsurfacePass { wl, clouds })
+        prev
     }
 
     /// Diffusive BSSRDF radiance leaving object `object` at `xo` (outward unit normal `no`)
@@ -836,6 +876,7 @@ fn effective_material(scene: &Scene, t: &Translucent, object: usize) -> Transluc
     t
 }
 
+#[allow(clippy::too_many_arguments)]
 fn build_cloud(
     scene: &Scene,
     settings: &IntegratorSettings,
@@ -844,6 +885,7 @@ fn build_cloud(
     wl: &SampledWavelengths,
     seed: u64,
     pass: u64,
+    mode: SubsurfaceMode,
 ) -> ObjectCloud {
     let t = &effective_material(scene, t, object);
     let (lanes, sigma_tr_min, spt_min) = lane_models(t, wl);
@@ -881,7 +923,7 @@ fn build_cloud(
                     ray,
                     &mut wl_path,
                     &mut rng,
-                    SubsurfaceMode::ReflectOnly,
+                    mode,
                     cos_pdf,
                 );
                 if wl_path.secondary_terminated() {

@@ -30,6 +30,11 @@ fn slab_scene_lit(sub: &str, ior: f64, light: &str) -> Scene {
 
 /// The slab box of [`slab_scene`] with extra lines in the material table (e.g. `roughness = 0.3`).
 fn slab_scene_with(sub: &str, ior: f64, extra: &str, light: &str) -> Scene {
+    slab_scene_objects(sub, ior, extra, "", light)
+}
+
+/// The slab box of [`slab_scene_with`] with extra TOML after the slab object (materials, objects).
+fn slab_scene_objects(sub: &str, ior: f64, extra: &str, objects: &str, light: &str) -> Scene {
     let a = 100.0;
     let h = 100.0;
     let q = |c: [[f64; 3]; 4]| {
@@ -67,6 +72,7 @@ subsurface = {sub}
 name = "slab"
 material = "slab"
 quads = [{quads}]
+{objects}
 [[lights]]
 {light}
 "#
@@ -290,6 +296,13 @@ fn bad_translucent_input_is_rejected() {
                 sphere,
             ),
             "unobtainium",
+        ),
+        (
+            base(
+                "type = \"translucent\"\nsubsurface = { preset = \"marble\", bounces = 0 }",
+                sphere,
+            ),
+            "subsurface.bounces",
         ),
         (
             base(
@@ -585,3 +598,52 @@ fn rough_boundary_keeps_the_diffusion_closed_form() {
     }
 }
 
+
+/// `bounces`: the slab of [`slab_scene`] under a Lambertian ceiling (albedo ρ = 0.8, emitting
+/// L_e = 1 downwards, two-sided) 1 mm above its top face — two parallel plates, so every radiance
+/// between them is uniform and the series has a closed form. With S = (1 − F̄)²R_d the slab's
+/// subsurface reflectance for uniform light (the standard dipole's closed form; see
+/// `slab_matches_closed_form_total_diffuse_reflectance`) and F̄ its Fresnel reflectance, the
+/// ceiling's radiance when the cloud counts N subsurface bounces is
+///   L₁ = L_e/(1 − ρF̄),  L_N = (L_e + ρS·L_{N−1})/(1 − ρF̄),
+/// and the subsurface radiance of the slab at normal exit is T21(1)·R_d·(1 − F̄)·L_N. With N = 1
+/// (the default) the slab's own subsurface light sent back by the ceiling is dropped (−30 % here);
+/// N = 2 must count it once.
+#[test]
+fn bounces_count_light_returned_by_the_surroundings() {
+    let eta = 1.3;
+    let (rho, le) = (0.8, 1.0);
+    let dip = StandardDipole::new(&OpticalProperties { eta, sigma_s_per_m: 1000.0, sigma_a_per_m: 10.0, g: 0.0 }).unwrap();
+    let fbar = fresnel_hemispherical(eta);
+    let t21 = 1.0 - optics::fresnel::fresnel_dielectric(1.0, eta);
+    let s = (1.0 - fbar) * (1.0 - fbar) * dip.rd_closed_form();
+    let mut l_n = le / (1.0 - rho * fbar);
+    for n in 1..=2u32 {
+        if n > 1 {
+            l_n = (le + rho * s * l_n) / (1.0 - rho * fbar);
+        }
+        let expected = t21 * dip.rd_closed_form() * (1.0 - fbar) * l_n;
+        let sub = format!(
+            r#"{{ model = "standard", sigma_s_per_mm = 1.0, sigma_a_per_mm = 0.01, points_per_pass = 32768, bounces = {n} }}"#
+        );
+        let ceiling = "[[objects]]\nname = \"ceiling\"\nmaterial = \"ceiling\"\nquad = [[-400, 1, -400], [400, 1, -400], [400, 1, 400], [-400, 1, 400]]\n[materials.ceiling]\ntype = \"lambertian\"\nalbedo = 0.8";
+        let scene = slab_scene_objects(&sub, eta, "", ceiling, "type = \"area\"\nobject = \"ceiling\"\nradiance = 1\ntwo_sided = true");
+        let mut pass_means = Vec::new();
+        for pass in 0..24u64 {
+            let p = SubsurfacePass::build(&scene, &scene.integrator, 11, pass).unwrap();
+            let mut rng = Pcg32::new(5, pass);
+            let mut acc = 0.0f64;
+            let nq = 200;
+            for k in 0..nq {
+                let x = -0.01 + 0.02 * ((k % 15) as f32 / 14.0);
+                let z = -0.01 + 0.02 * ((k / 15 % 15) as f32 / 14.0);
+                acc += p.radiance(0, Vec3::new(x, 0.0, z), Vec3::Y, Vec3::Y, &mut rng).x as f64;
+            }
+            pass_means.push(acc / nq as f64);
+        }
+        let (m, se) = mean_se(&pass_means);
+        println!("bounces = {n}: estimate {m:.5} ± {se:.5}, closed form {expected:.5} (L_N = {l_n:.4}, S = {s:.4}, F̄ = {fbar:.4})");
+        assert!(se < 0.02 * expected, "too noisy to test: se {se}");
+        assert!((m - expected).abs() < 4.0 * se + 0.01 * expected, "bounces = {n}: {m} ± {se} vs {expected}");
+    }
+}
