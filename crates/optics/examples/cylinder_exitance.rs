@@ -12,7 +12,7 @@
 //!   cargo run --release -p optics --example cylinder_exitance -- [FAT_PERCENT] [PHOTONS]
 #![allow(clippy::needless_range_loop)]
 
-use optics::bssrdf::{c_phi, DirectionalLineDipole, OpticalProperties};
+use optics::bssrdf::{c_phi, gauss_legendre, DirectionalLineDipole, OpticalProperties};
 use std::f64::consts::PI;
 
 type V3 = [f64; 3];
@@ -44,31 +44,6 @@ fn dbin(d: f64) -> usize {
 
 fn dist(a: V3, b: V3) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
-
-/// Gauss–Legendre nodes/weights on [-1, 1].
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let mut out = Vec::new();
-    for i in 0..n {
-        let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-            let dx = p1 / dp;
-            x -= dx;
-            if dx.abs() < 1e-15 {
-                let w = 2.0 / ((1.0 - x * x) * dp * dp);
-                out.push((x, w));
-                break;
-            }
-        }
-    }
-    out
 }
 
 /// Quadrature points on [a, b] with panels graded geometrically towards c (smallest h0).

@@ -411,6 +411,36 @@ impl DirectionalDipole {
 /// Number of Gauss–Laguerre nodes along the refracted ray in [`DirectionalLineDipole`].
 pub const LINE_SOURCE_NODES: usize = 6;
 
+/// Nodes and weights of n-point Gauss–Legendre quadrature on [−1, 1] (Σ wₖ = 2), by Newton
+/// iteration on the three-term recurrence of the Legendre polynomials (n ≥ 2).
+pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    assert!(n >= 2);
+    // (P_n(x), P_n'(x)) by kP_k = (2k−1)xP_{k−1} − (k−1)P_{k−2}.
+    let legendre = |x: f64| {
+        let (mut p0, mut p1) = (1.0, x);
+        for k in 2..=n {
+            let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+            p0 = p1;
+            p1 = p2;
+        }
+        (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
+    };
+    (0..n)
+        .map(|i| {
+            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+            for _ in 0..100 {
+                let (p, dp) = legendre(x);
+                x -= p / dp;
+                if (p / dp).abs() < 1e-15 {
+                    break;
+                }
+            }
+            let dp = legendre(x).1;
+            (x, 2.0 / ((1.0 - x * x) * dp * dp))
+        })
+        .collect()
+}
+
 /// Nodes and weights of n-point Gauss–Laguerre quadrature, ∫₀^∞ e^{−s} f(s) ds ≈ Σ wₖ f(sₖ)
 /// (Σ wₖ = 1), by Newton iteration on the three-term recurrence of the Laguerre polynomials.
 pub fn gauss_laguerre(n: usize) -> Vec<(f64, f64)> {

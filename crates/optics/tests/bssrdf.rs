@@ -650,6 +650,21 @@ fn gauss_laguerre_rule_is_exact_for_polynomials() {
     }
 }
 
+/// n-point Gauss–Legendre integrates x^k over [−1, 1] exactly for k < 2n: 2/(k+1) for even k,
+/// 0 for odd k.
+#[test]
+fn gauss_legendre_rule_is_exact_for_polynomials() {
+    for n in [2, 5, 12, 48] {
+        let rule = gauss_legendre(n);
+        assert_eq!(rule.len(), n);
+        for k in 0..2 * n {
+            let q: f64 = rule.iter().map(|&(x, w)| w * x.powi(k as i32)).sum();
+            let exact = if k % 2 == 0 { 2.0 / (k as f64 + 1.0) } else { 0.0 };
+            assert!((q - exact).abs() < 1e-12, "n {n}, k {k}: {q} vs {exact}");
+        }
+    }
+}
+
 /// Closed form of the line-source theory over a half-space for light refracted at cosine `mu_t`
 /// (depth of the source at distance t along the ray: tμ_t): the image of each source lies
 /// 2(z_b + tμ_t) above it, and e^{−σ_tr tμ_t} averaged over the density σ'_t e^{−σ'_t t} is
@@ -823,29 +838,6 @@ fn mc_quarter_space_entry_face(eta: f64, albedo: f64, d: f64, n: usize, seed: u6
     }
     let mean = s1 / n as f64;
     ((mean), ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
-}
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on the Legendre recurrence).
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            loop {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-14 {
-                    return (x, 2.0 / ((1.0 - x * x) * dp * dp));
-                }
-            }
-        })
-        .collect()
 }
 
 /// ∫ f dA over the half plane {x < 0} of the plane y = 0, f given at (x, z) (m), in polar

@@ -15,16 +15,18 @@
 use glam::{Vec3, Vec4};
 use optics::bssrdf::{DirectionalLineDipole, LINE_SOURCE_NODES};
 
+const LOG2E: f32 = std::f32::consts::LOG2_E;
+/// ln 2 split in a high part exact in f32 products with small integers and the remainder.
+const LN2_HI: f32 = 0.693_145_75;
+const LN2_LO: f32 = 1.428_606_8e-6;
+/// 1.5·2²³: adding and subtracting it rounds to the nearest integer (round-to-nearest mode).
+const ROUND: f32 = 12_582_912.0;
+
 /// e^x for four lanes (x ≤ 88; below −87 the result is 0). Cody–Waite reduction x = n ln 2 + r,
 /// |r| ≤ ln 2/2, and the degree-6 Taylor polynomial of e^r (truncation error ≤ |r|⁷/7! ≈ 1.2e-7
 /// relative); 2ⁿ is built in the exponent bits.
 #[inline(always)]
 pub fn exp4(x: Vec4) -> Vec4 {
-    const LOG2E: f32 = std::f32::consts::LOG2_E;
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    // 1.5·2²³: adding and subtracting it rounds to the nearest integer (round-to-nearest mode).
-    const ROUND: f32 = 12_582_912.0;
     let xc = x.clamp(Vec4::splat(-87.0), Vec4::splat(88.0));
     let n = (xc * LOG2E + Vec4::splat(ROUND)) - Vec4::splat(ROUND);
     let r = xc - n * LN2_HI - n * LN2_LO;
@@ -45,10 +47,6 @@ pub fn exp4(x: Vec4) -> Vec4 {
 /// e^x for one value, the same approximation as [`exp4`] (x ≤ 88; below −87 the result is 0).
 #[inline(always)]
 pub fn exp1(x: f32) -> f32 {
-    const LOG2E: f32 = std::f32::consts::LOG2_E;
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    const ROUND: f32 = 12_582_912.0;
     if !(x >= -87.0) {
         return 0.0;
     }

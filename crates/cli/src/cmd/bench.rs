@@ -67,17 +67,23 @@ pub fn run(args: Args) -> Result<()> {
     }
 }
 
-/// The bundled default mesh, looked up from the current directory, then from the source tree.
-fn default_mesh() -> Result<PathBuf> {
-    let rel = Path::new("data/meshes/dragon-48k.ply");
-    if rel.exists() {
-        return Ok(rel.to_path_buf());
+/// A file bundled with the repository (`rel`, relative to its root), looked up from the current
+/// directory, then from the source tree; `what` names the flag or argument that overrides it.
+pub(crate) fn bundled(rel: &str, what: &str) -> Result<PathBuf> {
+    let p = Path::new(rel);
+    if p.exists() {
+        return Ok(p.to_path_buf());
     }
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/meshes/dragon-48k.ply");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(rel);
     if src.exists() {
         return Ok(src);
     }
-    bail!("default mesh data/meshes/dragon-48k.ply not found (run from the repository root or pass --mesh FILE)")
+    bail!("default {rel} not found (run from the repository root or {what})")
+}
+
+/// The bundled default mesh.
+fn default_mesh() -> Result<PathBuf> {
+    bundled("data/meshes/dragon-48k.ply", "pass --mesh FILE")
 }
 
 fn run_rays(args: &Args) -> Result<()> {
@@ -168,7 +174,7 @@ fn trace_all_batched(accel: &Accel, rays: &[Ray]) -> u64 {
 }
 
 /// CPU time (user + system) of this process so far, seconds, from /proc/self/stat (Linux; 0 elsewhere).
-fn cpu_seconds() -> f64 {
+pub(crate) fn cpu_seconds() -> f64 {
     let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
     // Fields after the parenthesised command name; utime and stime are fields 14 and 15 (1-based).
     let Some(rest) = stat.rfind(')').map(|i| &stat[i + 1..]) else { return 0.0 };

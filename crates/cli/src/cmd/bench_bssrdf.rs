@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use render::integrator::{IntegratorKind, IntegratorSettings};
 use render::noise_cost::{noise_cost, NoiseCost};
 use render::scene::Scene;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -48,32 +48,10 @@ pub struct Args {
     pub threads: Option<usize>,
 }
 
-/// The bundled default scene, looked up from the current directory, then from the source tree.
-fn default_scene() -> Result<PathBuf> {
-    let rel = Path::new("scenes/marble-bunny.toml");
-    if rel.exists() {
-        return Ok(rel.to_path_buf());
-    }
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/marble-bunny.toml");
-    if src.exists() {
-        return Ok(src);
-    }
-    bail!("default scene scenes/marble-bunny.toml not found (run from the repository root or give a SCENE)")
-}
-
-/// CPU time (user + system) of the whole process, seconds (Linux `/proc/self/stat`, 100 Hz ticks).
-fn process_cpu_s() -> f64 {
-    let Ok(t) = std::fs::read_to_string("/proc/self/stat") else { return f64::NAN };
-    let Some(rest) = t.rfind(')').map(|i| &t[i + 1..]) else { return f64::NAN };
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
-    (ticks(11) + ticks(12)) / 100.0
-}
-
 pub fn run(args: Args) -> Result<()> {
     let path = match &args.scene {
         Some(p) => p.clone(),
-        None => default_scene()?,
+        None => super::bench::bundled("scenes/marble-bunny.toml", "give a SCENE")?,
     };
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1");
@@ -109,7 +87,7 @@ pub fn run(args: Args) -> Result<()> {
     let measure = |kind: IntegratorKind, max_depth: u32, spp: u32, label: &str| -> Result<NoiseCost> {
         bar.set_message(label.to_string());
         let settings = IntegratorSettings { kind, max_depth, rr_depth: scene.integrator.rr_depth };
-        pool.install(|| noise_cost(&scene, &settings, spp, seeds, region, &process_cpu_s, &|| bar.inc(1)))
+        pool.install(|| noise_cost(&scene, &settings, spp, seeds, region, &super::bench::cpu_seconds, &|| bar.inc(1)))
     };
     let bssrdf = measure(IntegratorKind::Path, scene.integrator.max_depth, args.bssrdf_spp, "BSSRDF (path)")?;
     let volpath = measure(IntegratorKind::Volpath, args.volpath_max_depth, args.volpath_spp, "volpath")?;
