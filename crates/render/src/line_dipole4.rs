@@ -46,6 +46,7 @@ pub fn exp4(x: Vec4) -> Vec4 {
 
 /// e^x for one value, the same approximation as [`exp4`] (x ≤ 88; below −87 the result is 0).
 #[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= −87)` also sends NaN to 0.
 pub fn exp1(x: f32) -> f32 {
     if !(x >= -87.0) {
         return 0.0;
