@@ -217,13 +217,15 @@ fn slurm_task_passes_sigint_on_so_lucent_saves_and_exits_130() {
     }
     std::thread::sleep(Duration::from_millis(100));
     assert!(Command::new("kill").args(["-INT", &task.id().to_string()]).status().unwrap().success());
+    // The stop gets its own minute, however long the first checkpoint took on a loaded machine.
+    let stop_deadline = Instant::now() + Duration::from_secs(60);
     let status = loop {
         if let Some(s) = task.try_wait().unwrap() {
             break s;
         }
-        if Instant::now() > deadline {
+        if Instant::now() > stop_deadline {
             let _ = task.kill();
-            panic!("task did not stop after SIGINT (lucent left running?)");
+            panic!("task did not stop within 60 s of SIGINT (lucent left running?)");
         }
         std::thread::sleep(Duration::from_millis(20));
     };
@@ -266,13 +268,14 @@ fn kubernetes_render_script_turns_sigterm_into_a_saved_checkpoint() {
     }
     std::thread::sleep(Duration::from_millis(100));
     assert!(Command::new("kill").args(["-TERM", &pod.id().to_string()]).status().unwrap().success());
+    let stop_deadline = Instant::now() + Duration::from_secs(60);
     let status = loop {
         if let Some(s) = pod.try_wait().unwrap() {
             break s;
         }
-        if Instant::now() > deadline {
+        if Instant::now() > stop_deadline {
             let _ = pod.kill();
-            panic!("pod script did not stop after SIGTERM");
+            panic!("pod script did not stop within 60 s of SIGTERM");
         }
         std::thread::sleep(Duration::from_millis(20));
     };
