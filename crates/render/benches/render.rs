@@ -4,10 +4,11 @@
 //! `lucent bench` reports the same kernels as Mrays/s.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use render::bench_rays::{incoherent_rays, BenchCamera};
-use render::bvh::{Accel, Shape};
-use render::geometry::Ray;
-use render::mesh::TriangleMesh;
+use render::bench::{incoherent_rays, BenchCamera};
+use render::accel::Accel;
+use render::shape::Shape;
+use render::math::geometry::Ray;
+use render::shape::mesh::TriangleMesh;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -71,7 +72,7 @@ fn benches(c: &mut Criterion) {
 fn subsurface(c: &mut Criterion) {
     use glam::Vec3;
     use optics::bssrdf::{DirectionalLineDipole, OpticalProperties};
-    use render::line_dipole4::{refract_in, LineDipole4};
+    use render::integrator::subsurface::line_dipole4::{refract_in, LineDipole4};
     let lanes: Vec<DirectionalLineDipole> = [(3000.0, 7.1), (2800.0, 5.5), (2620.0, 4.1), (2190.0, 2.1)]
         .iter()
         .map(|&(s, a)| {

@@ -1,9 +1,10 @@
 //! Profiling aid: trace the benchmark's camera rays on one thread, one way, so one traversal
 //! kind can be timed or profiled alone.
 //! `cargo run --release -p render --example trace_camera -- MESH single|4|16 [SIZE]`
-use render::bench_rays::BenchCamera;
-use render::bvh::{Accel, Shape};
-use render::mesh::TriangleMesh;
+use render::bench::BenchCamera;
+use render::accel::Accel;
+use render::shape::Shape;
+use render::shape::mesh::TriangleMesh;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();

@@ -10,7 +10,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::geometry::Ray;
+use crate::math::geometry::Ray;
 use glam::{Vec2, Vec3};
 
 /// Pinhole camera.

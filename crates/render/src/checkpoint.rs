@@ -26,75 +26,18 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 use crate::film::Film;
-use crate::integrator::{IntegratorKind, IntegratorSettings};
+use crate::integrator::settings::{IntegratorKind, IntegratorSettings};
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 8] = b"LUCENTCK";
 /// Version of the checkpoint format written by this build.
 pub const CHECKPOINT_VERSION: u32 = 1;
 
-/// FNV-1a, 64 bit: a stable hash (unlike std's randomised one) for scene identity and checksums.
-#[derive(Clone, Copy, Debug)]
-pub struct Fnv1a64(u64);
-
-impl Default for Fnv1a64 {
-    fn default() -> Self {
-        Fnv1a64(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl Fnv1a64 {
-    /// A fresh hasher at the FNV offset basis.
-    pub fn new() -> Self {
-        Self::default()
-    }
-    /// Feed bytes.
-    pub fn write(&mut self, bytes: &[u8]) {
-        let mut h = self.0;
-        for &b in bytes {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        self.0 = h;
-    }
-    /// Feed a length-prefixed byte string (so that concatenations cannot collide).
-    pub fn write_field(&mut self, bytes: &[u8]) {
-        self.write(&(bytes.len() as u64).to_le_bytes());
-        self.write(bytes);
-    }
-    /// The hash so far.
-    pub fn finish(&self) -> u64 {
-        self.0
-    }
-}
-
-fn kind_code(kind: IntegratorKind) -> u8 {
-    match kind {
-        IntegratorKind::Path => 0,
-        IntegratorKind::Direct => 1,
-        IntegratorKind::Ao => 2,
-        IntegratorKind::Volpath => 3,
-    }
-}
-
-fn kind_from_code(code: u8) -> Option<IntegratorKind> {
-    match code {
-        0 => Some(IntegratorKind::Path),
-        1 => Some(IntegratorKind::Direct),
-        2 => Some(IntegratorKind::Ao),
-        3 => Some(IntegratorKind::Volpath),
-        _ => None,
-    }
-}
+pub use crate::math::hash::Fnv1a64;
 
 /// Name of an integrator as the CLI spells it.
 pub fn integrator_name(kind: IntegratorKind) -> &'static str {
-    match kind {
-        IntegratorKind::Path => "path",
-        IntegratorKind::Direct => "direct",
-        IntegratorKind::Ao => "ao",
-        IntegratorKind::Volpath => "volpath",
-    }
+    kind.name()
 }
 
 /// Stable identity of a render: FNV-1a 64 of the scene's content hash
@@ -107,7 +50,7 @@ pub fn scene_hash(scene_content_hash: u64, width: u32, height: u32, settings: &I
     h.write(&scene_content_hash.to_le_bytes());
     h.write(&width.to_le_bytes());
     h.write(&height.to_le_bytes());
-    h.write(&[kind_code(settings.kind)]);
+    h.write(&[settings.kind.code()]);
     h.write(&settings.max_depth.to_le_bytes());
     h.write(&settings.rr_depth.to_le_bytes());
     h.finish()
@@ -252,7 +195,7 @@ impl Checkpoint {
             .context("scene name is not UTF-8")?
             .to_string();
         let code = r.u8("integrator")?;
-        let kind = kind_from_code(code).with_context(|| format!("unknown integrator code {code}"))?;
+        let kind = IntegratorKind::from_code(code).with_context(|| format!("unknown integrator code {code}"))?;
         let max_depth = r.u32("max_depth")?;
         let rr_depth = r.u32("rr_depth")?;
         let target = r.u64("target_spp")?;
@@ -439,7 +382,7 @@ fn encode(id: &RenderIdentity, target_spp: Option<u64>, runs: &[Run], film: &Fil
     b.extend_from_slice(&id.scene_hash.to_le_bytes());
     b.extend_from_slice(&(id.scene_name.len() as u32).to_le_bytes());
     b.extend_from_slice(id.scene_name.as_bytes());
-    b.push(kind_code(id.settings.kind));
+    b.push(id.settings.kind.code());
     b.extend_from_slice(&id.settings.max_depth.to_le_bytes());
     b.extend_from_slice(&id.settings.rr_depth.to_le_bytes());
     b.extend_from_slice(&target_spp.unwrap_or(0).to_le_bytes());

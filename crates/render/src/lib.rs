@@ -2,28 +2,31 @@
 //!
 //! Geometry is in the scene's length unit converted to metres at load time; radiometric
 //! quantities are spectral (per nanometre of wavelength), accumulated to CIE XYZ on the film.
+//! `docs/architecture.md` draws the layers; dependencies point down this list:
+//!
+//! - [`load`]: the TOML scene format (the only module that reads TOML);
+//! - [`progressive`], [`checkpoint`], [`film`], [`image_io`]: the pass loop and its outputs;
+//! - [`integrator`]: path, volpath, direct, ao and the point-cloud BSSRDF, with their shared
+//!   next-event estimation;
+//! - [`scene`], [`interaction`]: the scene and its queries, shading points;
+//! - [`camera`], [`light`], [`material`], [`bsdf`], [`medium`]: what a scene is made of;
+//! - [`accel`], [`shape`]: geometry and ray queries;
+//! - [`math`]: rays and boxes, sampling, spectral sampling (the leaf).
 
-pub mod geometry;
-pub mod mesh;
-pub mod bvh;
-pub mod bench_rays;
-pub mod sampling;
-pub mod spectral;
+pub mod accel;
+pub mod bench;
+pub mod bsdf;
 pub mod camera;
-pub mod light;
-pub mod material;
-pub mod medium;
-pub mod integrator;
-pub mod film;
 pub mod checkpoint;
-pub mod scene;
+pub mod film;
 pub mod image_io;
-pub mod compare;
+pub mod integrator;
+pub mod interaction;
+pub mod light;
+pub mod load;
+pub mod material;
+pub mod math;
+pub mod medium;
+pub mod scene;
+pub mod shape;
 pub mod slab;
-pub mod microfacet;
-pub mod bxdf;
-pub mod volpath;
-pub mod subsurface;
-pub mod line_dipole4;
-pub mod noise_cost;
-pub mod param;

@@ -3,11 +3,12 @@
 //! and conductor reflectance from measured optical constants.
 
 use glam::{Vec2, Vec3, Vec4};
-use render::bxdf::{CoatedDiffuse, RoughConductor, RoughDielectric, SmoothConductor, SmoothDielectric};
-use render::material::{Bsdf, Material};
-use render::microfacet::TrowbridgeReitz;
-use render::sampling::{uniform_sphere, Pcg32};
-use render::spectral::SampledWavelengths;
+use render::bsdf::{CoatedDiffuse, RoughConductor, RoughDielectric, SmoothConductor, SmoothDielectric};
+use render::bsdf::Bsdf;
+use render::material::Material;
+use render::bsdf::microfacet::TrowbridgeReitz;
+use render::math::sampling::{uniform_sphere, Pcg32};
+use render::math::spectral::SampledWavelengths;
 use std::f64::consts::PI;
 
 // ---------------------------------------------------------------------------------------------
@@ -800,7 +801,7 @@ fn trace_sphere(material: &Material, mut o: Vec3, mut d: Vec3, rng: &mut Pcg32) 
         let ng = p.normalize();
         let front = d.dot(ng) < 0.0;
         let n = if front { ng } else { -ng };
-        let frame = render::sampling::Frame::from_normal(n);
+        let frame = render::math::sampling::Frame::from_normal(n);
         let bsdf = material.bsdf_at(&mut wl, front);
         let wo = frame.to_local(-d);
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
@@ -860,7 +861,7 @@ fn conductor_fresnel_real_form_matches_complex_arithmetic() {
         let k = Vec4::from_array(l.map(|x| t.eta_k(x as f64).1 as f32));
         for i in 0..=50 {
             let c = i as f32 / 50.0;
-            let r = render::bxdf::fresnel_conductor(c, eta, k);
+            let r = render::bsdf::fresnel::fresnel_conductor(c, eta, k);
             for j in 0..4 {
                 let z = complex_index(eta[j] as f64, k[j] as f64);
                 let e = optics::fresnel::fresnel_complex(c as f64, z);
@@ -876,7 +877,7 @@ fn conductor_fresnel_real_form_matches_complex_arithmetic() {
     // A dielectric is the k = 0 limit: equals the dielectric Fresnel formula.
     for i in 0..=20 {
         let c = i as f32 / 20.0;
-        let r = render::bxdf::fresnel_conductor(c, Vec4::splat(1.5), Vec4::ZERO).x as f64;
+        let r = render::bsdf::fresnel::fresnel_conductor(c, Vec4::splat(1.5), Vec4::ZERO).x as f64;
         let e = optics::fresnel::fresnel_dielectric(c as f64, 1.5);
         assert!((r - e).abs() < 2e-5, "cos {c}: {r} vs {e}");
     }

@@ -2,9 +2,10 @@
 //! errors, and furnace renders of the new BSDFs through the path tracer.
 
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
-use render::material::{Bsdf, Material};
+use render::bsdf::Bsdf;
+use render::material::Material;
 use render::scene::Scene;
-use render::spectral::SampledWavelengths;
+use render::math::spectral::SampledWavelengths;
 use std::path::Path;
 
 fn scene_with(material: &str, env: f64) -> String {

@@ -2,9 +2,11 @@
 //! surface points, and spheres mixed with meshes.
 
 use glam::Vec3;
-use render::bvh::{Accel, Hit, Shape};
-use render::geometry::{Ray, Sphere};
-use render::mesh::TriangleMesh;
+use render::accel::{Accel, Hit};
+use render::shape::Shape;
+use render::math::geometry::Ray;
+use render::shape::sphere::Sphere;
+use render::shape::mesh::TriangleMesh;
 use std::path::Path;
 
 struct Rng(u64);
@@ -156,7 +158,7 @@ impl BruteForce {
             }
         }
         // The exact test on the survivors.
-        let rt = render::geometry::RayTri::new(ray);
+        let rt = render::shape::triangle::RayTri::new(ray);
         let mut t_max = ray.t_max;
         let mut best = None;
         for (i, &(obj, prim, t)) in self.tris.iter().enumerate() {

@@ -7,7 +7,8 @@ use std::path::Path;
 use render::checkpoint::{Checkpoint, RenderIdentity, Run};
 use render::film::Film;
 use render::integrator::{render_pass, IntegratorSettings};
-use render::scene::{Scene, CORNELL_BOX_TOML};
+use render::load::CORNELL_BOX_TOML;
+use render::scene::Scene;
 
 fn tiny_box() -> Scene {
     let mut s = Scene::cornell_box();

@@ -1,7 +1,9 @@
 //! Ray–primitive tests: closed forms, exact edge/vertex ownership, t bounds, robustness.
 
 use glam::Vec3;
-use render::geometry::{intersect_triangle, Aabb, Ray, Sphere};
+use render::math::geometry::{Aabb, Ray};
+use render::shape::sphere::Sphere;
+use render::shape::triangle::intersect_triangle;
 
 fn v(x: f32, y: f32, z: f32) -> Vec3 {
     Vec3::new(x, y, z)

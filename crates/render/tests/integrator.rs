@@ -50,7 +50,7 @@ fn settings(kind: IntegratorKind, max_depth: u32, rr_depth: u32) -> IntegratorSe
 
 /// Y of an equal-energy spectrum of value 1 as the renderer's colour tables give it (≈ 1).
 fn y_of_one() -> f64 {
-    render::spectral::xyz_of(|_| 1.0)[1]
+    render::math::spectral::xyz_of(|_| 1.0)[1]
 }
 
 fn assert_close(what: &str, m: f64, se: f64, expect: f64, k: f64) {

@@ -4,8 +4,8 @@
 
 use glam::{Vec2, Vec3};
 use render::light::{smooth_falloff, Emitter, Light};
-use render::sampling::Pcg32;
-use render::spectral::SampledWavelengths;
+use render::math::sampling::Pcg32;
+use render::math::spectral::SampledWavelengths;
 use optics::spectrum::DenseSpectrum;
 
 fn area_light(emitter: Emitter, two_sided: bool) -> Light {

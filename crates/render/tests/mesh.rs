@@ -1,7 +1,7 @@
 //! Mesh loading: PLY ASCII vs binary (both endiannesses) vs gzip, OBJ groups, bad input.
 
 use glam::{Mat4, Vec3};
-use render::mesh::TriangleMesh;
+use render::shape::mesh::TriangleMesh;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -1,10 +1,10 @@
 //! The TOML scene format: the built-in Cornell box equals the file, geometry equals the published
 //! OBJ, units, transforms, light power, and one-line errors naming file, line and field.
 
-use render::bvh::Shape;
+use render::shape::Shape;
 use render::integrator::{render_pass, IntegratorSettings};
 use render::light::Light;
-use render::mesh::TriangleMesh;
+use render::shape::mesh::TriangleMesh;
 use render::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -262,7 +262,7 @@ fn content_hash_covers_the_files_a_scene_reads_and_the_resolution() {
 fn truncated_or_mutated_scene_files_never_panic() {
     // Every prefix of the Cornell box file (by lines) and 300 single-character mutations either
     // load or give a one-line error naming the file; none panics.
-    let text = render::scene::CORNELL_BOX_TOML;
+    let text = render::load::CORNELL_BOX_TOML;
     let dir = repo().join("scenes");
     let check = |t: &str| {
         let r = std::panic::catch_unwind(|| Scene::from_toml_str(t, "mutant.toml", &dir).map(|_| ()));
@@ -279,7 +279,7 @@ fn truncated_or_mutated_scene_files_never_panic() {
     for k in 0..lines.len() {
         check(&lines[..k].join("\n"));
     }
-    let mut rng = render::sampling::Pcg32::new(77, 3);
+    let mut rng = render::math::sampling::Pcg32::new(77, 3);
     let bytes: Vec<char> = text.chars().collect();
     let alphabet: Vec<char> = "0123456789-.=[]{},\"#xyz_ \nenan".chars().collect();
     for _ in 0..300 {

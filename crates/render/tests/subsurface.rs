@@ -6,15 +6,14 @@
 //! normal) unchanged.
 
 use glam::Vec3;
-use render::geometry::Ray;
-use render::integrator::li_path_mode;
-use render::spectral::SampledWavelengths;
-use render::subsurface::SubsurfaceMode;
+use render::math::geometry::Ray;
+use render::integrator::path::{li_path_mode, subsurface_pass};
+use render::math::spectral::SampledWavelengths;
+use render::integrator::subsurface::SubsurfaceMode;
 use optics::bssrdf::{OpticalProperties, StandardDipole};
 use render::material::Material;
-use render::sampling::Pcg32;
+use render::math::sampling::Pcg32;
 use render::scene::Scene;
-use render::subsurface::SubsurfacePass;
 use std::path::Path;
 
 /// A 200 × 200 × 100 mm box (top face at y = 0) of a translucent material under a constant
@@ -122,7 +121,7 @@ fn slab_matches_closed_form_total_diffuse_reflectance() {
     let expected = t21 * dip.rd_closed_form() * (1.0 - fbar);
     let mut pass_means = Vec::new();
     for pass in 0..24u64 {
-        let p = SubsurfacePass::build(&scene, &scene.integrator, 7, pass).unwrap();
+        let p = subsurface_pass(&scene, &scene.integrator, 7, pass).unwrap();
         let mut rng = Pcg32::new(99, pass);
         let mut acc = 0.0f64;
         let nq = 300;
@@ -177,8 +176,8 @@ fn rejection_control_is_unbiased() {
         let scene = slab_scene(&sub, 1.4);
         let mut forced = slab_scene(&sub, 1.4);
         with_forced_acceptance(&mut forced);
-        let prc = SubsurfacePass::build(&scene, &scene.integrator, 3, 0).unwrap();
-        let pf = SubsurfacePass::build(&forced, &forced.integrator, 3, 0).unwrap();
+        let prc = subsurface_pass(&scene, &scene.integrator, 3, 0).unwrap();
+        let pf = subsurface_pass(&forced, &forced.integrator, 3, 0).unwrap();
         // Centre of the top, near an edge, on a side face (normal +x), oblique view.
         let cases = [
             (Vec3::new(0.0, 0.0, 0.0), Vec3::Y, Vec3::Y),
@@ -222,7 +221,7 @@ fn zero_albedo_gives_zero_and_cost_is_sublinear() {
         r#"{ model = "directional", sigma_s_per_mm = 0.0, sigma_a_per_mm = 0.5, points_per_pass = 1024 }"#,
         1.3,
     );
-    let p = SubsurfacePass::build(&scene, &scene.integrator, 1, 0).unwrap();
+    let p = subsurface_pass(&scene, &scene.integrator, 1, 0).unwrap();
     let mut rng = Pcg32::new(1, 1);
     for k in 0..100 {
         let x = (k as f32 - 50.0) * 1e-3;
@@ -236,7 +235,7 @@ fn zero_albedo_gives_zero_and_cost_is_sublinear() {
         r#"{ model = "standard", sigma_s_per_mm = 0.01, sigma_a_per_mm = 0.99, points_per_pass = 65536 }"#,
         1.3,
     );
-    let p = SubsurfacePass::build(&lo, &lo.integrator, 1, 0).unwrap();
+    let p = subsurface_pass(&lo, &lo.integrator, 1, 0).unwrap();
     let m: f32 = (0..200)
         .map(|_| p.radiance(0, Vec3::ZERO, Vec3::Y, Vec3::Y, &mut rng).x)
         .sum::<f32>()
@@ -247,7 +246,7 @@ fn zero_albedo_gives_zero_and_cost_is_sublinear() {
         r#"{ model = "standard", sigma_s_per_mm = 1.0, sigma_a_per_mm = 0.01, points_per_pass = 65536 }"#,
         1.3,
     );
-    let p = SubsurfacePass::build(&big, &big.integrator, 1, 0).unwrap();
+    let p = subsurface_pass(&big, &big.integrator, 1, 0).unwrap();
     let (mut nodes, mut acc) = (0u64, 0u64);
     for _ in 0..100 {
         let (_, st) = p.radiance_stats(0, Vec3::ZERO, Vec3::Y, Vec3::Y, &mut rng);
@@ -441,7 +440,7 @@ fn normal_incidence_matches_numerical_rd_for_both_dipoles() {
         let expected = t * t * rd / std::f64::consts::PI;
         let mut pass_means = Vec::new();
         for pass in 0..16u64 {
-            let p = SubsurfacePass::build(&scene, &scene.integrator, 21, pass).unwrap();
+            let p = subsurface_pass(&scene, &scene.integrator, 21, pass).unwrap();
             let mut rng = Pcg32::new(5, pass);
             let nq = 200;
             let acc: f64 = (0..nq)
@@ -587,7 +586,7 @@ fn rough_boundary_keeps_the_diffusion_closed_form() {
         let expected = e + t21 * dip.rd_closed_form() * (1.0 - fbar);
         let mut pass_means = Vec::new();
         for pass in 0..24u64 {
-            let p = SubsurfacePass::build(&scene, &scene.integrator, seed, pass).unwrap();
+            let p = subsurface_pass(&scene, &scene.integrator, seed, pass).unwrap();
             let (m, _) = boundary_estimate(&scene, SubsurfaceMode::Bssrdf(&p), wo, Some(p.wl), 400, 100 + pass);
             pass_means.push(m);
         }
@@ -630,7 +629,7 @@ fn bounces_count_light_returned_by_the_surroundings() {
         let scene = slab_scene_objects(&sub, eta, "", ceiling, "type = \"area\"\nobject = \"ceiling\"\nradiance = 1\ntwo_sided = true");
         let mut pass_means = Vec::new();
         for pass in 0..24u64 {
-            let p = SubsurfacePass::build(&scene, &scene.integrator, 11, pass).unwrap();
+            let p = subsurface_pass(&scene, &scene.integrator, 11, pass).unwrap();
             let mut rng = Pcg32::new(5, pass);
             let mut acc = 0.0f64;
             let nq = 200;

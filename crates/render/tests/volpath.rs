@@ -3,12 +3,12 @@
 //! layered-slab Monte Carlo (`render::slab`), agreement with `path` without media, and scene errors.
 
 use glam::{Vec3, Vec4};
-use render::geometry::Ray;
+use render::math::geometry::Ray;
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
-use render::sampling::Pcg32;
+use render::math::sampling::Pcg32;
 use render::scene::Scene;
-use render::spectral::SampledWavelengths;
-use render::volpath::{li_volpath, li_volpath_with, VolpathOptions};
+use render::math::spectral::SampledWavelengths;
+use render::integrator::volpath::{li_volpath, li_volpath_with, VolpathOptions};
 use std::path::Path;
 
 fn scene(text: &str) -> Scene {

@@ -14,10 +14,11 @@
 
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
-use render::bench_rays::{incoherent_rays, BenchCamera};
-use render::bvh::{Accel, Shape};
-use render::geometry::Ray;
-use render::mesh::TriangleMesh;
+use render::bench::{incoherent_rays, BenchCamera};
+use render::accel::Accel;
+use render::shape::Shape;
+use render::math::geometry::Ray;
+use render::shape::mesh::TriangleMesh;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -266,7 +267,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
     }
     let batched_cpu = (rays.len() as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
     let cornell_run = |seconds: f64| -> Option<(f64, f64)> {
-        match render::integrator::benchmark_cornell_clocked(256, 256, seconds, cpu_seconds) {
+        match render::bench::benchmark_cornell_clocked(256, 256, seconds, cpu_seconds) {
             Ok(v) => Some(v),
             Err(e) => {
                 if !args.json {

@@ -1,5 +1,5 @@
 //! `lucent bench bssrdf`: time to equal noise of the point-cloud BSSRDF against volumetric path
-//! tracing of the same translucent object (issue 5's speed check; `render::noise_cost`).
+//! tracing of the same translucent object (issue 5's speed check; `analysis::noise_cost`).
 //!
 //! The scene (default `scenes/marble-bunny.toml`) is rendered twice with each estimator (two
 //! seeds): `path`, which renders translucent materials with their dipole BSSRDF, and `volpath`,
@@ -11,7 +11,7 @@
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use render::integrator::{IntegratorKind, IntegratorSettings};
-use render::noise_cost::{noise_cost, NoiseCost};
+use analysis::noise_cost::{noise_cost, NoiseCost};
 use render::scene::Scene;
 use std::path::PathBuf;
 
@@ -69,7 +69,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--region: need 0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1, got {x0},{y0},{x1},{y1}");
     }
     let mut scene = Scene::load(&path)?;
-    if !render::subsurface::scene_has_translucent(&scene) {
+    if !render::integrator::subsurface::scene_has_translucent(&scene) {
         bail!("{}: no translucent object (nothing for the BSSRDF to render)", path.display());
     }
     scene.set_resolution(args.width, args.height);

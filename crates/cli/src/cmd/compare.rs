@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use render::compare::{compare, error_image, Mask, Metrics};
+use analysis::compare::{compare, error_image, Mask, Metrics};
 use render::image_io::{read_image, write_image, Image};
 
 /// Arguments of `lucent compare`.

@@ -1,6 +1,6 @@
 //! `lucent fit scene SCENE.toml --reference PHOTO [--param PATH=MIN:MAX …]`: analysis by
 //! synthesis (issue 6). Named scene parameters (paths into the scene's TOML document, see
-//! `render::param`) are adjusted by a box-bounded Nelder–Mead search to minimise the RMSE between
+//! `render::load::template`) are adjusted by a box-bounded Nelder–Mead search to minimise the RMSE between
 //! the render and the reference, optionally after a fitted 3×3 colour correction. Every
 //! evaluation renders with the same seed and passes, so the Monte Carlo noise is the same
 //! (common random numbers) and the objective is a smooth function of the parameters.
@@ -8,11 +8,12 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use render::compare::{compare, error_image, Comparison, Mask};
+use analysis::compare::{compare, error_image, Comparison, Mask};
 use render::film::Film;
 use render::image_io::{read_image, write_atomic, write_image, Image};
 use render::integrator::{render_pass, IntegratorSettings};
-use render::param::{get_param, nelder_mead_box, ParamSpec, SceneTemplate};
+use analysis::minimize::nelder_mead_box;
+use render::load::template::{get_param, ParamSpec, SceneTemplate};
 use render::scene::Scene;
 use serde_json::json;
 
@@ -91,7 +92,7 @@ pub fn render_image(scene: &Scene, settings: &IntegratorSettings, seed: u64, pas
 /// mean over pixels and channels of (a − r)(b − r), `a` and `b` first multiplied by `m` if given.
 fn cross_error(a: &Image, b: &Image, r: &Image, m: Option<&[[f64; 3]; 3]>, mask: &Mask) -> f64 {
     let (a, b) = match m {
-        Some(m) => (render::compare::apply_color_matrix(a, m), render::compare::apply_color_matrix(b, m)),
+        Some(m) => (analysis::compare::apply_color_matrix(a, m), analysis::compare::apply_color_matrix(b, m)),
         None => (a.clone(), b.clone()),
     };
     let mut sum = 0.0;
@@ -314,7 +315,7 @@ pub fn run(args: Args) -> Result<()> {
     let final_error = final_cmp.metrics.rmse;
     let err_img = error_image(&final_cmp, 10.0);
     let shown_render = match &final_cmp.metrics.color_matrix {
-        Some(m) => render::compare::apply_color_matrix(&final_img, m),
+        Some(m) => analysis::compare::apply_color_matrix(&final_img, m),
         None => final_img.clone(),
     };
     write_image(&out_dir.join("render.exr"), &final_img, 0.0)?;

@@ -121,12 +121,9 @@ pub(crate) fn finite_f64(option: &str, text: &str) -> Result<f64> {
 
 /// Parse the integrator name of `--integrator`.
 pub(crate) fn integrator_kind(text: &str) -> Result<IntegratorKind> {
-    match text.trim().to_ascii_lowercase().as_str() {
-        "path" => Ok(IntegratorKind::Path),
-        "direct" => Ok(IntegratorKind::Direct),
-        "ao" => Ok(IntegratorKind::Ao),
-        "volpath" => Ok(IntegratorKind::Volpath),
-        _ => bail!("--integrator must be path, volpath, direct or ao, got `{text}`"),
+    match IntegratorKind::from_name(text.trim().to_ascii_lowercase().as_str()) {
+        Some(kind) => Ok(kind),
+        None => bail!("--integrator must be {}, got `{text}`", IntegratorKind::names_or()),
     }
 }
 

@@ -1,0 +1,95 @@
+//! Integrators: what light a camera sample carries.
+//!
+//! Path lengths count segments as in Mitsuba 3: a path of depth 1 is a camera ray that sees an
+//! emitter, depth 2 adds one bounce (direct lighting), and so on up to `max_depth`.
+//!
+//! - [`path`]: unidirectional path tracing; at every vertex one light sample and one BSDF sample,
+//!   combined by multiple importance sampling with the power heuristic (Veach 1997); translucent
+//!   materials through the point-cloud BSSRDF of [`subsurface`].
+//! - [`volpath`]: volumetric path tracing through homogeneous media with spectral MIS.
+//! - [`direct`]: emission plus one light sample at the first hit (the tutorial's soft shadows).
+//! - [`ao`]: ambient occlusion.
+//!
+//! [`settings`] names them (the one table), [`nee`] is the next-event estimation they share, and
+//! this module runs one pass over the image. A new integrator is a file here, a row in the
+//! settings table and an arm in [`sample_pixel_sss`].
+
+pub mod ao;
+pub mod direct;
+pub mod nee;
+pub mod path;
+pub mod settings;
+pub mod subsurface;
+pub mod volpath;
+
+pub use settings::{IntegratorKind, IntegratorSettings};
+
+use crate::math::sampling::Pcg32;
+use crate::math::spectral::SampledWavelengths;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use subsurface::{SubsurfaceMode, SubsurfacePass};
+
+/// Render one sample per pixel for pass number `pass`, writing the CIE XYZ estimate of each pixel
+/// (row-major, `width*height` entries, Y = 1 for spectral radiance 1) into `xyz_out`.
+/// Deterministic in (`seed`, `pass`, pixel) whatever the thread count.
+pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass: u64, xyz_out: &mut [[f32; 3]]) {
+    let (w, h) = scene.resolution();
+    let n = (w as usize) * (h as usize);
+    assert!(xyz_out.len() >= n, "render_pass: output has {} entries, need {}×{}", xyz_out.len(), w, h);
+    // Subsurface hook: with translucent objects and `path`, the pass's point cloud is built first.
+    let sss = if settings.kind == IntegratorKind::Path { path::subsurface_pass(scene, settings, seed, pass) } else { None };
+    xyz_out[..n].par_chunks_mut(w as usize).enumerate().for_each(|(j, row)| {
+        for (i, out) in row.iter_mut().enumerate() {
+            let pixel = (j as u64) * (w as u64) + i as u64;
+            let mut rng = Pcg32::for_pixel(seed, pass, pixel);
+            *out = sample_pixel_sss(scene, settings, i as u32, j as u32, &mut rng, sss.as_ref());
+        }
+    });
+}
+
+/// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
+#[inline]
+pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
+    sample_pixel_sss(scene, settings, i, j, rng, None)
+}
+
+/// [`sample_pixel`] with this pass's subsurface state (`None`: translucent materials act as
+/// their dielectric boundary); with it, the path uses the pass's wavelengths.
+#[inline]
+pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32, sss: Option<&SubsurfacePass>) -> [f32; 3] {
+    let u_lambda = rng.next_f32();
+    let ray = scene.camera.generate_ray(i, j, rng.next_2d());
+    let mut wl = match sss {
+        Some(p) => p.wl,
+        None => SampledWavelengths::sample(u_lambda),
+    };
+    let xyz = match settings.kind {
+        IntegratorKind::Ao => {
+            // Visibility is wavelength-independent: report it as equal-energy white with Y = v.
+            let v = ao::ao_visibility(scene, ray, rng);
+            let w = ao::equal_energy_white();
+            [w[0] * v, w[1] * v, w[2] * v]
+        }
+        IntegratorKind::Path => {
+            let l = match sss {
+                Some(p) => path::li_path_mode(scene, settings, ray, &mut wl, rng, SubsurfaceMode::Bssrdf(p), 0.0),
+                None => path::li_path(scene, settings, ray, &mut wl, rng),
+            };
+            wl.to_xyz(l)
+        }
+        IntegratorKind::Volpath => {
+            let l = volpath::li_volpath(scene, settings, ray, &mut wl, rng);
+            wl.to_xyz(l)
+        }
+        IntegratorKind::Direct => {
+            let l = direct::li_direct(scene, ray, &wl, rng);
+            wl.to_xyz(l)
+        }
+    };
+    if xyz.iter().all(|c| c.is_finite()) {
+        xyz
+    } else {
+        [0.0; 3]
+    }
+}

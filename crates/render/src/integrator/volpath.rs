@@ -1,0 +1,498 @@
+//! `volpath`: volumetric path tracing through homogeneous participating media.
+//!
+//! Media fill closed objects (`ObjectInfo::interior_medium`; the front face of the boundary is its
+//! outside) and, optionally, all remaining space (`Scene::global_medium`). A path tracks the medium
+//! it is in: a transmission through a medium-bounding object's surface enters its medium from the
+//! front and returns to the global medium from the back; objects without a medium leave the
+//! current medium unchanged. Index-matched boundaries (`interface` material: a dielectric of
+//! relative index 1) are crossed without counting a bounce.
+//!
+//! Free-flight sampling with spectral MIS (Wilkie et al. 2014; pbrt-v4's `VolPathIntegrator`):
+//! distances are sampled with the hero wavelength's extinction σ_t(λ₀), density
+//! σ_t(λ₀) e^{−σ_t(λ₀) t}, or passed through to the next surface with probability e^{−σ_t(λ₀) t}.
+//! Every wavelength i keeps its path throughput f_i/p₀ in `beta` and the ratio of the path
+//! density had wavelength j been the hero to the actual one, p_j/p₀, in `r_u`; the estimate is
+//! f_i / ((1/4) Σ_j p_j) = beta_i / mean(r_u) — the balance heuristic over the four choices of hero
+//! (the carried wavelengths are a rotation-symmetric set, so each of them is equally likely to be
+//! the hero). It stays unbiased and bounded when σ_t differs by orders of magnitude between the
+//! carried wavelengths: a wavelength whose own free flights would rarely end where the hero's do
+//! is down-weighted, not blown up. Real collisions always scatter, weighted by σ_s/σ_t (no
+//! absorption events: better for albedo near 1); Russian roulette on the throughput (pbrt-v4's
+//! rule: continue with probability min(1, max throughput)) ends paths.
+//! Common factors of `beta` and `r_u` cancel, so after each event both are divided by mean(r_u)
+//! (no overflow for e^{(σ₀−σ_i)t}). Once a dispersive interface has terminated the secondary
+//! wavelengths, the hero alone is estimated: divisor r_u₀ instead of the mean. Phase functions
+//! that vary with wavelength (Mie tables, spectral HG g) enter `r_u` too: after sampling μ from the
+//! hero's p₀, lane j's weight and its density ratio are both multiplied by p_j(μ)/p₀(μ), so each
+//! lane's estimate stays bounded by N_λ × its own path throughput (without this the weights of
+//! the other lanes are products of thousands of phase ratios in dense media such as milk: still
+//! unbiased, but with a heavy-tailed spread). Surface direction pdfs do not depend on the
+//! wavelength (dispersion terminates the secondary wavelengths instead).
+//!
+//! Event-count roulette: in dense, high-albedo media the throughput stays near 1 for thousands of
+//! collisions, so throughput roulette rarely ends a path, yet the few paths that wander deep
+//! cost most of the time (whole milk: 10 % of the paths, those with more than 2000 collisions,
+//! took ~80 % of the collisions and brought ~5 % of the light). After `EVENT_RR_START` real
+//! collisions, and again after 4×, 16×, … as many, a path survives with probability ½ and its
+//! throughput is doubled (unbiased; survivors of k rounds carry 2^k, growing as √events, the
+//! weight that balances a roughly constant expected contribution against a cost growing with the
+//! events, as in efficiency-aware roulette).
+//!
+//! Free flights that end closer to their origin than the medium's free-distance bound
+//! (`Scene::medium_grids`, a conservative distance-to-any-surface grid over the medium's bounding
+//! objects) skip the ray cast: no surface can lie in between, so the result is bit-for-bit the same.
+//!
+//! Media that do not scatter at any wavelength (pure absorbers) are not sampled at all: the
+//! Beer–Lambert transmittance e^{−σ_a t} multiplies the throughput deterministically.
+//!
+//! Next-event estimation at surface and medium vertices: one light sample; the shadow ray passes
+//! index-matched boundaries, switching media and accumulating the transmittance of every medium
+//! it crosses; any other surface (including dielectric boundaries, as in pbrt) blocks it. From
+//! inside a medium whose boundary is not index-matched NEE is skipped (it could only be blocked by
+//! the boundary; emitters found by phase sampling then get MIS weight 1). Light sampling and
+//! BSDF/phase sampling are combined with the power heuristic on the hero wavelength's direction
+//! densities. Phase functions that vary with wavelength are sampled at the hero wavelength and
+//! the others weighted by p(λᵢ)/p(λ₀).
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::math::geometry::Ray;
+use crate::integrator::nee::{self, environment_emission};
+use crate::integrator::settings::IntegratorSettings;
+use crate::interaction::{offset_origin, shadow_t_max};
+use crate::material::Material;
+use crate::medium::{HomogeneousMedium, MediumLanes};
+use crate::math::sampling::{power_heuristic, Frame, Pcg32};
+use crate::scene::Scene;
+use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
+use glam::{Vec3, Vec4};
+
+/// Most consecutive index-matched crossings before a path is abandoned (guards against loops).
+const MAX_CROSSINGS: u32 = 256;
+
+/// Real collisions after which a path first plays the event-count roulette (see the module
+/// documentation); then again after 4×, 16×, … as many.
+pub const EVENT_RR_START: u32 = 256;
+
+/// Tuning of [`li_volpath_with`] (all choices keep the estimate unbiased).
+#[derive(Clone, Copy, Debug)]
+pub struct VolpathOptions {
+    /// Real collisions at which the event-count roulette starts (`u32::MAX`: never).
+    pub event_rr_start: u32,
+    /// Skip the ray cast of a free flight that ends within the medium's free-distance bound
+    /// ([`crate::medium::FreeFlightGrid`]; same result, less time).
+    pub free_flight_grid: bool,
+}
+
+impl Default for VolpathOptions {
+    fn default() -> Self {
+        VolpathOptions { event_rr_start: EVENT_RR_START, free_flight_grid: true }
+    }
+}
+
+
+/// Whether a material is an index-matched (pass-through) boundary.
+#[inline]
+pub fn index_matched(m: &Material) -> bool {
+    match m {
+        Material::Dielectric { ior, .. } => ior.samples().iter().all(|&x| x == 1.0),
+        _ => false,
+    }
+}
+
+/// Transmittance e^{−σ t} per lane (t may be infinite: 1 where σ = 0, else 0).
+#[inline]
+fn transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
+    if t.is_finite() {
+        (-sigma_t * t).exp()
+    } else {
+        Vec4::select(sigma_t.cmpeq(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
+    }
+}
+
+/// e^{−(σ_i − σ_min) t}: the transmittance up to a factor common to all lanes.
+#[inline]
+fn relative_transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
+    let m = sigma_t.min_element();
+    if t.is_finite() {
+        (-(sigma_t - Vec4::splat(m)) * t).exp()
+    } else {
+        Vec4::select(sigma_t.cmpeq(Vec4::splat(m)), Vec4::ONE, Vec4::ZERO)
+    }
+}
+
+/// The divisor of the spectral-MIS estimate: mean of `r_u`, or its hero entry once the
+/// secondary wavelengths are terminated.
+#[inline]
+fn mis_divisor(r_u: Vec4, wl: &SampledWavelengths) -> f32 {
+    if wl.secondary_terminated() {
+        r_u.x
+    } else {
+        0.25 * (r_u.x + r_u.y + r_u.z + r_u.w)
+    }
+}
+
+/// Weight of an emitter reached by phase sampling at a medium vertex that also sampled a light
+/// (light pdf `light_pdf` per sr for this direction): the balance heuristic over light and phase
+/// sampling with every wavelength as the hero, mean(r_u) / mean(r_u + light_pdf · r_l).
+#[inline]
+fn spectral_balance(r_u: Vec4, r_l: Vec4, light_pdf: f32, wl: &SampledWavelengths) -> f32 {
+    let d = mis_divisor(r_u + r_l * light_pdf, wl);
+    if !(d > 0.0) || !d.is_finite() {
+        return 0.0;
+    }
+    mis_divisor(r_u, wl) / d
+}
+
+/// Divide `beta` and `r_u` by the MIS divisor (so `beta` is the effective throughput); false when
+/// the path can no longer contribute.
+#[inline]
+fn renormalize(beta: &mut Vec4, r_u: &mut Vec4, r_l: &mut Vec4, wl: &SampledWavelengths) -> bool {
+    let d = mis_divisor(*r_u, wl);
+    if !(d > 0.0) || !d.is_finite() {
+        return false;
+    }
+    *beta /= d;
+    *r_u /= d;
+    *r_l /= d;
+    *beta != Vec4::ZERO && beta.is_finite()
+}
+
+/// Medium on the other side of object `object`'s surface for a ray crossing it from the front
+/// (`front`) or back, coming from `current`.
+#[inline]
+fn cross(scene: &Scene, object: u32, front: bool, current: Option<u32>) -> Option<u32> {
+    match scene.objects[object as usize].interior_medium {
+        Some(m) => {
+            if front {
+                Some(m)
+            } else {
+                scene.global_medium
+            }
+        }
+        None => current,
+    }
+}
+
+/// Bit m set when next-event estimation can reach outside from within medium m (clear when it is
+/// bounded by a non-index-matched surface, which would block every shadow ray); media beyond the
+/// 64th always try.
+fn nee_possible(scene: &Scene) -> u64 {
+    let mut v = u64::MAX;
+    for o in &scene.objects {
+        if let Some(i) = o.interior_medium {
+            if i < 64 && !index_matched(&scene.materials[o.material as usize]) {
+                v &= !(1u64 << i);
+            }
+        }
+    }
+    if let Some(g) = scene.global_medium {
+        if g < 64 {
+            v |= 1u64 << g;
+        }
+    }
+    v
+}
+
+/// Transmittance along a shadow ray from `o` (already offset off any surface) in direction `d`
+/// over `dist` (m), starting in `medium`; `None` when a surface other than an index-matched
+/// boundary blocks it.
+fn shadow_transmittance(scene: &Scene, mut o: Vec3, d: Vec3, dist: f32, mut medium: Option<u32>, wl: &SampledWavelengths) -> Option<Vec4> {
+    let mut tr = Vec4::ONE;
+    let mut remaining = dist;
+    for _ in 0..MAX_CROSSINGS {
+        if !(remaining > 0.0) {
+            return Some(tr);
+        }
+        let ray = Ray { o, d, t_min: 0.0, t_max: remaining };
+        let hit = scene.accel.intersect(&ray);
+        let seg = hit.map(|h| h.t).unwrap_or(remaining);
+        if let Some(m) = medium {
+            let (_, sigma_t) = scene.media[m as usize].coefficients(wl);
+            tr *= transmittance(sigma_t, seg);
+            if tr == Vec4::ZERO {
+                return None;
+            }
+        }
+        let Some(h) = hit else { return Some(tr) };
+        let obj = &scene.objects[h.object as usize];
+        if !index_matched(&scene.materials[obj.material as usize]) {
+            return None;
+        }
+        let sp = scene.accel.surface_point(&ray, &h);
+        let front = sp.ng.dot(d) < 0.0;
+        medium = cross(scene, h.object, front, medium);
+        o = offset_origin(sp.p, sp.ng, d, scene.ray_epsilon_m);
+        remaining -= seg + scene.ray_epsilon_m;
+    }
+    None
+}
+
+/// Radiance along `ray` by volumetric path tracing (see the module documentation). `wl` may lose
+/// its secondary wavelengths (dispersion): convert the result with `wl` as it is on return.
+pub fn li_volpath(scene: &Scene, settings: &IntegratorSettings, ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+    li_volpath_with(scene, settings, &VolpathOptions::default(), ray, wl, rng)
+}
+
+/// [`li_volpath`] with explicit [`VolpathOptions`].
+pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &VolpathOptions, mut ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+    let nee_ok = if scene.media.is_empty() { 0 } else { nee_possible(scene) };
+    let mut l = Vec4::ZERO;
+    let mut beta = Vec4::ONE;
+    let mut r_u = Vec4::ONE;
+    // After a phase-sampled direction at a medium vertex that also sampled a light: the path
+    // densities had that direction come from light sampling, per unit light pdf, relative to the
+    // actual one (pbrt-v4's r_l); `prev_medium_mis` says it is in use.
+    let mut r_l = Vec4::ZERO;
+    let mut prev_medium_mis = false;
+    let mut medium = scene.global_medium;
+    let mut depth = 0u32;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_no_mis = true; // camera ray, delta bounce, or no light sample at the last vertex
+    let mut prev_p = ray.o;
+    let mut crossings = 0u32;
+    // The current medium's data at this path's wavelengths (computed on entering it).
+    let mut lanes: (u32, MediumLanes) = (u32::MAX, MediumLanes::default());
+    // Real collisions so far, and the count at which the next event-count roulette is played.
+    let mut events = 0u32;
+    let mut next_event_rr = options.event_rr_start;
+    loop {
+        // Free flight in the current medium.
+        let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
+            let mm = &scene.media[m as usize];
+            if lanes.0 != m {
+                lanes = (m, mm.lanes(wl));
+            }
+            (mm, lanes.1.sigma_s, lanes.1.sigma_t)
+        });
+        let mut t_coll = f32::INFINITY;
+        if let Some((mm, _, sigma_t)) = med {
+            if !mm.pure_absorber && sigma_t.x > 0.0 {
+                t_coll = -(1.0 - rng.next_f32()).ln() / sigma_t.x;
+            }
+        }
+        ray.t_max = t_coll;
+        // No surface within the free-distance bound around the origin: the collision is real
+        // without a ray cast.
+        let surely_inside = t_coll.is_finite()
+            && options.free_flight_grid
+            && medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m);
+        let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
+        if let Some((mm, sigma_s, sigma_t)) = med {
+            if hit.is_none() && t_coll.is_finite() {
+                // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u).
+                let a = relative_transmittance(sigma_t, t_coll);
+                beta *= a * sigma_s;
+                r_u *= a * sigma_t;
+                if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                    break;
+                }
+                let p = ray.o + ray.d * t_coll;
+                depth += 1;
+                events += 1;
+                if depth >= settings.max_depth {
+                    break;
+                }
+                if events == next_event_rr {
+                    next_event_rr = next_event_rr.saturating_mul(4);
+                    if rng.next_f32() < 0.5 {
+                        break;
+                    }
+                    beta *= 2.0;
+                }
+                let mi = medium.unwrap_or(0);
+                let can_nee = mi >= 64 || nee_ok & (1u64 << mi) != 0;
+                if can_nee {
+                    l += beta * medium_light_sample(scene, mm, p, ray.d, medium, r_u, wl, rng);
+                }
+                let uc = rng.next_f32();
+                let Some(ps) = mm.phase_sample_lanes(&lanes.1, ray.d, uc, rng.next_2d()) else { break };
+                // The phase functions differ between the carried wavelengths: p_j(μ)/p₀(μ) is
+                // both lane j's weight and the ratio of the direction densities had λ_j been the
+                // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
+                r_l = if can_nee { r_u / ps.pdf } else { Vec4::ZERO };
+                beta *= ps.weight;
+                r_u *= ps.weight;
+                if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                    break;
+                }
+                prev_pdf = ps.pdf;
+                prev_no_mis = !can_nee;
+                prev_medium_mis = can_nee;
+                prev_p = p;
+                ray = Ray { o: p, d: ps.wi, t_min: 0.0, t_max: f32::INFINITY };
+                crossings = 0;
+                if !roulette(&mut beta, depth, settings, wl, rng) {
+                    break;
+                }
+                continue;
+            }
+            // No collision before the surface (or escape).
+            let seg = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+            if mm.pure_absorber {
+                beta *= transmittance(sigma_t, seg);
+            } else {
+                let a = relative_transmittance(sigma_t, seg);
+                beta *= a;
+                r_u *= a;
+                r_l *= a;
+                if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                    break;
+                }
+            }
+            if beta == Vec4::ZERO {
+                break;
+            }
+        }
+        depth += 1;
+        let Some(hit) = hit else {
+            if prev_medium_mis {
+                let e = environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl);
+                if let Some(ei) = scene.environment {
+                    let lp = scene.light_pmf[ei as usize] * scene.lights[ei as usize].pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO);
+                    l += e * spectral_balance(r_u, r_l, lp, wl);
+                }
+            } else {
+                l += environment_emission(scene, &ray, beta, prev_p, prev_pdf, prev_no_mis, wl);
+            }
+            break;
+        };
+        ray.t_max = f32::INFINITY;
+        let sp = scene.accel.surface_point(&ray, &hit);
+        let front = sp.ng.dot(ray.d) < 0.0;
+        let ng = if front { sp.ng } else { -sp.ng };
+        let mut ns = if front { sp.ns } else { -sp.ns };
+        if !(ns.dot(ng) > 0.0) || !ns.is_finite() {
+            ns = ng;
+        }
+        let frame = Frame::from_normal(ns);
+        let wo = -ray.d;
+        let obj = &scene.objects[sp.object as usize];
+        if let Some(li_idx) = obj.light {
+            let light = &scene.lights[li_idx as usize];
+            let le = light.le(sp.ng, wo, wl);
+            if le != Vec4::ZERO {
+                let w = if prev_medium_mis {
+                    let lp = scene.light_pmf[li_idx as usize] * light.pdf_li(prev_p, ray.d, sp.p, sp.ng);
+                    spectral_balance(r_u, r_l, lp, wl)
+                } else if prev_no_mis {
+                    1.0
+                } else {
+                    let lp = scene.light_pmf[li_idx as usize] * light.pdf_li(prev_p, ray.d, sp.p, sp.ng);
+                    power_heuristic(1.0, prev_pdf, 1.0, lp)
+                };
+                l += beta * le * w;
+            }
+        }
+        let material = &scene.materials[obj.material as usize];
+        if index_matched(material) {
+            // Pass-through boundary: change medium, keep going in the same direction.
+            depth -= 1;
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                break;
+            }
+            medium = cross(scene, sp.object, front, medium);
+            ray = Ray { o: sp.p - ng * scene.ray_epsilon_m, d: ray.d, t_min: 0.0, t_max: f32::INFINITY };
+            continue;
+        }
+        crossings = 0;
+        if depth >= settings.max_depth {
+            break;
+        }
+        let bsdf = material.bsdf_at(wl, front);
+        if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+            break;
+        }
+        if bsdf.is_black() {
+            break;
+        }
+        let wo_l = frame.to_local(wo);
+        let mut did_nee = false;
+        if !bsdf.is_delta() {
+            did_nee = true;
+            if let Some(c) = nee::sample_light(scene, sp.p, wl, rng) {
+                let ls = &c.ls;
+                let wi_l = frame.to_local(ls.wi);
+                let f = bsdf.eval(wo_l, wi_l);
+                if f != Vec4::ZERO && (ls.wi.dot(ng) <= 0.0) == (wi_l.z <= 0.0) {
+                    // The shadow ray starts in the medium on the side it leaves to.
+                    let m_side = if (ls.wi.dot(ng) >= 0.0) == (wo.dot(ng) >= 0.0) { medium } else { cross(scene, sp.object, front, medium) };
+                    let dist = shadow_t_max(ls.dist, scene.ray_epsilon_m, true);
+                    if let Some(tr) = shadow_transmittance(scene, offset_origin(sp.p, ng, ls.wi, scene.ray_epsilon_m), ls.wi, dist, m_side, wl) {
+                        let w = c.mis_weight(bsdf.pdf(wo_l, wi_l));
+                        l += beta * f * ls.li * tr * (wi_l.z.abs() * w / c.pdf());
+                    }
+                }
+            }
+        }
+        let uc = rng.next_f32();
+        let Some(bs) = bsdf.sample(wo_l, uc, rng.next_2d()) else { break };
+        let wi = frame.to_world(bs.wi);
+        if (wi.dot(ng) > 0.0) == bs.transmission {
+            break;
+        }
+        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if bs.terminate_secondary && !wl.secondary_terminated() {
+            wl.terminate_secondary();
+            if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                break;
+            }
+        }
+        if bs.transmission {
+            medium = cross(scene, sp.object, front, medium);
+        }
+        prev_pdf = bs.pdf;
+        prev_no_mis = bs.delta || !did_nee;
+        prev_medium_mis = false;
+        prev_p = sp.p;
+        ray = Ray { o: offset_origin(sp.p, ng, wi, scene.ray_epsilon_m), d: wi, t_min: 0.0, t_max: f32::INFINITY };
+        if !roulette(&mut beta, depth, settings, wl, rng) {
+            break;
+        }
+    }
+    l
+}
+
+/// Russian roulette on the effective throughput once the path has `rr_depth` segments, as in
+/// pbrt-v4: a path whose largest throughput m is below 1 continues with probability m (and is
+/// divided by it); paths with m ≥ 1 always continue, so dense media with albedo near 1 are not
+/// cut short by roulette (only by `max_depth`) and surviving weights never exceed 1.
+#[inline]
+fn roulette(beta: &mut Vec4, depth: u32, settings: &IntegratorSettings, wl: &SampledWavelengths, rng: &mut Pcg32) -> bool {
+    if depth < settings.rr_depth {
+        return true;
+    }
+    let m = if wl.secondary_terminated() { beta.x } else { beta.max_element() };
+    if m >= 1.0 {
+        return true;
+    }
+    if !(rng.next_f32() < m) {
+        return false;
+    }
+    *beta /= m;
+    true
+}
+
+/// One light sample at a medium vertex `p` (ray travelling along `d`), MIS-weighted against phase
+/// sampling; returns phase × transmittance × radiance / pdf (to be multiplied by the throughput).
+fn medium_light_sample(scene: &Scene, mm: &HomogeneousMedium, p: Vec3, d: Vec3, medium: Option<u32>, r_u: Vec4, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+    let Some(c) = nee::sample_light(scene, p, wl, rng) else { return Vec4::ZERO };
+    let ls = &c.ls;
+    let mu = d.dot(ls.wi);
+    let f = mm.phase_eval(wl, mu);
+    if f == Vec4::ZERO {
+        return Vec4::ZERO;
+    }
+    let dist = shadow_t_max(ls.dist, scene.ray_epsilon_m, false);
+    let Some(tr) = shadow_transmittance(scene, p, ls.wi, dist, medium, wl) else { return Vec4::ZERO };
+    let light_pdf = c.pdf();
+    // Balance heuristic over the 2 × 4 techniques (light or phase sampling, each wavelength the
+    // hero): divide by the mean over wavelengths of (prefix density ratio) × (light pdf + p_j(μ)).
+    let denom = if ls.delta { light_pdf * mis_divisor(r_u, wl) } else { mis_divisor(r_u * (Vec4::splat(light_pdf) + f), wl) };
+    if !(denom > 0.0) {
+        return Vec4::ZERO;
+    }
+    f * ls.li * tr / denom
+}

@@ -1,0 +1,310 @@
+//! Luminaires: point, spot, directional, diffuse area lights on triangle meshes and spheres, and a
+//! constant environment.
+//!
+//! Every light has a spectrum at 1-nm resolution. Units: area and environment lights give spectral
+//! radiance (W·m⁻²·sr⁻¹·nm⁻¹), point and spot lights spectral intensity (W·sr⁻¹·nm⁻¹), directional
+//! lights spectral irradiance on a surface perpendicular to them (W·m⁻²·nm⁻¹). Positions in metres.
+//!
+//! `sample_li` draws a point or direction on the light as seen from a shading point and returns
+//! the incident radiance and the density per steradian of the direction (area lights: uniform by
+//! area on triangle meshes, pdf 1/A converted to solid angle; spheres seen from outside: uniform in
+//! the cone they subtend). `pdf_li` gives the same density for a direction found by BSDF sampling,
+//! for multiple importance sampling.
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::math::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
+use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
+use glam::{Vec2, Vec3, Vec4};
+use optics::spectrum::DenseSpectrum;
+use std::f32::consts::PI;
+
+/// The surface an area light emits from (world coordinates, metres).
+#[derive(Clone, Debug)]
+pub enum Emitter {
+    /// Triangles, sampled uniformly by area.
+    Triangles {
+        /// Each triangle as (p0, p1 − p0, p2 − p0, unit normal along (p1 − p0) × (p2 − p0)).
+        tris: Vec<[Vec3; 4]>,
+        /// Cumulative areas (m²); the last entry is the total area.
+        cdf: Vec<f32>,
+    },
+    /// A sphere.
+    Sphere {
+        /// Centre (m).
+        center: Vec3,
+        /// Radius (m).
+        radius: f32,
+    },
+}
+
+/// A light source.
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// Isotropic point source.
+    Point {
+        /// Position (m).
+        position: Vec3,
+        /// Spectral intensity (W·sr⁻¹·nm⁻¹).
+        intensity: DenseSpectrum,
+    },
+    /// Spot light: intensity along the axis, smooth (smoothstep in cos θ) falloff from
+    /// `cos_falloff_start` to zero at `cos_total`.
+    Spot {
+        /// Position (m).
+        position: Vec3,
+        /// Frame whose normal is the spot's axis.
+        frame: Frame,
+        /// Cosine of the total cone half-angle.
+        cos_total: f32,
+        /// Cosine of the half-angle where the falloff starts.
+        cos_falloff_start: f32,
+        /// Spectral intensity on the axis (W·sr⁻¹·nm⁻¹).
+        intensity: DenseSpectrum,
+    },
+    /// Distant source.
+    Directional {
+        /// Unit direction in which the light travels.
+        direction: Vec3,
+        /// Spectral irradiance on a surface perpendicular to it (W·m⁻²·nm⁻¹).
+        irradiance: DenseSpectrum,
+    },
+    /// Diffuse emitter on the surface of a scene object.
+    Area {
+        /// Index of the emitting object in the scene.
+        object: u32,
+        /// Its surface.
+        emitter: Emitter,
+        /// Emitting area (m²).
+        area_m2: f32,
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
+        radiance: DenseSpectrum,
+        /// Whether it emits on both sides (else only on the side of the geometric normal).
+        two_sided: bool,
+    },
+    /// Radiance arriving from every direction not blocked by the scene.
+    Environment {
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
+        radiance: DenseSpectrum,
+    },
+}
+
+/// A sample of incident light at a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point (infinite for directional and environment lights).
+    pub dist: f32,
+    /// Incident spectral radiance (for delta lights: intensity/r² or irradiance).
+    pub li: SampledSpectrum,
+    /// Density per steradian of `wi` (1 for delta lights).
+    pub pdf: f32,
+    /// Whether the light is a delta distribution in direction (point, spot, directional).
+    pub delta: bool,
+}
+
+impl Emitter {
+    /// Emitting area in m².
+    pub fn area_m2(&self) -> f32 {
+        match self {
+            Emitter::Triangles { cdf, .. } => *cdf.last().unwrap_or(&0.0),
+            Emitter::Sphere { radius, .. } => 4.0 * PI * radius * radius,
+        }
+    }
+
+    /// Build from triangles; errors when the total area is not positive.
+    pub fn triangles(tris: Vec<[Vec3; 3]>) -> anyhow::Result<Emitter> {
+        let mut cdf = Vec::with_capacity(tris.len());
+        let mut out = Vec::with_capacity(tris.len());
+        let mut acc = 0.0f64;
+        for t in &tris {
+            let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+            let c = e1.cross(e2);
+            let a = 0.5 * c.length() as f64;
+            if a > 0.0 {
+                acc += a;
+                cdf.push(acc as f32);
+                out.push([t[0], e1, e2, c.normalize()]);
+            }
+        }
+        if !(acc > 0.0) || !acc.is_finite() {
+            anyhow::bail!("emitting surface has zero area");
+        }
+        Ok(Emitter::Triangles { tris: out, cdf })
+    }
+}
+
+impl Light {
+    /// True for lights with a delta distribution in direction (cannot be hit by rays).
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. })
+    }
+
+    /// Approximate emitted power in W (∫ spectrum dλ over 360–830 nm) used to choose lights in
+    /// proportion; `scene_radius_m` bounds the scene for distant lights.
+    pub fn power_w(&self, scene_radius_m: f32) -> f32 {
+        let integral = |s: &DenseSpectrum| -> f32 { (0..=470).map(|i| s.eval(360.0 + i as f32)).sum::<f32>() };
+        match self {
+            Light::Point { intensity, .. } => 4.0 * PI * integral(intensity),
+            Light::Spot { intensity, cos_total, cos_falloff_start, .. } => {
+                2.0 * PI * (1.0 - 0.5 * (cos_total + cos_falloff_start)) * integral(intensity)
+            }
+            Light::Directional { irradiance, .. } => PI * scene_radius_m * scene_radius_m * integral(irradiance),
+            Light::Area { area_m2, radiance, two_sided, .. } => {
+                PI * area_m2 * integral(radiance) * if *two_sided { 2.0 } else { 1.0 }
+            }
+            Light::Environment { radiance } => 4.0 * PI * PI * scene_radius_m * scene_radius_m * integral(radiance),
+        }
+    }
+
+    /// Sample incident light at point `p` (m); `u` uniform in [0,1)².
+    #[inline]
+    pub fn sample_li(&self, p: Vec3, u: Vec2, wl: &SampledWavelengths) -> Option<LightSample> {
+        match self {
+            Light::Point { position, intensity } => {
+                let d = *position - p;
+                let r2 = d.length_squared();
+                if !(r2 > 0.0) {
+                    return None;
+                }
+                let dist = r2.sqrt();
+                Some(LightSample { wi: d / dist, dist, li: wl.eval(intensity) / r2, pdf: 1.0, delta: true })
+            }
+            Light::Spot { position, frame, cos_total, cos_falloff_start, intensity } => {
+                let d = *position - p;
+                let r2 = d.length_squared();
+                if !(r2 > 0.0) {
+                    return None;
+                }
+                let dist = r2.sqrt();
+                let wi = d / dist;
+                let cos = (-wi).dot(frame.n);
+                let k = smooth_falloff(cos, *cos_total, *cos_falloff_start);
+                if k <= 0.0 {
+                    return None;
+                }
+                Some(LightSample { wi, dist, li: wl.eval(intensity) * (k / r2), pdf: 1.0, delta: true })
+            }
+            Light::Directional { direction, irradiance } => Some(LightSample {
+                wi: -*direction,
+                dist: f32::INFINITY,
+                li: wl.eval(irradiance),
+                pdf: 1.0,
+                delta: true,
+            }),
+            Light::Area { emitter, area_m2, radiance, two_sided, .. } => {
+                let (q, n) = match emitter {
+                    Emitter::Triangles { tris, cdf } => {
+                        let (i, ur) = if cdf.len() == 1 { (0, u.x) } else { sample_cdf(cdf, u.x) };
+                        let t = &tris[i];
+                        let b = uniform_triangle(Vec2::new(ur, u.y));
+                        (t[0] + t[1] * b.x + t[2] * b.y, t[3])
+                    }
+                    Emitter::Sphere { center, radius } => {
+                        let dc = *center - p;
+                        let dc2 = dc.length_squared();
+                        let r2 = radius * radius;
+                        if dc2 > r2 * 1.0001 {
+                            // Outside: sample the cone of directions the sphere subtends.
+                            let dist_c = dc2.sqrt();
+                            let sin2 = r2 / dc2;
+                            let cos_max = (1.0 - sin2).max(0.0).sqrt();
+                            let frame = Frame::from_normal(dc / dist_c);
+                            let wi = frame.to_world(uniform_cone(u, cos_max));
+                            // Nearest intersection of the ray p + t wi with the sphere.
+                            let b = wi.dot(dc);
+                            let disc = (b * b - (dc2 - r2)).max(0.0);
+                            let t = b - disc.sqrt();
+                            let q = p + wi * t;
+                            let n = (q - *center) / *radius;
+                            let cos_l = n.dot(-wi);
+                            let emits = *two_sided || cos_l > 0.0;
+                            if !emits || !(t > 0.0) {
+                                return None;
+                            }
+                            let pdf = 1.0 / (2.0 * PI * (1.0 - cos_max));
+                            return Some(LightSample { wi, dist: t, li: wl.eval(radiance), pdf, delta: false });
+                        }
+                        let n = uniform_sphere(u);
+                        (*center + n * *radius, n)
+                    }
+                };
+                let d = q - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_l = n.dot(-wi);
+                if !(*two_sided || cos_l > 0.0) || cos_l == 0.0 {
+                    return None;
+                }
+                let pdf = dist2 / (cos_l.abs() * area_m2);
+                Some(LightSample { wi, dist, li: wl.eval(radiance), pdf, delta: false })
+            }
+            Light::Environment { radiance } => {
+                let wi = uniform_sphere(u);
+                Some(LightSample { wi, dist: f32::INFINITY, li: wl.eval(radiance), pdf: UNIFORM_SPHERE_PDF, delta: false })
+            }
+        }
+    }
+
+    /// Density per steradian with which `sample_li` at `p` would pick direction `wi` that hits this
+    /// light at point `q` with geometric normal `ng` (for the environment, `q` and `ng` are unused).
+    #[inline]
+    pub fn pdf_li(&self, p: Vec3, wi: Vec3, q: Vec3, ng: Vec3) -> f32 {
+        match self {
+            Light::Area { emitter, area_m2, .. } => {
+                if let Emitter::Sphere { center, radius } = emitter {
+                    let dc2 = (*center - p).length_squared();
+                    let r2 = radius * radius;
+                    if dc2 > r2 * 1.0001 {
+                        let cos_max = (1.0 - r2 / dc2).max(0.0).sqrt();
+                        return 1.0 / (2.0 * PI * (1.0 - cos_max));
+                    }
+                }
+                let dist2 = (q - p).length_squared();
+                let cos_l = ng.dot(wi).abs();
+                if cos_l == 0.0 {
+                    return 0.0;
+                }
+                dist2 / (cos_l * area_m2)
+            }
+            Light::Environment { .. } => UNIFORM_SPHERE_PDF,
+            _ => 0.0,
+        }
+    }
+
+    /// Radiance emitted towards `wo` (unit, pointing away from the surface) by an area light at a
+    /// point with geometric normal `ng`, or by the environment in direction −`wo`.
+    #[inline]
+    pub fn le(&self, ng: Vec3, wo: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Area { radiance, two_sided, .. } => {
+                if *two_sided || ng.dot(wo) > 0.0 {
+                    wl.eval(radiance)
+                } else {
+                    Vec4::ZERO
+                }
+            }
+            Light::Environment { radiance } => wl.eval(radiance),
+            _ => Vec4::ZERO,
+        }
+    }
+}
+
+/// Spot-light falloff: 1 inside the inner cone, 0 outside the outer one, smoothstep in between.
+#[inline]
+pub fn smooth_falloff(cos_theta: f32, cos_total: f32, cos_falloff_start: f32) -> f32 {
+    if cos_theta >= cos_falloff_start {
+        return 1.0;
+    }
+    if cos_theta <= cos_total {
+        return 0.0;
+    }
+    let t = (cos_theta - cos_total) / (cos_falloff_start - cos_total);
+    t * t * (3.0 - 2.0 * t)
+}

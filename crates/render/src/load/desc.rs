@@ -1,0 +1,113 @@
+//! The scene file's structure as serde reads it: every table and its keys (unknown keys are
+//! refused). Each kind's file in [`crate::load`] checks and builds its part.
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use toml::Spanned;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SceneDesc {
+    pub(crate) unit: Option<Spanned<String>>,
+    pub(crate) camera: Spanned<CameraDesc>,
+    pub(crate) integrator: Option<Spanned<IntegratorDesc>>,
+    #[serde(default)]
+    pub(crate) spectra: BTreeMap<String, Spanned<toml::Value>>,
+    #[serde(default)]
+    pub(crate) materials: BTreeMap<String, Spanned<MaterialDesc>>,
+    #[serde(default)]
+    pub(crate) objects: Vec<Spanned<ObjectDesc>>,
+    #[serde(default)]
+    pub(crate) lights: Vec<Spanned<LightDesc>>,
+    /// Global medium (see `medium_desc`).
+    pub(crate) medium: Option<Spanned<toml::Value>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CameraDesc {
+    pub(crate) eye: [f64; 3],
+    pub(crate) look_at: [f64; 3],
+    pub(crate) up: Option<[f64; 3]>,
+    pub(crate) vfov_deg: Option<f64>,
+    pub(crate) camera_constant: Option<f64>,
+    pub(crate) width: Option<u32>,
+    pub(crate) height: Option<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct IntegratorDesc {
+    #[serde(rename = "type")]
+    pub(crate) kind: Option<String>,
+    pub(crate) max_depth: Option<u32>,
+    pub(crate) rr_depth: Option<u32>,
+    pub(crate) ao_distance: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct MaterialDesc {
+    #[serde(rename = "type")]
+    pub(crate) kind: String,
+    pub(crate) albedo: Option<Spanned<toml::Value>>,
+    // Dielectrics, conductors, plastic (see `bsdf_material`).
+    pub(crate) ior: Option<Spanned<toml::Value>>,
+    pub(crate) metal: Option<Spanned<String>>,
+    pub(crate) eta: Option<Spanned<toml::Value>>,
+    pub(crate) k: Option<Spanned<toml::Value>>,
+    pub(crate) roughness: Option<Spanned<toml::Value>>,
+    pub(crate) alpha: Option<Spanned<toml::Value>>,
+    /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
+    pub(crate) subsurface: Option<Spanned<toml::Value>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SphereDesc {
+    pub(crate) center: [f64; 3],
+    pub(crate) radius: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct TransformDesc {
+    pub(crate) scale: Option<toml::Value>,
+    pub(crate) rotate: Option<[f64; 4]>,
+    pub(crate) translate: Option<[f64; 3]>,
+    pub(crate) matrix: Option<[[f64; 4]; 4]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct ObjectDesc {
+    pub(crate) name: Option<String>,
+    pub(crate) material: String,
+    pub(crate) mesh: Option<String>,
+    pub(crate) group: Option<String>,
+    pub(crate) quad: Option<[[f64; 3]; 4]>,
+    pub(crate) quads: Option<Vec<[[f64; 3]; 4]>>,
+    pub(crate) sphere: Option<SphereDesc>,
+    pub(crate) transform: Option<TransformDesc>,
+    /// Medium inside the object (its mesh must be closed).
+    pub(crate) medium: Option<Spanned<toml::Value>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LightDesc {
+    #[serde(rename = "type")]
+    pub(crate) kind: String,
+    pub(crate) object: Option<String>,
+    pub(crate) position: Option<[f64; 3]>,
+    pub(crate) direction: Option<[f64; 3]>,
+    pub(crate) look_at: Option<[f64; 3]>,
+    pub(crate) cone_deg: Option<f64>,
+    pub(crate) falloff_start_deg: Option<f64>,
+    pub(crate) radiance: Option<Spanned<toml::Value>>,
+    pub(crate) intensity: Option<Spanned<toml::Value>>,
+    pub(crate) irradiance: Option<Spanned<toml::Value>>,
+    pub(crate) scale: Option<f64>,
+    pub(crate) power_w: Option<f64>,
+    pub(crate) two_sided: Option<bool>,
+}

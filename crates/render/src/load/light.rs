@@ -1,0 +1,172 @@
+//! `[[lights]]`: point, spot, directional, area (on an object) and environment lights, with
+//! `scale` or `power_w`.
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
+
+use crate::load::desc::SceneDesc;
+use crate::load::error::Cx;
+use crate::load::object::{finite3, v3};
+use crate::load::spectrum::{SpectrumCx, SpectrumUse};
+use crate::light::{Emitter, Light};
+use crate::scene::ObjectInfo;
+use crate::shape::Shape;
+use anyhow::Result;
+use glam::Vec3;
+use optics::spectrum::DenseSpectrum;
+use toml::Spanned;
+
+/// The lights, linked to their objects (`objects[i].light`), and the index of the environment.
+pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, shapes: &[Shape], objects: &mut [ObjectInfo]) -> Result<(Vec<Light>, Option<u32>)> {
+    let mut lights = Vec::new();
+    let mut environment = None;
+    for (k, l) in desc.lights.iter().enumerate() {
+        let span = l.span();
+        let l = l.get_ref();
+        let field = format!("lights[{k}] ({})", l.kind);
+        let check_keys = |allowed: &[&str]| -> Result<()> {
+            let present = [
+                ("object", l.object.is_some()),
+                ("position", l.position.is_some()),
+                ("direction", l.direction.is_some()),
+                ("look_at", l.look_at.is_some()),
+                ("cone_deg", l.cone_deg.is_some()),
+                ("falloff_start_deg", l.falloff_start_deg.is_some()),
+                ("radiance", l.radiance.is_some()),
+                ("intensity", l.intensity.is_some()),
+                ("irradiance", l.irradiance.is_some()),
+                ("two_sided", l.two_sided.is_some()),
+            ];
+            for (key, is) in present {
+                if is && !allowed.contains(&key) {
+                    return Err(cx.err(&span, &format!("{field}.{key}"), format!("not used by a {} light", l.kind)));
+                }
+            }
+            Ok(())
+        };
+        if l.scale.is_some() && l.power_w.is_some() {
+            return Err(cx.err(&span, &field, "give scale or power_w, not both"));
+        }
+        if let Some(s) = l.scale {
+            if !(s >= 0.0) || !s.is_finite() {
+                return Err(cx.err(&span, &format!("{field}.scale"), format!("must be non-negative, got {s}")));
+            }
+        }
+        if let Some(p) = l.power_w {
+            if !(p > 0.0) || !p.is_finite() {
+                return Err(cx.err(&span, &format!("{field}.power_w"), format!("must be positive, got {p}")));
+            }
+        }
+        let need = |v: &Option<Spanned<toml::Value>>, key: &str| -> Result<DenseSpectrum> {
+            let v = v.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.{key}"), format!("missing (a {} light needs {key})", l.kind)))?;
+            sp.resolve(v, &format!("{field}.{key}"), SpectrumUse::Emission)
+        };
+        let need_point = |v: &Option<[f64; 3]>, key: &str| -> Result<Vec3> {
+            let p = v.ok_or_else(|| cx.err(&span, &format!("{field}.{key}"), "missing"))?;
+            if !finite3(&p) {
+                return Err(cx.err(&span, &format!("{field}.{key}"), "must be finite"));
+            }
+            Ok(v3(p))
+        };
+        // Scale the spectrum: by `scale`, or so that the light emits `power_w` watts (360–830 nm).
+        let scaled = |s: DenseSpectrum, geometric: f64| -> Result<DenseSpectrum> {
+            let k = if let Some(p) = l.power_w {
+                let integral: f64 = (0..=470).map(|i| s.eval(360.0 + i as f32) as f64).sum();
+                if !(integral > 0.0) || !(geometric > 0.0) {
+                    return Err(cx.err(&span, &format!("{field}.power_w"), "cannot scale a light whose spectrum or size is zero"));
+                }
+                p / (integral * geometric)
+            } else {
+                l.scale.unwrap_or(1.0)
+            };
+            Ok(DenseSpectrum::from_fn(|x| s.eval(x as f32) as f64 * k))
+        };
+        let light = match l.kind.as_str() {
+            "point" => {
+                check_keys(&["position", "intensity"])?;
+                let position = need_point(&l.position, "position")? * unit_m as f32;
+                Light::Point { position, intensity: scaled(need(&l.intensity, "intensity")?, 4.0 * std::f64::consts::PI)? }
+            }
+            "spot" => {
+                check_keys(&["position", "look_at", "cone_deg", "falloff_start_deg", "intensity"])?;
+                let position = need_point(&l.position, "position")? * unit_m as f32;
+                let target = need_point(&l.look_at, "look_at")? * unit_m as f32;
+                let axis = (target - position).normalize_or_zero();
+                if axis == Vec3::ZERO {
+                    return Err(cx.err(&span, &format!("{field}.look_at"), "must differ from position"));
+                }
+                let cone = l.cone_deg.unwrap_or(30.0);
+                let start = l.falloff_start_deg.unwrap_or(cone * 0.75);
+                if !(cone > 0.0 && cone <= 180.0) {
+                    return Err(cx.err(&span, &format!("{field}.cone_deg"), format!("must be in (0, 180], got {cone}")));
+                }
+                if !(start >= 0.0 && start <= cone) {
+                    return Err(cx.err(&span, &format!("{field}.falloff_start_deg"), format!("must be in [0, cone_deg], got {start}")));
+                }
+                let cos_total = (cone.to_radians().cos()) as f32;
+                let cos_falloff_start = (start.to_radians().cos()) as f32;
+                let solid = 2.0 * std::f64::consts::PI * (1.0 - 0.5 * (cos_total as f64 + cos_falloff_start as f64));
+                Light::Spot {
+                    position,
+                    frame: crate::math::sampling::Frame::from_normal(axis),
+                    cos_total,
+                    cos_falloff_start,
+                    intensity: scaled(need(&l.intensity, "intensity")?, solid)?,
+                }
+            }
+            "directional" => {
+                check_keys(&["direction", "irradiance"])?;
+                let d = need_point(&l.direction, "direction")?.normalize_or_zero();
+                if d == Vec3::ZERO {
+                    return Err(cx.err(&span, &format!("{field}.direction"), "must be non-zero"));
+                }
+                if l.power_w.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.power_w"), "a directional light has no finite power: use scale"));
+                }
+                Light::Directional { direction: d, irradiance: scaled(need(&l.irradiance, "irradiance")?, 1.0)? }
+            }
+            "environment" => {
+                check_keys(&["radiance"])?;
+                if environment.is_some() {
+                    return Err(cx.err(&span, &field, "only one environment light is allowed"));
+                }
+                if l.power_w.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.power_w"), "an environment has no finite power: use scale"));
+                }
+                environment = Some(lights.len() as u32);
+                Light::Environment { radiance: scaled(need(&l.radiance, "radiance")?, 1.0)? }
+            }
+            "area" => {
+                check_keys(&["object", "radiance", "two_sided"])?;
+                let oname = l.object.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.object"), "missing (name of the emitting object)"))?;
+                let oi = objects.iter().position(|o| &o.name == oname).ok_or_else(|| {
+                    cx.err(&span, &format!("{field}.object"), format!("unknown object `{oname}`"))
+                })?;
+                if objects[oi].light.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.object"), format!("object `{oname}` already has a light")));
+                }
+                let emitter = match &shapes[oi] {
+                    Shape::Mesh(m) => Emitter::triangles(
+                        m.indices.iter().map(|t| [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]]).collect(),
+                    )
+                    .map_err(|e| cx.err(&span, &format!("{field}.object"), format!("`{oname}`: {e}")))?,
+                    Shape::Sphere(s) => Emitter::Sphere { center: s.center, radius: s.radius },
+                };
+                let area_m2 = emitter.area_m2();
+                if !(area_m2 > 0.0) {
+                    return Err(cx.err(&span, &format!("{field}.object"), format!("`{oname}` has zero area")));
+                }
+                let two_sided = l.two_sided.unwrap_or(false);
+                let geometric = std::f64::consts::PI * area_m2 as f64 * if two_sided { 2.0 } else { 1.0 };
+                objects[oi].light = Some(lights.len() as u32);
+                Light::Area { object: oi as u32, emitter, area_m2, radiance: scaled(need(&l.radiance, "radiance")?, geometric)?, two_sided }
+            }
+            other => {
+                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type `{other}` (known: point, spot, directional, area, environment)")))
+            }
+        };
+        lights.push(light);
+    }
+
+    Ok((lights, environment))
+}

@@ -1,0 +1,195 @@
+//! `[materials.NAME]`: every material type and its keys (see docs/scene-format.md).
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
+
+use crate::load::desc::{MaterialDesc, SceneDesc};
+use crate::load::error::Cx;
+use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
+use crate::material::Material;
+use anyhow::Result;
+use optics::spectrum::DenseSpectrum;
+use std::ops::Range;
+use toml::Spanned;
+
+/// The `[materials]` table: the materials and their names, in the table's (sorted) order.
+pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(Vec<Material>, Vec<String>)> {
+    let mut materials = Vec::new();
+    let mut material_names = Vec::new();
+    for (name, m) in &desc.materials {
+        let span = m.span();
+        let m = m.get_ref();
+        let field = format!("materials.{name}");
+        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null") {
+            for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
+                if present {
+                    return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
+                }
+            }
+        }
+        if m.subsurface.is_some() && m.kind != "translucent" {
+            return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", m.kind)));
+        }
+        let mat = match m.kind.as_str() {
+            "lambertian" | "diffuse" => {
+                let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
+                Material::lambertian(sp.resolve(albedo, &format!("{field}.albedo"), SpectrumUse::Albedo)?)
+            }
+            "interface" | "null" => {
+                if m.albedo.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.albedo"), format!("not allowed for an {} material", m.kind)));
+                }
+                // Index-matched boundary of a medium: a dielectric of relative index 1 (pass-through).
+                Material::dielectric(DenseSpectrum::from_fn(|_| 1.0), crate::bsdf::microfacet::TrowbridgeReitz::isotropic(0.0))
+            }
+            "black" => {
+                if m.albedo.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.albedo"), "not allowed for a black material"));
+                }
+                Material::Black
+            }
+            "translucent" => {
+                let sub = m.subsurface.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.subsurface"), "missing (a translucent material needs subsurface = { ... })"))?;
+                let ior = match &m.ior {
+                    None => None,
+                    Some(v) => Some(as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &format!("{field}.ior"), "must be a number"))?),
+                };
+                if m.alpha.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.alpha"), "not allowed for a translucent material (give the boundary's roughness r ∈ [0, 1], α = r²)"));
+                }
+                let roughness = match &m.roughness {
+                    None => None,
+                    Some(v) => Some(as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &format!("{field}.roughness"), "must be a number in [0, 1]"))?),
+                };
+                let t = crate::load::translucent::translucent_from_toml(ior, roughness, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
+                Material::Translucent(std::sync::Arc::new(t))
+            }
+            "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
+            other => {
+                return Err(cx.err(
+                    &span,
+                    &format!("{field}.type"),
+                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic, translucent)"),
+                ))
+            }
+        };
+        materials.push(mat);
+        material_names.push(name.clone());
+    }
+
+    Ok((materials, material_names))
+}
+
+/// Dielectric, conductor and plastic materials (issue 4), see docs/scene-format.md.
+pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &Range<usize>, field: &str) -> Result<Material> {
+    use crate::bsdf::microfacet::{roughness_to_alpha, TrowbridgeReitz};
+    let kind = m.kind.as_str();
+    let f = |name: &str| format!("{field}.{name}");
+    // Fields that do not belong to this type.
+    let allowed: &[&str] = match kind {
+        "dielectric" | "rough_dielectric" => &["ior", "roughness", "alpha"],
+        "conductor" | "rough_conductor" => &["metal", "eta", "k", "roughness", "alpha"],
+        _ => &["albedo", "ior", "roughness", "alpha"],
+    };
+    for (name, present) in [
+        ("albedo", m.albedo.is_some()),
+        ("ior", m.ior.is_some()),
+        ("metal", m.metal.is_some()),
+        ("eta", m.eta.is_some()),
+        ("k", m.k.is_some()),
+        ("roughness", m.roughness.is_some()),
+        ("alpha", m.alpha.is_some()),
+    ] {
+        if present && !allowed.contains(&name) {
+            return Err(cx.err(span, &f(name), format!("not allowed for a {kind} material (allowed: {})", allowed.join(", "))));
+        }
+    }
+    // Roughness: `roughness` r ∈ [0, 1] with α = r², or `alpha` = α or [αx, αy] (anisotropic).
+    let number = |v: &Spanned<toml::Value>, name: &str, lo: f64, hi: f64| -> Result<f64> {
+        let x = as_f64(v.get_ref()).ok_or_else(|| cx.err(&v.span(), &f(name), "expected a number"))?;
+        if !(x >= lo && x <= hi) {
+            return Err(cx.err(&v.span(), &f(name), format!("{x} is outside [{lo}, {hi}]")));
+        }
+        Ok(x)
+    };
+    let distrib = match (&m.roughness, &m.alpha) {
+        (Some(_), Some(a)) => return Err(cx.err(&a.span(), &f("alpha"), "give either roughness or alpha, not both")),
+        (Some(r), None) => TrowbridgeReitz::isotropic(roughness_to_alpha(number(r, "roughness", 0.0, 1.0)? as f32)),
+        (None, Some(a)) => match a.get_ref() {
+            toml::Value::Array(xs) if kind != "plastic" => {
+                let v: Vec<f64> = xs.iter().filter_map(as_f64).collect();
+                if v.len() != 2 || xs.len() != 2 || !v.iter().all(|x| (0.0..=4.0).contains(x)) {
+                    return Err(cx.err(&a.span(), &f("alpha"), "expected [alpha_x, alpha_y], each in [0, 4]"));
+                }
+                TrowbridgeReitz { alpha_x: v[0] as f32, alpha_y: v[1] as f32 }
+            }
+            _ => TrowbridgeReitz::isotropic(number(a, "alpha", 0.0, 4.0)? as f32),
+        },
+        (None, None) => {
+            if kind.starts_with("rough_") {
+                return Err(cx.err(span, &f("roughness"), format!("missing (a {kind} material needs roughness or alpha)")));
+            }
+            TrowbridgeReitz::isotropic(0.0)
+        }
+    };
+    if kind.starts_with("rough_") && distrib.effectively_smooth() {
+        return Err(cx.err(span, &f("roughness"), format!("a {kind} material needs α ≥ {} (use the smooth type)", crate::bsdf::microfacet::SMOOTH_ALPHA)));
+    }
+    // A positive spectrum (index of refraction, η, k): number, name of a glass / named spectrum, or table.
+    let positive = |v: &Spanned<toml::Value>, name: &str| -> Result<DenseSpectrum> {
+        if let toml::Value::String(g) = v.get_ref() {
+            if !sp.named.contains_key(g) {
+                let glass = optics::ior::glass(g).map_err(|e| cx.err(&v.span(), &f(name), format!("{e:#} (or a spectrum defined under [spectra])")))?;
+                return Ok(DenseSpectrum::from_fn(move |l| glass.n(l)));
+            }
+        }
+        let d = sp.resolve(v, &f(name), SpectrumUse::Emission)?;
+        // A table that does not cover 360–830 nm is extended with its end values (an index is
+        // never 0), instead of the zero that spectra take outside their range.
+        let x = d.samples().to_vec();
+        match (x.iter().position(|&y| y > 0.0), x.iter().rposition(|&y| y > 0.0)) {
+            (Some(a), Some(b)) if a > 0 || b + 1 < x.len() => {
+                Ok(DenseSpectrum::from_fn(move |l| x[((l - 360.0).round().max(0.0) as usize).clamp(a, b)] as f64))
+            }
+            _ => Ok(d),
+        }
+    };
+    match kind {
+        "dielectric" | "rough_dielectric" => {
+            let ior = match &m.ior {
+                Some(v) => positive(v, "ior")?,
+                None => return Err(cx.err(span, &f("ior"), "missing (a number such as 1.5, a glass name `bk7` / `fused_silica`, or a spectrum)")),
+            };
+            if ior.samples().iter().any(|&x| !(x > 0.0)) {
+                return Err(cx.err(&m.ior.as_ref().unwrap().span(), &f("ior"), "must be positive at every wavelength"));
+            }
+            Ok(Material::dielectric(ior, distrib))
+        }
+        "conductor" | "rough_conductor" => {
+            let (eta, k) = match (&m.metal, &m.eta, &m.k) {
+                (Some(name), None, None) => {
+                    let t = optics::ior::metal(name.get_ref()).map_err(|e| cx.err(&name.span(), &f("metal"), format!("{e:#}")))?;
+                    let t2 = t.clone();
+                    (DenseSpectrum::from_fn(move |l| t.eta_k(l).0), DenseSpectrum::from_fn(move |l| t2.eta_k(l).1))
+                }
+                (None, Some(e), Some(k)) => (positive(e, "eta")?, positive(k, "k")?),
+                (Some(_), _, _) => return Err(cx.err(span, &f("metal"), "give either metal or eta and k, not both")),
+                _ => return Err(cx.err(span, &f("metal"), "missing (metal = \"au\" | \"ag\" | \"cu\" | \"al\" | \"cr\", or both eta and k)")),
+            };
+            Ok(Material::conductor(eta, k, distrib))
+        }
+        _ => {
+            // plastic
+            let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(span, &f("albedo"), "missing (a plastic material needs the albedo of its base)"))?;
+            let albedo = sp.resolve(albedo, &f("albedo"), SpectrumUse::Albedo)?;
+            let ior = match &m.ior {
+                Some(v) => number(v, "ior", 1.0001, 4.0)?,
+                None => 1.5,
+            };
+            if distrib.alpha_x != distrib.alpha_y {
+                return Err(cx.err(span, &f("alpha"), "a plastic coating is isotropic (one alpha)"));
+            }
+            Ok(Material::plastic(albedo, ior as f32, distrib.alpha_x))
+        }
+    }
+}

@@ -1,0 +1,153 @@
+//! Media in scene files: `sigma_a_per_mm` + `sigma_s_per_mm` + `g`, measured presets, milk by
+//! content declaration, Mie recipes; `phase` and `similarity`.
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
+
+use crate::load::error::Cx;
+use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
+use anyhow::Result;
+use toml::Spanned;
+
+pub(crate) const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase", "similarity"];
+
+/// Milk presets (fat wt-%, protein wt-%, homogenisation pressure MPa) for `medium = { preset = … }`.
+pub const MILK_PRESETS: &[(&str, f64, f64, f64)] =
+    &[("Skim Milk", 0.1, 3.4, 20.0), ("Low-fat Milk", 1.5, 3.4, 20.0), ("Whole Milk", 3.5, 3.4, 20.0)];
+
+/// Wavelengths (nm) at which the renderer evaluates the milk model (those of its input tables).
+pub fn milk_wavelengths_nm() -> Vec<f64> {
+    (0..17).map(|k| 375.0 + 25.0 * k as f64).collect()
+}
+
+/// Parse a `medium = { … }` value (see docs/scene-format.md); errors name the field. With
+/// `similarity = true` the medium is replaced by its similarity-relation equivalent (an
+/// approximation, see [`crate::medium::HomogeneousMedium::similarity`]).
+pub(crate) fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
+    let similarity = match v.get_ref().as_table().and_then(|t| t.get("similarity")) {
+        None => false,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(_) => return Err(cx.err(&v.span(), &format!("{field}.similarity"), "must be true or false")),
+    };
+    let m = medium_desc_exact(cx, sp, v, field, unit_m)?;
+    if similarity {
+        m.similarity().map_err(|e| cx.err(&v.span(), &format!("{field}.similarity"), format!("{e:#}")))
+    } else {
+        Ok(m)
+    }
+}
+
+/// [`medium_desc`] without the similarity option.
+pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
+    use crate::medium::{from_bulk, HomogeneousMedium, PhaseModel};
+    let span = v.span();
+    let t = v.get_ref().as_table().ok_or_else(|| cx.err(&span, field, "expected a table such as { sigma_a_per_mm = 0.01, sigma_s_per_mm = 1, g = 0 } or { milk = { ... } }"))?;
+    for k in t.keys() {
+        if !MEDIUM_KEYS.contains(&k.as_str()) {
+            return Err(cx.err(&span, field, format!("unknown key `{k}`, expected one of {MEDIUM_KEYS:?}")));
+        }
+    }
+    let f = |k: &str| format!("{field}.{k}");
+    let kinds: Vec<&str> = ["sigma_a_per_mm", "milk", "recipe", "preset"].into_iter().filter(|k| t.contains_key(*k)).collect();
+    if kinds.len() != 1 {
+        return Err(cx.err(&span, field, format!("give exactly one of sigma_a_per_mm/sigma_s_per_mm/g, milk, recipe, preset (got {kinds:?})")));
+    }
+    let use_table = match t.get("phase") {
+        None => true,
+        Some(toml::Value::String(p)) if p == "mie" || p == "tabulated" => true,
+        Some(toml::Value::String(p)) if p == "hg" => false,
+        Some(_) => return Err(cx.err(&span, &f("phase"), "must be \"mie\" (tabulated, default) or \"hg\" (Henyey–Greenstein with the Mie g)")),
+    };
+    let num = |tab: &toml::value::Table, key: &str, path: &str| -> Result<f64> {
+        let x = tab.get(key).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "missing"))?;
+        as_f64(x).filter(|x| x.is_finite()).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "must be a number"))
+    };
+    let milk = |fat: f64, protein: f64, pressure: f64, path: &str| -> Result<HomogeneousMedium> {
+        optics::milk::validate(fat, protein, pressure).map_err(|e| cx.err(&span, path, format!("{e:#}")))?;
+        let l = milk_wavelengths_nm();
+        let opts = optics::media::BulkOptions { phase_angles: if use_table { 181 } else { 0 } };
+        let b = optics::milk::milk_properties_with(fat, protein, pressure, &l, &opts).map_err(|e| cx.err(&span, path, format!("{e:#}")))?;
+        from_bulk(field, &b, use_table).map_err(|e| cx.err(&span, path, format!("{e:#}")))
+    };
+    match kinds[0] {
+        "sigma_a_per_mm" => {
+            if t.contains_key("phase") {
+                return Err(cx.err(&span, &f("phase"), "only with milk, recipe or preset (give g here)"));
+            }
+            let per_mm_to_per_m = 1000.0; // m⁻¹ per mm⁻¹ (coefficients are in mm⁻¹ whatever the scene unit)
+            let _ = unit_m;
+            let sigma = |key: &str| -> Result<optics::spectrum::DenseSpectrum> {
+                let val = t.get(key).ok_or_else(|| cx.err(&span, &f(key), "missing"))?;
+                let d = sp.resolve(&Spanned::new(span.clone(), val.clone()), &f(key), SpectrumUse::Coefficient)?;
+                Ok(optics::spectrum::DenseSpectrum::from_fn(|l| d.eval(l as f32) as f64 * per_mm_to_per_m))
+            };
+            let sigma_a = sigma("sigma_a_per_mm")?;
+            let sigma_s = sigma("sigma_s_per_mm")?;
+            let g = match t.get("g") {
+                None => 0.0,
+                Some(x) => as_f64(x).ok_or_else(|| cx.err(&span, &f("g"), "must be a number"))?,
+            };
+            if !(g.abs() < 1.0) {
+                return Err(cx.err(&span, &f("g"), format!("must lie in (-1, 1), got {g}")));
+            }
+            let phase = PhaseModel::HenyeyGreenstein { g: optics::spectrum::DenseSpectrum::from_fn(|_| g) };
+            HomogeneousMedium::new(field, sigma_a, sigma_s, phase).map_err(|e| cx.err(&span, field, format!("{e:#}")))
+        }
+        "milk" => {
+            for k in ["sigma_s_per_mm", "g"] {
+                if t.contains_key(k) {
+                    return Err(cx.err(&span, &f(k), "not allowed with milk"));
+                }
+            }
+            let m = t["milk"].as_table().ok_or_else(|| cx.err(&span, &f("milk"), "expected { fat_percent = …, protein_percent = …, pressure_mpa = … }"))?;
+            for k in m.keys() {
+                if !["fat_percent", "protein_percent", "pressure_mpa"].contains(&k.as_str()) {
+                    return Err(cx.err(&span, &f("milk"), format!("unknown key `{k}` (fat_percent, protein_percent, pressure_mpa)")));
+                }
+            }
+            let path = f("milk");
+            let fat = num(m, "fat_percent", &path)?;
+            let protein = if m.contains_key("protein_percent") { num(m, "protein_percent", &path)? } else { 3.4 };
+            let pressure = if m.contains_key("pressure_mpa") { num(m, "pressure_mpa", &path)? } else { 20.0 };
+            milk(fat, protein, pressure, &path)
+        }
+        "preset" => {
+            let name = t["preset"].as_str().ok_or_else(|| cx.err(&span, &f("preset"), "must be a name"))?;
+            if let Some(&(_, fat, protein, pressure)) = MILK_PRESETS.iter().find(|p| p.0.eq_ignore_ascii_case(name)) {
+                return milk(fat, protein, pressure, &f("preset"));
+            }
+            // Measured media (Jensen et al. 2001, Narasimhan et al. 2006; RGB, as pbrt's named media).
+            let Some(mm) = optics::bssrdf::find_medium(name) else {
+                let known: Vec<&str> = MILK_PRESETS.iter().map(|p| p.0).collect();
+                return Err(cx.err(&span, &f("preset"), format!(
+                    "unknown preset `{name}` (known: {known:?}, or a measured medium of Jensen et al. 2001 / Narasimhan et al. 2006 such as \"Regular Milk\", \"Ketchup\")")));
+            };
+            let uplift = |rgb: [f64; 3]| -> optics::spectrum::DenseSpectrum {
+                let m = rgb.iter().cloned().fold(0.0f64, f64::max);
+                if !(m > 0.0) {
+                    return optics::spectrum::DenseSpectrum::from_fn(|_| 0.0);
+                }
+                let sh = optics::spectrum::RgbAlbedo::new([rgb[0] / m, rgb[1] / m, rgb[2] / m]);
+                optics::spectrum::DenseSpectrum::from_fn(move |l| sh.eval(l) * m)
+            };
+            let g = if mm.g.iter().all(|&x| x >= 0.0) { uplift(mm.g) } else {
+                let mean = mm.g.iter().sum::<f64>() / 3.0;
+                optics::spectrum::DenseSpectrum::from_fn(move |_| mean)
+            };
+            HomogeneousMedium::new(field, uplift(mm.sigma_a_per_m), uplift(mm.sigma_s_per_m), PhaseModel::HenyeyGreenstein { g })
+                .map_err(|e| cx.err(&span, &f("preset"), format!("{e:#}")))
+        }
+        _ => {
+            let rel = t["recipe"].as_str().ok_or_else(|| cx.err(&span, &f("recipe"), "must be a file name"))?;
+            let text = sp.files.read_text(rel).map_err(|e| cx.err(&span, &f("recipe"), format!("{e:#}")))?;
+            sp.hash.borrow_mut().write(text.as_bytes());
+            let recipe = optics::media::Recipe::from_toml(&text).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))?;
+            let mut recipe = recipe;
+            if use_table && recipe.phase_angles == 0 {
+                recipe.phase_angles = 181;
+            }
+            let b = recipe.bulk_properties(None).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))?;
+            from_bulk(field, &b, use_table).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))
+        }
+    }
+}

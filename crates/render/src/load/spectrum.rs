@@ -1,0 +1,198 @@
+//! Spectrum values in scene files: a number, a name from `[spectra]`, or a table (`constant`,
+//! `blackbody`, `rgb`, `csv` + `column`, inline `lambda_nm`/`values`; optional `scale`).
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
+
+use crate::load::error::Cx;
+use crate::load::SceneFiles;
+use crate::math::hash::Fnv1a64;
+use anyhow::Result;
+use optics::spectrum::DenseSpectrum;
+use std::collections::BTreeMap;
+use std::ops::Range;
+use toml::Spanned;
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SpectrumUse {
+    /// Reflectance: values in [0, 1]; `rgb` uses the bounded reflectance uplift.
+    Albedo,
+    /// Emission: values ≥ 0; `rgb` uses the illuminant uplift.
+    Emission,
+    /// Coefficients (σ_a, σ_s): values ≥ 0; `rgb` is max(r,g,b) × the bounded reflectance uplift of rgb/max.
+    Coefficient,
+}
+
+pub(crate) struct SpectrumCx<'a> {
+    pub(crate) cx: &'a Cx<'a>,
+    pub(crate) named: &'a BTreeMap<String, Spanned<toml::Value>>,
+    pub(crate) files: &'a dyn SceneFiles,
+    pub(crate) hash: std::cell::RefCell<Fnv1a64>,
+}
+
+pub(crate) const SPECTRUM_KEYS: &[&str] = &["constant", "blackbody", "rgb", "csv", "column", "lambda_nm", "values", "scale"];
+
+pub(crate) fn as_f64(v: &toml::Value) -> Option<f64> {
+    match v {
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    }
+}
+
+pub(crate) fn as_f64_array(v: &toml::Value) -> Option<Vec<f64>> {
+    v.as_array()?.iter().map(as_f64).collect()
+}
+
+impl SpectrumCx<'_> {
+    /// Resolve a spectrum value (number, name, or table) to a function of wavelength in nm.
+    pub(crate) fn resolve(&self, v: &Spanned<toml::Value>, field: &str, usage: SpectrumUse) -> Result<DenseSpectrum> {
+        let span = v.span();
+        let value = v.get_ref();
+        if let toml::Value::String(name) = value {
+            let Some(def) = self.named.get(name) else {
+                let known: Vec<&str> = self.named.keys().map(|s| s.as_str()).collect();
+                return Err(self.cx.err(&span, field, format!("unknown spectrum `{name}` (defined: {known:?})")));
+            };
+            if def.get_ref().is_str() {
+                return Err(self.cx.err(&def.span(), &format!("spectra.{name}"), "a named spectrum cannot refer to another name"));
+            }
+            return self.resolve(def, &format!("spectra.{name}"), usage);
+        }
+        let f: Box<dyn Fn(f64) -> f64> = self.function(value, &span, field, usage)?;
+        // Check the range of values at 1-nm resolution.
+        let mut max = 0.0f64;
+        for i in 0..=470 {
+            let l = 360.0 + i as f64;
+            let x = f(l);
+            if !x.is_finite() {
+                return Err(self.cx.err(&span, field, format!("spectrum is not finite at {l} nm")));
+            }
+            if x < 0.0 {
+                return Err(self.cx.err(&span, field, format!("spectrum is negative ({x}) at {l} nm")));
+            }
+            max = max.max(x);
+        }
+        if usage == SpectrumUse::Albedo && max > 1.0 + 1e-9 {
+            return Err(self.cx.err(&span, field, format!("albedo exceeds 1 (maximum {max})")));
+        }
+        Ok(DenseSpectrum::from_fn(f))
+    }
+
+    pub(crate) fn function(&self, value: &toml::Value, span: &Range<usize>, field: &str, usage: SpectrumUse) -> Result<Box<dyn Fn(f64) -> f64>> {
+        if let Some(x) = as_f64(value) {
+            return Ok(Box::new(move |_| x));
+        }
+        let Some(t) = value.as_table() else {
+            return Err(self.cx.err(span, field, "expected a number, a spectrum name or a table"));
+        };
+        for k in t.keys() {
+            if !SPECTRUM_KEYS.contains(&k.as_str()) {
+                return Err(self.cx.err(span, field, format!("unknown key `{k}`, expected one of {SPECTRUM_KEYS:?}")));
+            }
+        }
+        let scale = match t.get("scale") {
+            None => 1.0,
+            Some(v) => as_f64(v).filter(|x| x.is_finite() && *x >= 0.0).ok_or_else(|| {
+                self.cx.err(span, &format!("{field}.scale"), "must be a non-negative number")
+            })?,
+        };
+        let kinds: Vec<&str> = ["constant", "blackbody", "rgb", "csv", "lambda_nm"].into_iter().filter(|k| t.contains_key(*k)).collect();
+        if kinds.len() != 1 {
+            return Err(self.cx.err(span, field, format!(
+                "give exactly one of constant, blackbody, rgb, csv, lambda_nm/values (got {kinds:?})")));
+        }
+        let kind = kinds[0];
+        if kind != "csv" && t.contains_key("column") {
+            return Err(self.cx.err(span, &format!("{field}.column"), "only allowed with csv"));
+        }
+        if kind != "lambda_nm" && t.contains_key("values") {
+            return Err(self.cx.err(span, &format!("{field}.values"), "only allowed with lambda_nm"));
+        }
+        match kind {
+            "constant" => {
+                let x = as_f64(&t["constant"]).ok_or_else(|| self.cx.err(span, &format!("{field}.constant"), "must be a number"))?;
+                Ok(Box::new(move |_| x * scale))
+            }
+            "blackbody" => {
+                let temp = as_f64(&t["blackbody"])
+                    .filter(|x| x.is_finite() && *x > 0.0)
+                    .ok_or_else(|| self.cx.err(span, &format!("{field}.blackbody"), "must be a positive temperature in kelvin"))?;
+                let s = optics::spectrum::Spectrum::Blackbody { temperature_k: temp, scale };
+                Ok(Box::new(move |l| s.eval(l)))
+            }
+            "rgb" => {
+                let rgb = as_f64_array(&t["rgb"])
+                    .filter(|a| a.len() == 3)
+                    .ok_or_else(|| self.cx.err(span, &format!("{field}.rgb"), "must be an array of three numbers"))?;
+                let rgb = [rgb[0], rgb[1], rgb[2]];
+                if rgb.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                    return Err(self.cx.err(span, &format!("{field}.rgb"), "components must be non-negative"));
+                }
+                match usage {
+                    SpectrumUse::Albedo => {
+                        if rgb.iter().any(|c| *c > 1.0) {
+                            return Err(self.cx.err(span, &format!("{field}.rgb"), "albedo components must be at most 1"));
+                        }
+                        let s = rgb_albedo(rgb).map_err(|e| self.cx.err(span, &format!("{field}.rgb"), e))?;
+                        Ok(Box::new(move |l| s.eval(l) * scale))
+                    }
+                    SpectrumUse::Coefficient => {
+                        let m = rgb.iter().cloned().fold(0.0f64, f64::max);
+                        if m == 0.0 {
+                            return Ok(Box::new(|_| 0.0));
+                        }
+                        let s = rgb_albedo([rgb[0] / m, rgb[1] / m, rgb[2] / m]).map_err(|e| self.cx.err(span, &format!("{field}.rgb"), e))?;
+                        Ok(Box::new(move |l| s.eval(l) * m * scale))
+                    }
+                    SpectrumUse::Emission => {
+                        let s = rgb_illuminant(rgb).map_err(|e| self.cx.err(span, &format!("{field}.rgb"), e))?;
+                        Ok(Box::new(move |l| s.eval(l) * scale))
+                    }
+                }
+            }
+            "csv" => {
+                let rel = t["csv"].as_str().ok_or_else(|| self.cx.err(span, &format!("{field}.csv"), "must be a file name"))?;
+                let text = self.files.read_text(rel).map_err(|e| self.cx.err(span, &format!("{field}.csv"), format!("{e:#}")))?;
+                self.hash.borrow_mut().write(text.as_bytes());
+                let (names, cols) = optics::spectrum::read_csv_columns(&text)
+                    .map_err(|e| self.cx.err(span, &format!("{field}.csv"), format!("{rel}: {e:#}")))?;
+                if cols.len() < 2 {
+                    return Err(self.cx.err(span, &format!("{field}.csv"), format!("{rel}: needs a wavelength column and a value column")));
+                }
+                let ci = match t.get("column") {
+                    None if cols.len() == 2 => 1,
+                    None => {
+                        return Err(self.cx.err(span, &format!("{field}.column"),
+                            format!("{rel} has several value columns {:?}: name one", &names[1..])))
+                    }
+                    Some(toml::Value::String(c)) => names.iter().position(|n| n == c).filter(|i| *i > 0).ok_or_else(|| {
+                        self.cx.err(span, &format!("{field}.column"), format!("{rel} has no column `{c}` (columns: {:?})", &names[1..]))
+                    })?,
+                    Some(_) => return Err(self.cx.err(span, &format!("{field}.column"), "must be a column name")),
+                };
+                let tab = optics::spectrum::Tabulated::new(cols[0].clone(), cols[ci].clone())
+                    .map_err(|e| self.cx.err(span, &format!("{field}.csv"), format!("{rel}: {e:#}")))?;
+                Ok(Box::new(move |l| tab.eval(l) * scale))
+            }
+            "lambda_nm" => {
+                let l = as_f64_array(&t["lambda_nm"]).ok_or_else(|| self.cx.err(span, &format!("{field}.lambda_nm"), "must be an array of numbers"))?;
+                let v = t.get("values").and_then(as_f64_array)
+                    .ok_or_else(|| self.cx.err(span, &format!("{field}.values"), "must be an array of numbers, as long as lambda_nm"))?;
+                let tab = optics::spectrum::Tabulated::new(l, v).map_err(|e| self.cx.err(span, field, format!("{e:#}")))?;
+                Ok(Box::new(move |x| tab.eval(x) * scale))
+            }
+            _ => unreachable!(),
+        }
+    }
+}
+
+/// Reflectance spectrum (≤ 1 everywhere) for a linear-sRGB albedo.
+pub(crate) fn rgb_albedo(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
+    Ok(optics::spectrum::Spectrum::RgbAlbedo(optics::spectrum::RgbAlbedo::new(rgb)))
+}
+
+/// Emission spectrum for a linear-sRGB radiance (D65 white for equal components).
+pub(crate) fn rgb_illuminant(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
+    Ok(optics::spectrum::Spectrum::RgbIlluminant(optics::spectrum::RgbIlluminant::new(rgb)))
+}

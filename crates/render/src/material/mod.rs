@@ -1,0 +1,147 @@
+//! Materials (what a surface is made of) and the BSDFs they yield at the wavelengths of a path.
+//!
+//! A [`Material`] holds spectra; [`Material::bsdf`] evaluates them at the carried wavelengths and
+//! returns a [`Bsdf`], a small value with `eval`/`pdf`/`sample` in the local shading frame (z = the
+//! shading normal turned towards the outgoing direction). The integrators only talk to `Bsdf`, so
+//! adding a variant (smooth or rough dielectric and conductor, coated diffuse, index-matched medium
+//! boundary, BSSRDF boundary) means adding match arms here, not changing the integrators: a sample
+//! reports whether it is a delta lobe (no light sampling, no MIS), whether it transmits (the path
+//! changes side and medium) and the relative index of refraction it crossed.
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod translucent;
+
+use crate::bsdf::coated::{CoatedDiffuse, CoatingTable};
+use crate::bsdf::conductor::{RoughConductor, SmoothConductor};
+use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric};
+use crate::bsdf::Bsdf;
+use crate::bsdf::microfacet::TrowbridgeReitz;
+use crate::math::spectral::SampledWavelengths;
+use optics::spectrum::DenseSpectrum;
+
+/// A surface material.
+#[derive(Clone, Debug)]
+pub enum Material {
+    /// Ideal diffuse reflector with spectral albedo ρ(λ) ∈ [0, 1]: f = ρ/π on the side of the
+    /// outgoing direction (two-sided).
+    Lambertian {
+        /// Albedo (directional-hemispherical reflectance), dimensionless.
+        albedo: DenseSpectrum,
+    },
+    /// Absorbs everything (an emitter with no reflectance, or a light trap).
+    Black,
+    /// Dielectric interface (glass, water), smooth when α < `microfacet::SMOOTH_ALPHA`, else GGX-rough.
+    Dielectric {
+        /// Index of the inside relative to the outside, per wavelength (nm).
+        ior: DenseSpectrum,
+        /// Whether `ior` varies with wavelength (then the secondary wavelengths are terminated).
+        dispersive: bool,
+        /// Microfacet roughness (α = 0: smooth).
+        distrib: TrowbridgeReitz,
+    },
+    /// Conductor with complex index η + i k per wavelength; smooth or GGX-rough.
+    Conductor {
+        /// Real part of the index relative to the outside.
+        eta: DenseSpectrum,
+        /// Extinction coefficient.
+        k: DenseSpectrum,
+        /// Microfacet roughness (α = 0: smooth).
+        distrib: TrowbridgeReitz,
+    },
+    /// Dielectric coating (index `ior`, roughness α) over a Lambertian base ("plastic").
+    Plastic {
+        /// Base albedo.
+        albedo: DenseSpectrum,
+        /// Coating index relative to the outside (non-dispersive).
+        ior: f32,
+        /// Coating roughness α (isotropic; 0 = smooth).
+        alpha: f32,
+        /// Albedo table of the coating (computed once per (α, ior)).
+        table: &'static CoatingTable,
+    },
+    /// Translucent object (closed mesh) rendered with a dipole BSSRDF ([`crate::integrator::subsurface`]); as a
+    /// BSDF it is its smooth or rough dielectric boundary (what volumetric path tracing sees).
+    Translucent(std::sync::Arc<translucent::Translucent>),
+}
+
+impl Material {
+    /// Lambertian material with albedo given as a function of wavelength in nm.
+    pub fn lambertian(albedo: DenseSpectrum) -> Material {
+        Material::Lambertian { albedo }
+    }
+
+    /// Dielectric with relative index `ior(λ)` (dispersive when it varies over 360–830 nm) and
+    /// microfacet distribution `distrib` (α below `microfacet::SMOOTH_ALPHA`: smooth).
+    pub fn dielectric(ior: DenseSpectrum, distrib: TrowbridgeReitz) -> Material {
+        let s = ior.samples();
+        let dispersive = s.iter().any(|&x| (x - s[0]).abs() > 1e-6 * s[0].abs());
+        Material::Dielectric { ior, dispersive, distrib }
+    }
+
+    /// Conductor with complex index η + i k (relative to the outside) and roughness `distrib`.
+    pub fn conductor(eta: DenseSpectrum, k: DenseSpectrum, distrib: TrowbridgeReitz) -> Material {
+        Material::Conductor { eta, k, distrib }
+    }
+
+    /// Plastic: a coating of index `ior` and roughness `alpha` over a Lambertian base `albedo`.
+    pub fn plastic(albedo: DenseSpectrum, ior: f32, alpha: f32) -> Material {
+        Material::Plastic { albedo, ior, alpha, table: CoatingTable::get(alpha, ior) }
+    }
+
+    /// The BSDF for a hit on the front (`front_face`, the side the geometric normal points to) or
+    /// back face, with the wavelength bookkeeping the integrators need: a dispersive dielectric
+    /// terminates the secondary wavelengths of `wl` (their pdf becomes 0, the hero's is divided by
+    /// 4) before its η is taken at the hero wavelength. Equivalent to [`Material::bsdf`] followed
+    /// by [`Bsdf::from_inside`] for back faces and `wl.terminate_secondary()` when
+    /// [`Bsdf::terminates_secondary`].
+    #[inline]
+    pub fn bsdf_at(&self, wl: &mut SampledWavelengths, front_face: bool) -> Bsdf {
+        let b = self.bsdf(wl);
+        if b.terminates_secondary() {
+            wl.terminate_secondary();
+        }
+        if front_face {
+            b
+        } else {
+            b.from_inside()
+        }
+    }
+
+    /// The BSDF of this material at the wavelengths `wl`, for a hit on the FRONT (outside) face;
+    /// for a hit from inside use [`Bsdf::from_inside`] on the result.
+    #[inline]
+    pub fn bsdf(&self, wl: &SampledWavelengths) -> Bsdf {
+        match self {
+            Material::Lambertian { albedo } => Bsdf::Diffuse { r: wl.eval(albedo) },
+            Material::Black => Bsdf::Black,
+            Material::Dielectric { ior, dispersive, distrib } => {
+                // One real η per lobe: the hero wavelength's (pbrt-v4's convention for dispersion).
+                let eta = ior.eval(wl.lambda_nm[0]);
+                let dispersive = *dispersive && !wl.secondary_terminated();
+                // An index-matched rough interface does not bend light: it is the smooth pass-through.
+                if distrib.effectively_smooth() || eta == 1.0 {
+                    Bsdf::SmoothDielectric { lobe: SmoothDielectric { eta }, dispersive }
+                } else {
+                    Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: *distrib, eta }, dispersive }
+                }
+            }
+            Material::Conductor { eta, k, distrib } => {
+                let (eta, k) = (wl.eval(eta), wl.eval(k));
+                if distrib.effectively_smooth() {
+                    Bsdf::SmoothConductor(SmoothConductor { eta, k })
+                } else {
+                    Bsdf::RoughConductor(RoughConductor { distrib: *distrib, eta, k })
+                }
+            }
+            Material::Plastic { albedo, ior, alpha, table } => Bsdf::Coated(CoatedDiffuse {
+                albedo: wl.eval(albedo),
+                eta: *ior,
+                distrib: TrowbridgeReitz::isotropic(*alpha),
+                table,
+            }),
+            Material::Translucent(t) => t.boundary_dielectric(),
+        }
+    }
+}
