@@ -24,7 +24,7 @@ fn settings(kind: IntegratorKind, max_depth: u32, rr_depth: u32) -> IntegratorSe
 
 /// Y of an equal-energy spectrum of value 1 as the renderer's colour tables give it (≈ 1).
 fn y_of_one() -> f64 {
-    render::spectral::xyz_of(|_| 1.0)[1]
+    render::math::spectral::xyz_of(|_| 1.0)[1]
 }
 
 /// Per pass, the mean of XYZ component `c` over all pixels; returns (mean, standard error, the
