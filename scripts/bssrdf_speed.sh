@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Time to equal noise, BSSRDF (point-cloud method) vs volumetric path tracing, on one scene
-# (issue 5's speed check; docs/validation.md "Speed").
+# (the speed check of docs/validation.md, "Speed").
 #   scripts/bssrdf_speed.sh [SCENE] [WIDTH] [HEIGHT] [SEED_A] [SEED_B] [VOLPATH_SPP] [BSSRDF_SPP]
 # Renders the scene twice (two seeds) with each method, takes each render's CPU time (user + sys,
 # so other jobs on the machine do not count) and the per-pixel noise σ = rms(A − B)/√2 of

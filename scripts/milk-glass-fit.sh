@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The issue-6 round trip of `lucent fit scene` with milk (docs/inverse.md, "The milk round trip"):
+# The round trip of `lucent fit scene` with milk (docs/inverse.md, "The milk round trip"):
 # render scenes/milk-film-fit.toml (a 0.5 mm layer of milk over black and white stripes) at its
 # own values — 2 % fat, lamp scale 1 — with 131072 spp and seed 7, then fit fat content and lamp
 # power from that image starting 50 % off (3 %, 1.5) with 16384 spp per evaluation and seed 1

@@ -5,3 +5,4 @@
 pub mod compare;
 pub mod minimize;
 pub mod noise_cost;
+pub mod scene_fit;

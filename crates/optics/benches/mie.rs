@@ -1,5 +1,5 @@
 //! Criterion benchmarks of Lorenz–Mie theory and the milk spectrum (`cargo bench -p optics --bench mie`).
-//! The targets: Q's and g at m = 1.5+0.01i in 1.5 µs (x = 10), 3.5 µs (x = 100), 30 µs (x = 1000)
+//! Targets (README "Performance"): Q's and g at m = 1.5+0.01i in 1.5 µs (x = 10), 3.5 µs (x = 100), 30 µs (x = 1000)
 //! on one core; the 17-wavelength milk spectrum in under 10 ms on 2 cores.
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};

@@ -27,6 +27,7 @@ pub mod load;
 pub mod material;
 pub mod math;
 pub mod medium;
+pub mod progressive;
 pub mod scene;
 pub mod shape;
 pub mod slab;

@@ -14,12 +14,13 @@
 
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
+use super::bench_support::{bundled, cpu_seconds};
 use render::bench::{incoherent_rays, BenchCamera};
 use render::accel::Accel;
 use render::shape::Shape;
 use render::math::geometry::Ray;
 use render::shape::mesh::TriangleMesh;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(clap::Args, Debug)]
@@ -66,20 +67,6 @@ pub fn run(args: Args) -> Result<()> {
         Some(Which::Bssrdf(a)) => super::bench_bssrdf::run(a),
         None => run_rays(&args),
     }
-}
-
-/// A file bundled with the repository (`rel`, relative to its root), looked up from the current
-/// directory, then from the source tree; `what` names the flag or argument that overrides it.
-pub(crate) fn bundled(rel: &str, what: &str) -> Result<PathBuf> {
-    let p = Path::new(rel);
-    if p.exists() {
-        return Ok(p.to_path_buf());
-    }
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(rel);
-    if src.exists() {
-        return Ok(src);
-    }
-    bail!("default {rel} not found (run from the repository root or {what})")
 }
 
 /// The bundled default mesh.
@@ -172,16 +159,6 @@ fn trace_all_batched(accel: &Accel, rays: &[Ray]) -> u64 {
             hits.iter().filter(|h| h.is_some()).count() as u64
         })
         .sum()
-}
-
-/// CPU time (user + system) of this process so far, seconds, from /proc/self/stat (Linux; 0 elsewhere).
-pub(crate) fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15 (1-based).
-    let Some(rest) = stat.rfind(')').map(|i| &stat[i + 1..]) else { return 0.0 };
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|s| s.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
 }
 
 fn bench_in_pool(args: &Args) -> Result<()> {

@@ -1,5 +1,5 @@
 //! `lucent bench bssrdf`: time to equal noise of the point-cloud BSSRDF against volumetric path
-//! tracing of the same translucent object (issue 5's speed check; `analysis::noise_cost`).
+//! tracing of the same translucent object (the speed check of docs/validation.md, "Speed"; `analysis::noise_cost`).
 //!
 //! The scene (default `scenes/marble-bunny.toml`) is rendered twice with each estimator (two
 //! seeds): `path`, which renders translucent materials with their dipole BSSRDF, and `volpath`,
@@ -51,7 +51,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let path = match &args.scene {
         Some(p) => p.clone(),
-        None => super::bench::bundled("scenes/marble-bunny.toml", "give a SCENE")?,
+        None => super::bench_support::bundled("scenes/marble-bunny.toml", "give a SCENE")?,
     };
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1");
@@ -87,7 +87,7 @@ pub fn run(args: Args) -> Result<()> {
     let measure = |kind: IntegratorKind, max_depth: u32, spp: u32, label: &str| -> Result<NoiseCost> {
         bar.set_message(label.to_string());
         let settings = IntegratorSettings { kind, max_depth, rr_depth: scene.integrator.rr_depth };
-        pool.install(|| noise_cost(&scene, &settings, spp, seeds, region, &super::bench::cpu_seconds, &|| bar.inc(1)))
+        pool.install(|| noise_cost(&scene, &settings, spp, seeds, region, &super::bench_support::cpu_seconds, &|| bar.inc(1)))
     };
     let bssrdf = measure(IntegratorKind::Path, scene.integrator.max_depth, args.bssrdf_spp, "BSSRDF (path)")?;
     let volpath = measure(IntegratorKind::Volpath, args.volpath_max_depth, args.volpath_spp, "volpath")?;

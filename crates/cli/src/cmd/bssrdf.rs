@@ -282,7 +282,7 @@ mod tests {
         compute(&Cli::try_parse_from(v)?.args)
     }
 
-    /// Contract keys of issue 5; for the standard dipole `rd` equals the closed form to 1e-4
+    /// The JSON keys of `lucent bssrdf --rd --json`; for the standard dipole `rd` equals the closed form to 1e-4
     /// (Jensen 2001's apple, red channel: 0.85 published).
     #[test]
     fn json_contract_standard() {

@@ -1,5 +1,5 @@
 //! `lucent compare RENDER PHOTO [--mask MASK.png] [--out ERROR.png] [--color-correct] [--json]`:
-//! pixelwise comparison of a render with a photograph (issue 6).
+//! pixelwise comparison of a render with a photograph (`analysis::compare`; docs/inverse.md).
 
 use std::path::{Path, PathBuf};
 

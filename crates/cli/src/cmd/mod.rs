@@ -2,6 +2,7 @@
 pub mod bench;
 pub mod bench_mie;
 pub mod bench_bssrdf;
+pub mod bench_support;
 pub mod bssrdf;
 pub mod compare;
 pub mod fit;

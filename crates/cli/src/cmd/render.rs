@@ -13,18 +13,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use render::checkpoint::{Checkpoint, RenderIdentity};
 use render::film::Film;
-use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
+use render::integrator::{IntegratorKind, IntegratorSettings};
+use render::progressive::{default_spp, CheckpointPolicy, Event, Job, Stop};
 use render::scene::Scene;
 
-/// Samples per image aimed at when neither `--spp` nor `--time` is given: 2^24 ≈ 16.8 million,
-/// i.e. 64 spp at the Cornell box's 512×512 (about 11 s on 2 cores at ~1.5 Msamples/s).
-pub const DEFAULT_SAMPLES_PER_IMAGE: u64 = 1 << 24;
-
-/// Default samples per pixel: the power of two nearest below `DEFAULT_SAMPLES_PER_IMAGE / pixels`, at least 1.
-pub fn default_spp(pixels: u64) -> u64 {
-    let spp = (DEFAULT_SAMPLES_PER_IMAGE / pixels.max(1)).max(1);
-    1 << (63 - spp.leading_zeros())
-}
 /// Image written when no `--out` is given.
 pub const DEFAULT_OUT: &str = "lucent.png";
 /// Exit status after Ctrl-C (128 + SIGINT), once the checkpoint and images are written.
@@ -162,15 +154,6 @@ pub(crate) fn write_outputs(film: &Film, outs: &[PathBuf], exposure_stops: f32) 
     Ok(written)
 }
 
-/// When the render stops.
-#[derive(Clone, Copy, Debug)]
-enum Stop {
-    /// After this many samples per pixel in total.
-    Spp(u64),
-    /// After this much wall-clock time in this session.
-    Time(Duration),
-}
-
 pub fn run(args: Args) -> Result<()> {
     // ---- Parse and check everything before rendering anything. ----
     let stop_arg = match (&args.spp, &args.time) {
@@ -288,10 +271,6 @@ pub fn run(args: Args) -> Result<()> {
         }
         (None, None) => Stop::Spp(default_spp(width as u64 * height as u64)),
     };
-    let target_spp = match stop {
-        Stop::Spp(n) => Some(n),
-        Stop::Time(_) => None,
-    };
 
     // ---- Ctrl-C: finish the pass, save, exit 130. A second Ctrl-C quits at once. ----
     let interrupted = Arc::new(AtomicBool::new(false));
@@ -314,58 +293,35 @@ pub fn run(args: Args) -> Result<()> {
     };
     let n_threads = pool.current_num_threads();
 
-    let save = |film: &Film| -> Result<()> {
-        if let Some(path) = &checkpoint_path {
-            Checkpoint::write_single_run(path, &identity, seed, target_spp, film)?;
-        }
-        Ok(())
-    };
-
     // ---- Render. ----
+    let job = Job {
+        scene: &scene,
+        settings: &settings,
+        identity: &identity,
+        seed,
+        first_pass,
+        stop,
+        checkpoint: checkpoint_path.clone().map(|path| CheckpointPolicy { path, interval }),
+    };
     let start = Instant::now();
     let start_spp = film.samples_per_pixel();
-    let mut film = film;
     let pixels = width as u64 * height as u64;
     let progress = Progress::new(stop, start_spp, args.quiet);
-    let mut pass_buffer = vec![[0.0f32; 3]; pixels as usize];
-    let mut last_save = Instant::now();
-    let mut save_warned = false;
-    let mut pass = first_pass;
-    pool.install(|| -> Result<()> {
-        loop {
-            let done = match stop {
-                Stop::Spp(n) => film.samples_per_pixel() >= n,
-                Stop::Time(t) => start.elapsed() >= t,
-            };
-            if done || interrupted.load(Ordering::SeqCst) {
-                break;
-            }
-            render_pass(&scene, &settings, seed, pass, &mut pass_buffer);
-            film.add_pass(&pass_buffer);
-            pass += 1;
-            progress.update(&film, start, start_spp, pixels);
-            if checkpoint_path.is_some() && last_save.elapsed() >= interval {
-                // A failed periodic save (full disk, lost mount) must not end the render: warn
-                // once, keep rendering, and try again at the next interval and at the end.
-                if let Err(e) = save(&film) {
-                    if !save_warned {
-                        progress.suspend(|| eprintln!("lucent: warning: {e:#}"));
-                        save_warned = true;
-                    }
-                }
-                last_save = Instant::now();
-            }
-        }
-        Ok(())
-    })?;
+    let outcome = pool.install(|| {
+        job.run(film, &interrupted, |event| match event {
+            Event::Pass { film, .. } => progress.update(film, start, start_spp, pixels),
+            Event::SaveFailed(e) => progress.suspend(|| eprintln!("lucent: warning: {e:#}")),
+        })
+    });
     progress.finish();
-    let elapsed = start.elapsed().as_secs_f64();
-    let was_interrupted = interrupted.load(Ordering::SeqCst);
+    let elapsed = outcome.elapsed.as_secs_f64();
+    let was_interrupted = outcome.interrupted;
+    let film = outcome.film;
 
-    // ---- Save: checkpoint first (the work), then the images, even if the checkpoint failed. ----
-    let saved = save(&film);
+    // ---- Save: checkpoint first (the work, written by the job), then the images, even if the
+    // checkpoint failed. ----
     let written = write_outputs(&film, &outs, exposure);
-    saved?;
+    outcome.saved?;
     let written = written?;
     if !args.quiet {
         let new_samples = (film.samples_per_pixel() - start_spp) as f64 * pixels as f64;
@@ -374,7 +330,7 @@ pub fn run(args: Args) -> Result<()> {
             "lucent: {} at {width}×{height}, {} spp ({}, seed {seed}) in {elapsed:.1} s: {rate:.2} Msamples/s on {n_threads} threads",
             scene_name,
             film.samples_per_pixel(),
-            render::checkpoint::integrator_name(settings.kind),
+            settings.kind.name(),
         );
         if film.rejected_samples() > 0 {
             eprintln!("lucent: warning: {} non-finite samples were counted as zero", film.rejected_samples());

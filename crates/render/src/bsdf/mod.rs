@@ -156,7 +156,7 @@ impl Bsdf {
     pub fn terminates_secondary(&self) -> bool {
         match self {
             Bsdf::SmoothDielectric { dispersive, .. } | Bsdf::RoughDielectric { dispersive, .. } => *dispersive,
-            _ => false,
+            Bsdf::Diffuse { .. } | Bsdf::Black | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
         }
     }
 
@@ -166,7 +166,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { r } => *r == Vec4::ZERO,
             Bsdf::Black => true,
-            _ => false,
+            Bsdf::SmoothDielectric { .. } | Bsdf::RoughDielectric { .. } | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
         }
     }
 

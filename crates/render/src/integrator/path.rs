@@ -70,16 +70,17 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
             break;
         }
         let mat = &scene.materials[obj.material as usize];
-        let bsdf = match (mat, sss) {
+        let bsdf = match (mat.as_translucent(), sss) {
             // Translucent with a BSSRDF: the boundary's surface reflection (mirror, or the rough
             // dielectric's reflection lobe), plus the diffusive term.
-            (Material::Translucent(t), SubsurfaceMode::ReflectOnly | SubsurfaceMode::Bssrdf(_)) => {
+            (Some(t), SubsurfaceMode::ReflectOnly | SubsurfaceMode::Bssrdf(_)) => {
                 if let SubsurfaceMode::Bssrdf(p) = sss {
                     l += beta * p.radiance(s.object, s.p, s.ng, wo, rng);
                 }
                 t.boundary_reflection()
             }
-            _ => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0), // back face: η → 1/η; dispersion: hero only
+            // Back face: η → 1/η; dispersion: hero only.
+            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0),
         };
         if bsdf.is_black() {
             break;

@@ -274,7 +274,8 @@ impl Light {
                 dist2 / (cos_l * area_m2)
             }
             Light::Environment { .. } => UNIFORM_SPHERE_PDF,
-            _ => 0.0,
+            // Delta lights are never hit by a sampled direction.
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => 0.0,
         }
     }
 
@@ -291,7 +292,7 @@ impl Light {
                 }
             }
             Light::Environment { radiance } => wl.eval(radiance),
-            _ => Vec4::ZERO,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => Vec4::ZERO,
         }
     }
 }

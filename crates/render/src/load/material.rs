@@ -80,7 +80,8 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
     Ok((materials, material_names))
 }
 
-/// Dielectric, conductor and plastic materials (issue 4), see docs/scene-format.md.
+/// Dielectric, conductor and plastic materials, see docs/scene-format.md ("Glass, metals, rough
+/// surfaces and plastic").
 pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &Range<usize>, field: &str) -> Result<Material> {
     use crate::bsdf::microfacet::{roughness_to_alpha, TrowbridgeReitz};
     let kind = m.kind.as_str();

@@ -67,6 +67,15 @@ pub enum Material {
 }
 
 impl Material {
+    /// The translucent material's data, if this is one.
+    #[inline]
+    pub fn as_translucent(&self) -> Option<&std::sync::Arc<translucent::Translucent>> {
+        match self {
+            Material::Translucent(t) => Some(t),
+            Material::Lambertian { .. } | Material::Black | Material::Dielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } => None,
+        }
+    }
+
     /// Lambertian material with albedo given as a function of wavelength in nm.
     pub fn lambertian(albedo: DenseSpectrum) -> Material {
         Material::Lambertian { albedo }

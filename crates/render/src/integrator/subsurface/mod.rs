@@ -265,10 +265,7 @@ impl SubsurfacePass {
         let bounces = scene
             .materials
             .iter()
-            .filter_map(|m| match m {
-                Material::Translucent(t) => Some(t.bounces),
-                _ => None,
-            })
+            .filter_map(|m| m.as_translucent().map(|t| t.bounces))
             .max()
             .unwrap_or(1)
             .max(1);
@@ -697,8 +694,5 @@ pub fn check_closed(shape: &Shape) -> Result<()> {
 
 /// Convenience: the material of a translucent object.
 pub fn translucent_of(scene: &Scene, object: u32) -> Option<&Arc<Translucent>> {
-    match &scene.materials[scene.objects[object as usize].material as usize] {
-        Material::Translucent(t) => Some(t),
-        _ => None,
-    }
+    scene.materials[scene.objects[object as usize].material as usize].as_translucent()
 }
