@@ -13,7 +13,6 @@ use crate::integrator::nee;
 use crate::integrator::settings::IntegratorSettings;
 use crate::integrator::subsurface::{SubsurfaceMode, SubsurfacePass};
 use crate::interaction::Shading;
-use crate::material::Material;
 use crate::math::geometry::Ray;
 use crate::math::sampling::Pcg32;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};

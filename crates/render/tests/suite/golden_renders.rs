@@ -1,15 +1,15 @@
 //! Renders of every example scene (`scenes/*.toml`) at a small size and fixed seed hash to the
 //! values stored in `tests/data/golden_render_hashes.txt`: a refactor that moves code must not
 //! change a single bit of any image. A deliberate change of the numerics regenerates the file
-//! with `LUCENT_BLESS=1 cargo test -p render --test golden_renders` and says why in its commit.
+//! with `LUCENT_BLESS=1 cargo test -p render --test suite golden` and says why in its commit.
+
+#[allow(unused_imports)]
+use crate::common::*;
 
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
 use render::scene::Scene;
 use std::path::{Path, PathBuf};
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 /// FNV-1a over the bit patterns of every XYZ value of every pass.
 fn render_hash(scene: &Scene, settings: &IntegratorSettings, passes: u64) -> u64 {

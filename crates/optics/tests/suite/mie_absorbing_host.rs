@@ -21,17 +21,14 @@
 //!   h_n^{(1)} by upward recurrence from its closed forms — instead of the library's logarithmic
 //!   derivatives and ψ/ξ ratios; α from its definition, 4π r n″/λ.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use num_complex::Complex64;
 use optics::mie;
 use std::f64::consts::PI;
 
-fn c(re: f64, im: f64) -> Complex64 {
-    Complex64::new(re, im)
-}
 
-fn rel(a: f64, b: f64) -> f64 {
-    ((a - b) / b).abs()
-}
 
 /// γ(α) = ∫₀¹ 2t e^{αt} dt by composite Simpson (4000 intervals: relative error < 1e-13 for α ≤ 10).
 fn gamma_quadrature(alpha: f64) -> f64 {

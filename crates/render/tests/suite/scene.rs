@@ -1,16 +1,16 @@
 //! The TOML scene format: the built-in Cornell box equals the file, geometry equals the published
 //! OBJ, units, transforms, light power, and one-line errors naming file, line and field.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use render::shape::Shape;
 use render::integrator::{render_pass, IntegratorSettings};
 use render::light::Light;
 use render::shape::mesh::TriangleMesh;
 use render::scene::Scene;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 fn parse(text: &str) -> anyhow::Result<Scene> {
     Scene::from_toml_str(text, "bad.toml", &repo().join("scenes"))

@@ -1,20 +1,17 @@
 //! Bulk properties and medium recipes: two independent paths, closed forms, convergence, bad input.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use optics::media::{self, BulkOptions, Component, IndexSpectrum, Recipe};
-use optics::mie::{self, Complex64};
+use optics::mie;
 use optics::milk;
 use optics::particles::{RadiusGrid, SizeDistribution, Spacing};
 use std::f64::consts::PI;
 
-fn c(re: f64, im: f64) -> Complex64 {
-    Complex64::new(re, im)
-}
 
-fn rel(a: f64, b: f64) -> f64 {
-    ((a - b) / b).abs()
-}
 
-const SKIM: &str = include_str!("../../../media/skim-milk.toml");
+const SKIM: &str = include_str!("../../../../media/skim-milk.toml");
 
 /// The generic recipe path (media/skim-milk.toml) reproduces the dedicated milk model.
 #[test]

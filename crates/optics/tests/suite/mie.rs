@@ -1,15 +1,12 @@
 //! Lorenz–Mie theory against published tables, closed forms and a second independent method.
 
-use num_complex::Complex64;
+#[allow(unused_imports)]
+use crate::common::*;
+
+
 use optics::mie::{self, MieWorkspace};
 
-fn c(re: f64, im: f64) -> Complex64 {
-    Complex64::new(re, im)
-}
 
-fn rel(a: f64, b: f64) -> f64 {
-    ((a - b) / b).abs()
-}
 
 /// W. J. Wiscombe, "Mie scattering calculations: advances in technique and fast, vector-speed
 /// computer codes", NCAR Technical Note NCAR/TN-140+STR (1979, revised 1996), test cases of MIEV0

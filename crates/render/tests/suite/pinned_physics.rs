@@ -5,6 +5,9 @@
 //! Every Monte Carlo test renders independent passes with fixed seeds; the tolerance is a multiple
 //! of the standard error of the mean estimated from the spread between passes.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
 use render::scene::Scene;
 use std::f64::consts::PI;
@@ -18,14 +21,7 @@ fn scene(text: &str) -> Scene {
     scene_in(text, Path::new("."))
 }
 
-fn settings(kind: IntegratorKind, max_depth: u32, rr_depth: u32) -> IntegratorSettings {
-    IntegratorSettings { kind, max_depth, rr_depth }
-}
 
-/// Y of an equal-energy spectrum of value 1 as the renderer's colour tables give it (≈ 1).
-fn y_of_one() -> f64 {
-    render::math::spectral::xyz_of(|_| 1.0)[1]
-}
 
 /// Per pass, the mean of XYZ component `c` over all pixels; returns (mean, standard error, the
 /// largest |value| of any single pixel in any pass).

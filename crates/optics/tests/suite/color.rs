@@ -142,7 +142,7 @@ fn srgb_transfer_curve() {
 #[test]
 fn cie_table_is_complete() {
     let (names, cols) =
-        read_csv_columns(include_str!("../data/cie/cie1931_2deg_xyz_1nm.csv")).unwrap();
+        read_csv_columns(include_str!("../../data/cie/cie1931_2deg_xyz_1nm.csv")).unwrap();
     assert_eq!(names, ["wavelength_nm", "xbar", "ybar", "zbar"]);
     assert_eq!(cols[0].len(), 471);
     assert_eq!(cols[0][0], LAMBDA_MIN_NM);

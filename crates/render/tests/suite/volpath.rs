@@ -2,6 +2,9 @@
 //! Beer–Lambert transmittance, unbiased spectral free-flight sampling, agreement with the
 //! layered-slab Monte Carlo (`render::slab`), agreement with `path` without media, and scene errors.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use glam::{Vec3, Vec4};
 use render::math::geometry::Ray;
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
@@ -11,9 +14,6 @@ use render::math::spectral::SampledWavelengths;
 use render::integrator::volpath::{li_volpath, li_volpath_with, VolpathOptions};
 use std::path::Path;
 
-fn scene(text: &str) -> Scene {
-    Scene::from_toml_str(text, "test.toml", Path::new(".")).unwrap_or_else(|e| panic!("{e:#}"))
-}
 
 fn scene_err(text: &str) -> String {
     match Scene::from_toml_str(text, "test.toml", Path::new(".")) {

@@ -63,7 +63,7 @@ fn particle_radius_and_volume_fraction_are_recovered_from_a_recipe() {
     // spectra at r_vs = 0.3 µm, φ = 0.2 % with 1 % noise, fitted from the recipe.
     use optics::fitting::fit_recipe_particle;
     use optics::media::Recipe;
-    let text = include_str!("../../../media/polystyrene-beads.toml");
+    let text = include_str!("../../../../media/polystyrene-beads.toml");
     let recipe = Recipe::from_toml(text).unwrap();
     let lambda: Vec<f64> = (0..7).map(|k| 420.0 + 55.0 * k as f64).collect();
     let mut truth = recipe.clone();

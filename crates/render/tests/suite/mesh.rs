@@ -1,13 +1,13 @@
 //! Mesh loading: PLY ASCII vs binary (both endiannesses) vs gzip, OBJ groups, bad input.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use glam::{Mat4, Vec3};
 use render::shape::mesh::TriangleMesh;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lucent-mesh-test-{}-{name}", std::process::id()));

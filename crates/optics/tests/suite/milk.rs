@@ -4,7 +4,7 @@
 use optics::media::BulkOptions;
 use optics::milk;
 
-const REFERENCE: &str = include_str!("../data/milk/frisvad2007_model_reference_output.csv");
+const REFERENCE: &str = include_str!("../../data/milk/frisvad2007_model_reference_output.csv");
 
 struct Row {
     fat: f64,

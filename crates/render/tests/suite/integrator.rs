@@ -3,14 +3,13 @@
 //! Every Monte Carlo test renders independent passes with fixed seeds; the tolerance is a multiple
 //! of the standard error of the mean estimated from the spread between passes.
 
+#[allow(unused_imports)]
+use crate::common::*;
+
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
 use render::scene::Scene;
 use std::f64::consts::PI;
-use std::path::Path;
 
-fn scene(text: &str) -> Scene {
-    Scene::from_toml_str(text, "test.toml", Path::new(".")).unwrap_or_else(|e| panic!("{e:#}"))
-}
 
 /// Mean and standard error over `passes` passes of the region mean of XYZ component `c`.
 /// `region(i, j)` selects pixels.
@@ -44,14 +43,7 @@ fn region_stats(
     (m, (var / vals.len() as f64).sqrt())
 }
 
-fn settings(kind: IntegratorKind, max_depth: u32, rr_depth: u32) -> IntegratorSettings {
-    IntegratorSettings { kind, max_depth, rr_depth }
-}
 
-/// Y of an equal-energy spectrum of value 1 as the renderer's colour tables give it (≈ 1).
-fn y_of_one() -> f64 {
-    render::math::spectral::xyz_of(|_| 1.0)[1]
-}
 
 fn assert_close(what: &str, m: f64, se: f64, expect: f64, k: f64) {
     assert!(se.is_finite() && se >= 0.0);

@@ -503,7 +503,7 @@ fn directional_dipole_refraction_and_positivity() {
 /// 4 %, rounding of 1e-4 values), for all 35 media and channels.
 #[test]
 fn narasimhan_presets_match_pbrt_reduced_table() {
-    let text = include_str!("../data/media/narasimhan2006_media_reduced_pbrt3.csv");
+    let text = include_str!("../../data/media/narasimhan2006_media_reduced_pbrt3.csv");
     let mut rows = 0;
     for line in text
         .lines()

@@ -1,0 +1,3 @@
+//! The integration tests of the analysis crate, one test binary (each file a module).
+
+mod compare;

@@ -1,0 +1,7 @@
+//! The integration tests of the `lucent` command, one test binary (each file a module).
+
+mod distributed_examples;
+mod fit_cli;
+mod fit_roundtrip;
+mod fit_scene;
+mod render_cli;

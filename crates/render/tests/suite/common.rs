@@ -1,0 +1,26 @@
+//! Helpers shared by the render tests.
+
+use render::integrator::{IntegratorKind, IntegratorSettings};
+use render::scene::Scene;
+use std::path::{Path, PathBuf};
+
+#[allow(dead_code)]
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+#[allow(dead_code)]
+pub fn scene(text: &str) -> Scene {
+    Scene::from_toml_str(text, "test.toml", Path::new(".")).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+#[allow(dead_code)]
+pub fn settings(kind: IntegratorKind, max_depth: u32, rr_depth: u32) -> IntegratorSettings {
+    IntegratorSettings { kind, max_depth, rr_depth }
+}
+
+/// Y of an equal-energy spectrum of value 1 as the renderer's colour tables give it (≈ 1).
+#[allow(dead_code)]
+pub fn y_of_one() -> f64 {
+    render::math::spectral::xyz_of(|_| 1.0)[1]
+}
