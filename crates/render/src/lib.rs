@@ -19,7 +19,6 @@ pub mod checkpoint;
 pub mod scene;
 pub mod image_io;
 pub mod compare;
-pub mod slab;
 pub mod microfacet;
 pub mod bxdf;
 pub mod volpath;

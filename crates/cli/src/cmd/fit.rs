@@ -9,7 +9,7 @@ use optics::reflectometry::{
     fit_oblique, fit_reflectance, read_reflectance_csv, Estimate, FitOptions, MonteCarloTable, ReflectanceFit,
     ReflectanceModel,
 };
-use render::slab::{simulate, Layer, RadialGrid, SlabSettings};
+use optics::slab::{simulate, Layer, RadialGrid, SlabSettings};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 

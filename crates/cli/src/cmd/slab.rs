@@ -1,7 +1,7 @@
 //! `lucent slab`: MCML-style Monte Carlo photon transport in a stack of plane-parallel layers.
 
 use anyhow::{bail, Context, Result};
-use render::slab::{simulate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
+use optics::slab::{simulate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -139,7 +139,7 @@ pub fn run(args: Args) -> Result<()> {
         line,
     };
     // Validate before spawning threads so errors come first and name the argument.
-    render::slab::validate(&settings).map_err(|e| {
+    optics::slab::validate(&settings).map_err(|e| {
         let msg = e.to_string();
         let arg = if msg.starts_with("layer") {
             "--layer"
@@ -285,7 +285,7 @@ fn print_text(r: &SlabResult) {
 }
 
 /// Write R(r) as CSV to a temporary name, then rename (never a half-written file).
-fn write_radial_csv(path: &Path, r: &render::slab::RadialReflectance) -> Result<()> {
+fn write_radial_csv(path: &Path, r: &optics::slab::RadialReflectance) -> Result<()> {
     let tmp = path.with_file_name(format!(
         "{}.tmp-{}",
         path.file_name()

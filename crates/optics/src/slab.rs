@@ -25,8 +25,8 @@
 //! above (index `n_above`) and layer 1; the last layer may be semi-infinite.
 
 use anyhow::{bail, Result};
-use optics::fresnel::{cos_theta_transmitted, fresnel_dielectric};
-use optics::phase::HenyeyGreenstein;
+use crate::fresnel::{cos_theta_transmitted, fresnel_dielectric};
+use crate::phase::HenyeyGreenstein;
 use rayon::prelude::*;
 use std::time::Instant;
 

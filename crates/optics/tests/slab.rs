@@ -2,7 +2,7 @@
 //! radiative-transfer solution. Tolerances are three standard errors of the estimator
 //! (plus the rounding of the published value).
 
-use render::slab::{simulate, validate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
+use optics::slab::{simulate, validate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 
 fn layer(mua: f64, mus: f64, g: f64, n: f64, d: f64) -> Layer {
     Layer {
