@@ -15,3 +15,4 @@ pub mod bssrdf;
 pub mod fitting;
 pub mod reflectometry;
 pub mod ior;
+pub mod slab;

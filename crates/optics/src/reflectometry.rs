@@ -4,7 +4,7 @@
 //!
 //! R(r) is the power leaving the surface per unit area at distance r from the point of incidence
 //! per unit incident power, in mm⁻² (the unit of `lucent slab`'s radial tally). Lengths are in mm
-//! and coefficients in mm⁻¹ here, as in tissue optics and `render::slab`; every name says so.
+//! and coefficients in mm⁻¹ here, as in tissue optics and `optics::slab`; every name says so.
 //! All models include the Fresnel transmittance T₁₂ = 1 − R(0) of the incident beam, so that
 //! they compare directly with Monte Carlo counted per incident photon.
 //!

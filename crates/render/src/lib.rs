@@ -30,4 +30,3 @@ pub mod medium;
 pub mod progressive;
 pub mod scene;
 pub mod shape;
-pub mod slab;

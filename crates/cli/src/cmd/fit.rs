@@ -9,7 +9,7 @@ use optics::reflectometry::{
     fit_oblique, fit_reflectance, read_reflectance_csv, Estimate, FitOptions, MonteCarloTable, ReflectanceFit,
     ReflectanceModel,
 };
-use render::slab::{simulate, Layer, RadialGrid, SlabSettings};
+use optics::slab::{simulate, Layer, RadialGrid, SlabSettings};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
@@ -208,7 +208,7 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
         })?;
         let mut f = f;
         if let Some(h) = bin {
-            f.notes.push(format!("r_mm are centres of {h} mm bins: the model is averaged over each annulus"));
+            f.notes.push(format!("r_mm are centres of {} mm bins: the model is averaged over each annulus", super::slab::sig(h, 4)));
         }
         fits.push(f);
     }

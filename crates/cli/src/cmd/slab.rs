@@ -1,17 +1,18 @@
 //! `lucent slab`: MCML-style Monte Carlo photon transport in a stack of plane-parallel layers.
 
 use anyhow::{bail, Context, Result};
-use render::slab::{simulate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
+use optics::slab::{simulate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A layer, top first: absorption and scattering coefficients in mm⁻¹, HG anisotropy g,
-    /// refractive index, thickness in mm (`inf` for a semi-infinite last layer). Repeatable.
+    /// A layer, top first: absorption and scattering coefficients σ_a, σ_s in mm⁻¹ (MCML's
+    /// μa, μs), HG anisotropy g, refractive index, thickness in mm (`inf` for a semi-infinite
+    /// last layer, which must absorb if it scatters). Repeatable.
     #[arg(
         long = "layer",
-        value_name = "MUA,MUS,G,N,THICKNESS_MM",
+        value_name = "SIGMA_A,SIGMA_S,G,N,THICKNESS_MM",
         required = true,
         allow_hyphen_values = true
     )]
@@ -47,6 +48,11 @@ pub struct Args {
     /// Half length of the x line in mm (default: 10 transport mean free paths of the top layer).
     #[arg(long, allow_hyphen_values = true)]
     line_max_mm: Option<f64>,
+    /// Most free-flight steps per photon packet; a packet still alive then is dropped and
+    /// counted (`photons_truncated`; its weight `truncated_weight` is missing from R_d,
+    /// absorbed and T_t, each biased low by at most that much).
+    #[arg(long, default_value_t = optics::slab::DEFAULT_MAX_STEPS_PER_PHOTON)]
+    max_steps_per_photon: u64,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -55,16 +61,16 @@ pub struct Args {
     json: bool,
 }
 
-/// Parse `MUA,MUS,G,N,THICKNESS_MM` (validation of the values is done by the library).
+/// Parse `SIGMA_A,SIGMA_S,G,N,THICKNESS_MM` (validation of the values is done by the library).
 fn parse_layer(text: &str) -> Result<Layer> {
     let fields: Vec<&str> = text.split(',').map(str::trim).collect();
     if fields.len() != 5 {
         bail!(
-            "expected 5 comma-separated values MUA,MUS,G,N,THICKNESS_MM, got {}",
+            "expected 5 comma-separated values SIGMA_A,SIGMA_S,G,N,THICKNESS_MM, got {}",
             fields.len()
         );
     }
-    let names = ["MUA", "MUS", "G", "N", "THICKNESS_MM"];
+    let names = ["SIGMA_A", "SIGMA_S", "G", "N", "THICKNESS_MM"];
     let mut v = [0.0; 5];
     for (i, f) in fields.iter().enumerate() {
         v[i] = if i == 4 && f.eq_ignore_ascii_case("inf") {
@@ -137,9 +143,10 @@ pub fn run(args: Args) -> Result<()> {
         radial,
         incidence_deg: args.incidence_deg,
         line,
+        max_steps_per_photon: args.max_steps_per_photon,
     };
     // Validate before spawning threads so errors come first and name the argument.
-    render::slab::validate(&settings).map_err(|e| {
+    optics::slab::validate(&settings).map_err(|e| {
         let msg = e.to_string();
         let arg = if msg.starts_with("layer") {
             "--layer"
@@ -159,6 +166,8 @@ pub fn run(args: Args) -> Result<()> {
             "--line-bins"
         } else if msg.starts_with("line-max-mm") {
             "--line-max-mm"
+        } else if msg.starts_with("max-steps-per-photon") {
+            "--max-steps-per-photon"
         } else {
             "--layer"
         };
@@ -173,6 +182,15 @@ pub fn run(args: Args) -> Result<()> {
             .install(|| simulate(&settings))?,
         None => simulate(&settings)?,
     };
+    if result.photons_truncated > 0 {
+        eprintln!(
+            "warning: {} of {} photons reached --max-steps-per-photon {} and were dropped; their weight ({}) is missing from R_d, absorbed and T_t, each biased low by at most that",
+            result.photons_truncated,
+            result.photons,
+            settings.max_steps_per_photon,
+            sig(result.truncated_weight, 3)
+        );
+    }
     if let (Some(path), Some(r)) = (&args.radial_csv, &result.radial) {
         write_radial_csv(path, r).with_context(|| format!("--radial-csv {}", path.display()))?;
     }
@@ -208,6 +226,9 @@ fn to_json(s: &SlabSettings, r: &SlabResult) -> serde_json::Value {
         "tt": r.tt,
         "tt_stderr": r.tt_stderr,
         "roulette_gain": r.roulette_gain,
+        "photons_truncated": r.photons_truncated,
+        "truncated_weight": r.truncated_weight,
+        "max_steps_per_photon": s.max_steps_per_photon,
         "photons": r.photons,
         "seed": s.seed,
         "incidence_deg": s.incidence_deg,
@@ -251,6 +272,12 @@ fn print_text(r: &SlabResult) {
         r.absorbed, r.absorbed_stderr
     );
     println!("total transmittance   {:.6} ± {:.6}", r.tt, r.tt_stderr);
+    if r.photons_truncated > 0 {
+        println!(
+            "truncated             {:.6} ({} photons dropped at the step cap)",
+            r.truncated_weight, r.photons_truncated
+        );
+    }
     println!(
         "{} photons, {} steps in {:.3} s on {} threads: {:.2} M steps/s ({:.2} M per thread)",
         r.photons,
@@ -284,8 +311,21 @@ fn print_text(r: &SlabResult) {
     }
 }
 
+/// `x` to `digits` significant digits for human-readable output (JSON keeps full precision).
+pub(crate) fn sig(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let decimals = digits as i32 - 1 - x.abs().log10().floor() as i32;
+    if (0..=12).contains(&decimals) {
+        format!("{x:.*}", decimals as usize)
+    } else {
+        format!("{x:.*e}", digits.saturating_sub(1))
+    }
+}
+
 /// Write R(r) as CSV to a temporary name, then rename (never a half-written file).
-fn write_radial_csv(path: &Path, r: &render::slab::RadialReflectance) -> Result<()> {
+fn write_radial_csv(path: &Path, r: &optics::slab::RadialReflectance) -> Result<()> {
     let tmp = path.with_file_name(format!(
         "{}.tmp-{}",
         path.file_name()
@@ -342,15 +382,15 @@ mod tests {
         for (text, field) in [
             ("1,9,0.75,1", "5 comma-separated"),
             ("1,9,0.75,1,0.2,3", "5 comma-separated"),
-            ("x,9,0.75,1,0.2", "MUA"),
-            ("-1,9,0.75,1,0.2", "MUA"),
-            ("1,-9,0.75,1,0.2", "MUS"),
+            ("x,9,0.75,1,0.2", "SIGMA_A"),
+            ("-1,9,0.75,1,0.2", "SIGMA_A"),
+            ("1,-9,0.75,1,0.2", "SIGMA_S"),
             ("1,9,1.0,1,0.2", "G"),
             ("1,9,-1.5,1,0.2", "G"),
             ("1,9,0.75,0,0.2", "N"),
             ("1,9,0.75,1,0", "THICKNESS_MM"),
             ("1,9,0.75,1,nan", "THICKNESS_MM"),
-            ("1,inf,0.75,1,1", "MUS"),
+            ("1,inf,0.75,1,1", "SIGMA_S"),
         ] {
             let e = format!("{:#}", parse_layer(text).unwrap_err());
             assert!(e.contains(field), "{text}: {e}");
@@ -378,6 +418,9 @@ mod tests {
             "tt",
             "tt_stderr",
             "photon_steps_per_s",
+            "photons_truncated",
+            "truncated_weight",
+            "max_steps_per_photon",
         ] {
             assert!(v[key].is_number(), "{key} missing: {v}");
         }
@@ -389,5 +432,14 @@ mod tests {
         };
         let v = to_json(&plain, &simulate(&plain).unwrap());
         assert!(v.get("radial").is_none());
+    }
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(sig(50.0 / 101.0, 4), "0.4950");
+        assert_eq!(sig(0.0021000000000000003, 3), "0.00210");
+        assert_eq!(sig(123.456, 3), "123");
+        assert_eq!(sig(1e-20, 3), "1.00e-20");
+        assert_eq!(sig(0.0, 3), "0");
     }
 }

@@ -1,5 +1,5 @@
 //! Round trips of diffuse reflectance spectroscopy: R(r) simulated by the layered Monte Carlo
-//! (`render::slab`, fixed seeds) for skim, low-fat and whole milk and Jensen's marble, with 1 %
+//! (`optics::slab`, fixed seeds) for skim, low-fat and whole milk and Jensen's marble, with 1 %
 //! multiplicative noise, fitted by `optics::reflectometry` with the three forward models.
 //!
 //! Optical properties (blue channel, where absorption is largest and walks are shortest, so the
@@ -14,7 +14,7 @@
 //! lengths), where diffusion holds — each test asserts what its model reaches (docs/inverse.md).
 
 use optics::reflectometry::{bundled_table, fit_reflectance, FitOptions, ReflectanceModel, ReflectanceProfile};
-use render::slab::{simulate, Layer, RadialGrid, SlabSettings};
+use optics::slab::{simulate, Layer, RadialGrid, SlabSettings};
 
 struct Case {
     name: &'static str,
@@ -113,7 +113,7 @@ fn oblique_incidence_reflectometry_round_trip() {
     // tissue-like g = 0.9 it is within ~6 %, as Wang & Jacques found.
     // the line profile R(x, 0) from the Monte Carlo, 1 % noise, then σ'_s from the centre shift.
     use optics::reflectometry::fit_oblique;
-    use render::slab::LineGrid;
+    use optics::slab::LineGrid;
     let (mua, musp, n) = (0.05, 1.0, 1.4);
     let layer = Layer { mua_per_mm: mua, mus_per_mm: musp / 0.1, g: 0.9, n, thickness_mm: f64::INFINITY };
     let s = SlabSettings {

@@ -12,4 +12,5 @@ mod particles;
 mod phase;
 mod reflectometry;
 mod reflectometry_milk;
+mod slab;
 mod spectrum;

@@ -126,6 +126,7 @@ fn load_unchecked(path: &Path) -> Result<Vec<(String, TriangleMesh)>> {
 
 /// Parse OBJ text; each group/object becomes one named mesh.
 pub fn parse_obj(bytes: &[u8], default_name: &str) -> Result<Vec<(String, TriangleMesh)>> {
+    check_obj(bytes)?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let mut reader = std::io::BufReader::new(bytes);
     let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
@@ -158,6 +159,78 @@ pub fn parse_obj(bytes: &[u8], default_name: &str) -> Result<Vec<(String, Triang
     Ok(out)
 }
 
+/// Check what tobj does not report by line: every line is text; vertex positions (`v`, after the
+/// optional w divides them) and normals (`vn`) are finite in f32; every face (`f`) has at least
+/// three corners whose position, texture and normal indices refer to elements defined above
+/// the face, as the OBJ format numbers them (1-based, or negative counting back from the
+/// face; Wavefront, "Advanced Visualizer" manual, appendix B1). Errors name the line.
+fn check_obj(bytes: &[u8]) -> Result<()> {
+    let mut counts = [0usize; 3]; // v, vt, vn defined so far
+    for (k, raw) in bytes.split(|&c| c == b'\n').enumerate() {
+        let ln = k + 1;
+        let line = std::str::from_utf8(raw).map_err(|_| anyhow::anyhow!("OBJ line {ln}: not UTF-8 text"))?;
+        let mut w = line.split_whitespace();
+        let finite = |tok: Option<&str>, what: &str| -> Result<f32> {
+            let tok = tok.with_context(|| format!("OBJ line {ln}: {what} needs 3 coordinates"))?;
+            let v: f32 = tok.parse().map_err(|_| anyhow::anyhow!("OBJ line {ln}: {what} coordinate '{}' is not a number", shorten(tok)))?;
+            if !v.is_finite() {
+                bail!("OBJ line {ln}: {what} coordinate '{}' is not a finite number (in f32)", shorten(tok));
+            }
+            Ok(v)
+        };
+        match w.next() {
+            Some("v") => {
+                let what = format!("vertex {}", counts[0] + 1);
+                let xyz = [finite(w.next(), &what)?, finite(w.next(), &what)?, finite(w.next(), &what)?];
+                let rest: Vec<&str> = w.collect();
+                if rest.len() == 1 {
+                    // x y z w: homogeneous coordinates, divided by w.
+                    let h: f32 = rest[0].parse().map_err(|_| anyhow::anyhow!("OBJ line {ln}: {what}: w '{}' is not a number", shorten(rest[0])))?;
+                    if !(h != 0.0 && xyz.iter().all(|c| (c / h).is_finite())) {
+                        bail!("OBJ line {ln}: {what}: w = {h} gives a non-finite position");
+                    }
+                }
+                counts[0] += 1;
+            }
+            Some("vt") => counts[1] += 1,
+            Some("vn") => {
+                let what = format!("normal {}", counts[2] + 1);
+                for _ in 0..3 {
+                    finite(w.next(), &what)?;
+                }
+                counts[2] += 1;
+            }
+            Some("f") => {
+                let mut corners = 0usize;
+                for corner in w {
+                    corners += 1;
+                    for (slot, part) in corner.split('/').enumerate() {
+                        let (what, defined) = match slot {
+                            0 => ("vertex", counts[0]),
+                            1 => ("texture coordinate", counts[1]),
+                            2 => ("normal", counts[2]),
+                            _ => bail!("OBJ line {ln}: face corner '{}' has more than 3 indices", shorten(corner)),
+                        };
+                        if part.is_empty() && slot > 0 {
+                            continue;
+                        }
+                        let i: i64 = part.parse().map_err(|_| anyhow::anyhow!("OBJ line {ln}: face corner '{}': {what} index is not an integer", shorten(corner)))?;
+                        let ok = if i > 0 { i as u64 <= defined as u64 } else { i != 0 && i.unsigned_abs() <= defined as u64 };
+                        if !ok {
+                            bail!("OBJ line {ln}: face {what} index {i} out of range ({defined} defined above the face)");
+                        }
+                    }
+                }
+                if corners < 3 {
+                    bail!("OBJ line {ln}: a face needs at least 3 corners, got {corners}");
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Scalar {
     I8,
@@ -183,6 +256,34 @@ impl Scalar {
             "double" | "float64" => Scalar::F64,
             _ => return None,
         })
+    }
+    fn name(self) -> &'static str {
+        match self {
+            Scalar::I8 => "char",
+            Scalar::U8 => "uchar",
+            Scalar::I16 => "short",
+            Scalar::U16 => "ushort",
+            Scalar::I32 => "int",
+            Scalar::U32 => "uint",
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+    fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+    /// Whether the integer `v` lies in this type's range.
+    fn holds(self, v: i64) -> bool {
+        let (lo, hi) = match self {
+            Scalar::I8 => (i8::MIN as i64, i8::MAX as i64),
+            Scalar::U8 => (0, u8::MAX as i64),
+            Scalar::I16 => (i16::MIN as i64, i16::MAX as i64),
+            Scalar::U16 => (0, u16::MAX as i64),
+            Scalar::I32 => (i32::MIN as i64, i32::MAX as i64),
+            Scalar::U32 => (0, u32::MAX as i64),
+            Scalar::F32 | Scalar::F64 => (i64::MIN, i64::MAX),
+        };
+        (lo..=hi).contains(&v)
     }
     fn size(self) -> usize {
         match self {
@@ -216,35 +317,99 @@ enum Format {
     BinaryBe,
 }
 
-/// A cursor over the body of a PLY file, ASCII tokens or binary values.
+/// A cursor over the body of a PLY file: one element at a time, between [`Body::begin`] and
+/// [`Body::end`].
+///
+/// ASCII bodies are read line by line, as the PLY format defines them (Greg Turk, "The PLY
+/// Polygon File Format", 1994): each element instance on its own line holding exactly its
+/// properties' values, so a line with a value too many or too few is refused instead of
+/// shifting everything after it. Blank lines are skipped. Binary bodies hold the elements
+/// back to back. In both, nothing but whitespace may follow the last element.
 struct Body<'a> {
     bytes: &'a [u8],
     pos: usize,
     format: Format,
+    /// ASCII: the line of the current element (1-based, counted from the start of the file).
     line: usize,
+    /// ASCII: the values of the current element's line not yet read.
+    tokens: Option<std::str::SplitAsciiWhitespace<'a>>,
 }
 
 impl<'a> Body<'a> {
+    /// Start the next element instance (ASCII: take its line).
+    fn begin(&mut self) -> Result<()> {
+        if self.format != Format::Ascii {
+            return Ok(());
+        }
+        loop {
+            if self.pos >= self.bytes.len() {
+                bail!("unexpected end of file");
+            }
+            let end = self.bytes[self.pos..].iter().position(|&c| c == b'\n').map_or(self.bytes.len(), |e| self.pos + e);
+            self.line += 1;
+            let text = std::str::from_utf8(&self.bytes[self.pos..end]).map_err(|_| anyhow::anyhow!("the line is not text"))?;
+            self.pos = (end + 1).min(self.bytes.len());
+            if !text.trim_ascii().is_empty() {
+                self.tokens = Some(text.split_ascii_whitespace());
+                return Ok(());
+            }
+        }
+    }
+
+    /// Finish the current element instance (ASCII: its line must hold no more values).
+    fn end(&mut self, props: usize) -> Result<()> {
+        if let Some(rest) = self.tokens.take() {
+            let extra = rest.count();
+            if extra > 0 {
+                bail!("{extra} value(s) too many on the line for the element's {props} propert{}", if props == 1 { "y" } else { "ies" });
+            }
+        }
+        Ok(())
+    }
+
+    /// Bytes not yet read.
+    fn remaining(&self) -> usize {
+        self.bytes.len() - self.pos
+    }
+
+    /// An upper bound on how many instances of `el` the rest of the body can hold, for
+    /// reserving memory: header counts are not trusted before the data proves them.
+    fn max_instances(&self, el: &Element) -> usize {
+        let min_bytes = match self.format {
+            // Each value takes a character and a separator (space or newline).
+            Format::Ascii => 2 * el.props.len(),
+            Format::BinaryLe | Format::BinaryBe => el.props.iter().map(|p| p.list.unwrap_or(p.ty).size()).sum(),
+        };
+        el.count.min(self.remaining() / min_bytes.max(1) + 1)
+    }
+
+    /// After the last element: only whitespace may follow.
+    fn finish(&self) -> Result<()> {
+        let rest = &self.bytes[self.pos..];
+        if let Some(k) = rest.iter().position(|c| !c.is_ascii_whitespace()) {
+            if self.format == Format::Ascii {
+                let line = self.line + 1 + rest[..k].iter().filter(|&&c| c == b'\n').count();
+                bail!("PLY line {line}: data after the last element the header declares");
+            }
+            bail!("PLY byte {}: {} byte(s) after the last element the header declares", self.pos + k, rest.len());
+        }
+        Ok(())
+    }
+
     fn read(&mut self, ty: Scalar) -> Result<f64> {
         match self.format {
             Format::Ascii => {
-                // Skip whitespace, counting lines.
-                while self.pos < self.bytes.len() && self.bytes[self.pos].is_ascii_whitespace() {
-                    if self.bytes[self.pos] == b'\n' {
-                        self.line += 1;
+                let tok = self.tokens.as_mut().and_then(|t| t.next()).context("too few values on the line")?;
+                let bad = || anyhow::anyhow!("cannot parse '{}' as {}", shorten(tok), ty.name());
+                if ty.is_integer() {
+                    let v: i64 = tok.parse().map_err(|_| bad())?;
+                    if !ty.holds(v) {
+                        bail!("{v} does not fit in {}", ty.name());
                     }
-                    self.pos += 1;
+                    Ok(v as f64)
+                } else {
+                    tok.parse().map_err(|_| bad())
                 }
-                let start = self.pos;
-                while self.pos < self.bytes.len() && !self.bytes[self.pos].is_ascii_whitespace() {
-                    self.pos += 1;
-                }
-                if start == self.pos {
-                    bail!("unexpected end of file");
-                }
-                let tok = std::str::from_utf8(&self.bytes[start..self.pos]).unwrap_or("?");
-                let v: f64 = tok.parse().map_err(|_| anyhow::anyhow!("cannot parse '{tok}' as a number"))?;
-                Ok(v)
             }
             Format::BinaryLe | Format::BinaryBe => {
                 let n = ty.size();
@@ -270,6 +435,33 @@ impl<'a> Body<'a> {
             }
         }
     }
+
+    /// A list's length: a count that the rest of the body can hold.
+    fn read_len(&mut self, ty: Scalar, item: Scalar) -> Result<usize> {
+        let n = self.read(ty)?;
+        // Integer types only (the header parser allows any); a float count must be integral.
+        if !(n >= 0.0) || n.fract() != 0.0 {
+            bail!("bad list length {n}");
+        }
+        if self.format == Format::Ascii {
+            let room = self.tokens.clone().map_or(0, |t| t.count());
+            if n > room as f64 {
+                bail!("list length {n} exceeds the {room} value(s) left on the line");
+            }
+        } else if n > (self.remaining() / item.size()) as f64 {
+            bail!("unexpected end of file: list length {n} needs {} bytes, {} left", n * item.size() as f64, self.remaining());
+        }
+        Ok(n as usize)
+    }
+}
+
+/// A user string for an error message: at most 40 characters, escaped.
+fn shorten(s: &str) -> String {
+    let mut out: String = s.chars().take(40).collect::<String>().escape_debug().collect();
+    if s.chars().count() > 40 {
+        out.push('…');
+    }
+    out
 }
 
 /// Parse a PLY file (ASCII or binary, either endianness): vertex x, y, z (and nx, ny, nz if all
@@ -341,12 +533,18 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
         }
     }
     let format = format.context("PLY header has no format line")?;
-    let mut body = Body { bytes, pos, format, line: line_no + 1 };
+    for el in &elements {
+        if el.count > 0 && el.props.is_empty() {
+            bail!("PLY element '{}' has {} instances but no properties", shorten(&el.name), el.count);
+        }
+    }
+    let mut body = Body { bytes, pos, format, line: line_no, tokens: None };
     let mut mesh = TriangleMesh::default();
     let mut normals = Vec::new();
     let mut have_vertex = false;
     for el in &elements {
         let idx = |n: &str| el.props.iter().position(|p| p.name == n && p.list.is_none());
+        let nprops = el.props.len();
         if el.name == "vertex" {
             have_vertex = true;
             let (ix, iy, iz) = match (idx("x"), idx("y"), idx("z")) {
@@ -357,26 +555,36 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
                 (Some(a), Some(b), Some(c)) => Some((a, b, c)),
                 _ => None,
             };
-            mesh.positions.reserve(el.count);
-            let mut vals = vec![0.0f64; el.props.len()];
+            mesh.positions.reserve(body.max_instances(el));
+            if nidx.is_some() {
+                normals.reserve(body.max_instances(el));
+            }
+            let mut vals = vec![0.0f64; nprops];
             for v in 0..el.count {
+                let c = |body: &Body| ctx(body, "vertex", v, el.count);
+                body.begin().with_context(|| c(&body))?;
                 for (k, p) in el.props.iter().enumerate() {
                     if let Some(ct) = p.list {
-                        let n = body.read(ct).with_context(|| ctx(&body, "vertex", v))? as usize;
+                        let n = body.read_len(ct, p.ty).with_context(|| c(&body))?;
                         for _ in 0..n {
-                            body.read(p.ty).with_context(|| ctx(&body, "vertex", v))?;
+                            body.read(p.ty).with_context(|| c(&body))?;
                         }
                     } else {
-                        vals[k] = body.read(p.ty).with_context(|| ctx(&body, "vertex", v))?;
+                        vals[k] = body.read(p.ty).with_context(|| c(&body))?;
                     }
                 }
+                body.end(nprops).with_context(|| c(&body))?;
                 let pnt = Vec3::new(vals[ix] as f32, vals[iy] as f32, vals[iz] as f32);
                 if !pnt.is_finite() {
-                    bail!("{}: non-finite position ({}, {}, {})", ctx(&body, "vertex", v), vals[ix], vals[iy], vals[iz]);
+                    bail!("{}: non-finite position ({}, {}, {})", c(&body), vals[ix], vals[iy], vals[iz]);
                 }
                 mesh.positions.push(pnt);
-                if let Some((a, b, c)) = nidx {
-                    normals.push(Vec3::new(vals[a] as f32, vals[b] as f32, vals[c] as f32));
+                if let Some((a, b, cz)) = nidx {
+                    let n = Vec3::new(vals[a] as f32, vals[b] as f32, vals[cz] as f32);
+                    if !n.is_finite() {
+                        bail!("{}: non-finite normal ({}, {}, {})", c(&body), vals[a], vals[b], vals[cz]);
+                    }
+                    normals.push(n);
                 }
             }
         } else if el.name == "face" {
@@ -385,35 +593,38 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
                 .iter()
                 .position(|p| p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index"))
                 .context("PLY face element lacks a vertex_indices list")?;
-            mesh.indices.reserve(el.count);
+            // Every face yields at least one triangle.
+            mesh.indices.reserve(body.max_instances(el));
             let mut poly: Vec<u32> = Vec::with_capacity(8);
             for f in 0..el.count {
+                let c = |body: &Body| ctx(body, "face", f, el.count);
+                body.begin().with_context(|| c(&body))?;
                 for (k, p) in el.props.iter().enumerate() {
                     if let Some(ct) = p.list {
-                        let n = body.read(ct).with_context(|| ctx(&body, "face", f))?;
-                        if !(n >= 0.0) || n > 1e6 {
-                            bail!("{}: bad list length {n}", ctx(&body, "face", f));
+                        let n = body.read_len(ct, p.ty).with_context(|| c(&body))?;
+                        if k == li {
+                            if n < 3 {
+                                bail!("{}: {n} vertex indices (a face needs at least 3)", c(&body));
+                            }
+                            poly.clear();
                         }
-                        poly.clear();
-                        for _ in 0..n as usize {
-                            let i = body.read(p.ty).with_context(|| ctx(&body, "face", f))?;
+                        for _ in 0..n {
+                            let i = body.read(p.ty).with_context(|| c(&body))?;
                             if k == li {
                                 if !(i >= 0.0) || i >= u32::MAX as f64 || i.fract() != 0.0 {
-                                    bail!("{}: bad vertex index {i}", ctx(&body, "face", f));
+                                    bail!("{}: bad vertex index {i}", c(&body));
                                 }
                                 if have_vertex && i as usize >= mesh.positions.len() {
-                                    bail!("{}: vertex index {i} out of range (the file has {} vertices)", ctx(&body, "face", f), mesh.positions.len());
+                                    bail!("{}: vertex index {i} out of range (the file has {} vertices)", c(&body), mesh.positions.len());
                                 }
                                 poly.push(i as u32);
                             }
                         }
                     } else {
-                        body.read(p.ty).with_context(|| ctx(&body, "face", f))?;
+                        body.read(p.ty).with_context(|| c(&body))?;
                     }
                 }
-                if poly.len() < 3 {
-                    continue;
-                }
+                body.end(nprops).with_context(|| c(&body))?;
                 for j in 1..poly.len() - 1 {
                     mesh.indices.push([poly[0], poly[j], poly[j + 1]]);
                 }
@@ -421,19 +632,23 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
         } else {
             // Skip other elements value by value.
             for e in 0..el.count {
+                let c = |body: &Body| ctx(body, &el.name, e, el.count);
+                body.begin().with_context(|| c(&body))?;
                 for p in &el.props {
                     if let Some(ct) = p.list {
-                        let n = body.read(ct).with_context(|| ctx(&body, &el.name, e))? as usize;
+                        let n = body.read_len(ct, p.ty).with_context(|| c(&body))?;
                         for _ in 0..n {
-                            body.read(p.ty).with_context(|| ctx(&body, &el.name, e))?;
+                            body.read(p.ty).with_context(|| c(&body))?;
                         }
                     } else {
-                        body.read(p.ty).with_context(|| ctx(&body, &el.name, e))?;
+                        body.read(p.ty).with_context(|| c(&body))?;
                     }
                 }
+                body.end(nprops).with_context(|| c(&body))?;
             }
         }
     }
+    body.finish()?;
     if !have_vertex {
         bail!("PLY file has no vertex element");
     }
@@ -449,10 +664,13 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
     Ok(mesh)
 }
 
-fn ctx(body: &Body, element: &str, i: usize) -> String {
+/// Where an element instance is: "PLY line L: vertex i of n" (ASCII) or "PLY vertex i of n
+/// (byte B)" (binary; B is the offset reached).
+fn ctx(body: &Body, element: &str, i: usize, count: usize) -> String {
+    let element = shorten(element);
     if body.format == Format::Ascii {
-        format!("PLY line {}: {element} {i}", body.line)
+        format!("PLY line {}: {element} {i} of {count}", body.line)
     } else {
-        format!("PLY {element} {i} (byte {})", body.pos)
+        format!("PLY {element} {i} of {count} (byte {})", body.pos)
     }
 }

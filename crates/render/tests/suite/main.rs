@@ -14,6 +14,5 @@ mod light;
 mod mesh;
 mod pinned_physics;
 mod scene;
-mod slab;
 mod subsurface;
 mod volpath;

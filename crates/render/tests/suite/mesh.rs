@@ -233,10 +233,194 @@ fn bad_input_errors_name_file_and_place() {
     assert!(e.contains("missing.ply"), "{e}");
     // OBJ with an out-of-range face and with a NaN vertex.
     let e = load_err("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
-    assert!(e.contains("bad.obj") && e.contains("out of bounds"), "{e}");
+    assert!(e.contains("bad.obj") && e.contains("line 4") && e.contains("out of range"), "{e}");
     let e = load_err("nan.obj", b"v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
-    assert!(e.contains("nan.obj") && e.contains("vertex 1"), "{e}");
+    assert!(e.contains("nan.obj") && e.contains("line 2") && e.contains("vertex 2"), "{e}");
     // validate() on a hand-built mesh.
     let m = TriangleMesh { positions: vec![Vec3::ZERO; 3], normals: None, indices: vec![[0, 1, 3]] };
     assert!(format!("{:#}", m.validate().unwrap_err()).contains("face 0"));
+}
+
+/// An error from `parse_ply` as one line of text.
+fn ply_err(bytes: &[u8]) -> String {
+    let e = format!("{:#}", render::shape::mesh::parse_ply(bytes).expect_err("must fail"));
+    assert!(!e.contains('\n'), "one line: {e}");
+    e
+}
+
+/// A tetrahedron as ASCII PLY with the given vertex and face counts in the header and the
+/// given body.
+fn ascii_tet(nv: &str, nf: &str, body: &str) -> Vec<u8> {
+    format!(
+        "ply\nformat ascii 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {nf}\nproperty list uchar int vertex_indices\nend_header\n{body}"
+    )
+    .into_bytes()
+}
+
+const TET_VERTS: &str = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+const TET_FACES: &str = "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+
+/// The same tetrahedron as binary little-endian PLY.
+fn binary_tet(nv: &str, nf: &str, verts: usize, faces: usize) -> Vec<u8> {
+    let mut b = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    let p = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for v in &p[..verts] {
+        for c in v {
+            b.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for f in &[[0i32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]][..faces] {
+        b.push(3);
+        for i in f {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    b
+}
+
+#[test]
+fn ply_tetrahedra_load() {
+    let a = render::shape::mesh::parse_ply(&ascii_tet("4", "4", &format!("{TET_VERTS}{TET_FACES}"))).unwrap();
+    let b = render::shape::mesh::parse_ply(&binary_tet("4", "4", 4, 4)).unwrap();
+    assert_eq!(a, b);
+    assert_eq!((a.positions.len(), a.indices.len()), (4, 4));
+    // Blank lines, CRLF and trailing whitespace are fine.
+    let crlf = format!("{TET_VERTS}\n{TET_FACES}\n  \n").replace('\n', "\r\n");
+    assert_eq!(render::shape::mesh::parse_ply(&ascii_tet("4", "4", &crlf)).unwrap(), a);
+    let mut padded = binary_tet("4", "4", 4, 4);
+    padded.push(b'\n');
+    assert_eq!(render::shape::mesh::parse_ply(&padded).unwrap(), b);
+}
+
+#[test]
+fn ply_header_counts_beyond_the_data_are_refused_without_allocating() {
+    // Counts of 2^31 − 1 (25 GB of vertices if reserved up front), 2^63 and usize::MAX over a
+    // body of a few bytes: each must end in "end of file" at the first missing element.
+    let body = format!("{TET_VERTS}{TET_FACES}");
+    for big in ["2147483647", "9223372036854775808", "18446744073709551615"] {
+        let e = ply_err(&ascii_tet(big, "4", &body));
+        assert!(e.contains("line 14") && e.contains("vertex 4 of") && e.contains("too many"), "{e}");
+        let e = ply_err(&ascii_tet("4", big, &body));
+        assert!(e.contains("face 4 of") && e.contains("end of file"), "{e}");
+        let e = ply_err(&binary_tet(big, "4", 4, 4));
+        assert!(e.contains("vertex") && e.contains("byte") && e.contains("end of file"), "{e}");
+        let e = ply_err(&binary_tet("4", big, 4, 4));
+        assert!(e.contains("face 4 of") && e.contains("byte") && e.contains("end of file"), "{e}");
+    }
+    // The same through the gzip path of `TriangleMesh::load`.
+    let d = tmp_dir("huge");
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(&binary_tet("2147483647", "4", 4, 4)).unwrap();
+    let p = write(&d, "huge.ply.gz", &gz.finish().unwrap());
+    let e = format!("{:#}", TriangleMesh::load(&p).unwrap_err());
+    assert!(e.contains("huge.ply.gz") && e.contains("end of file"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+    // An element without properties cannot prove any count.
+    let e = ply_err(b"ply\nformat binary_little_endian 1.0\nelement junk 9223372036854775807\nend_header\n");
+    assert!(e.contains("junk") && e.contains("no properties"), "{e}");
+    // A list length beyond the data.
+    let e = ply_err(&ascii_tet("4", "1", &format!("{TET_VERTS}200 0 1 2\n")));
+    assert!(e.contains("line 14") && e.contains("list length 200"), "{e}");
+}
+
+#[test]
+fn ascii_ply_lines_must_match_the_header() {
+    // A vertex line with 5 values for 3 properties (the data after it would shift).
+    let e = ply_err(&ascii_tet("4", "4", &format!("0 0 0\n1 0 0 7 8\n0 1 0\n0 0 1\n{TET_FACES}")));
+    assert!(e.contains("line 11") && e.contains("vertex 1 of 4") && e.contains("2 value(s) too many"), "{e}");
+    // Too few values.
+    let e = ply_err(&ascii_tet("4", "4", &format!("0 0 0\n1 0\n0 1 0\n0 0 1\n{TET_FACES}")));
+    assert!(e.contains("line 11") && e.contains("too few values"), "{e}");
+    // A header claiming 5 vertices over 4 lines: the first face line is not a vertex.
+    let e = ply_err(&ascii_tet("5", "4", &format!("{TET_VERTS}{TET_FACES}")));
+    assert!(e.contains("line 14") && e.contains("vertex 4 of 5"), "{e}");
+    // Faces with 0, 1 and 2 indices.
+    for (k, f) in ["0", "1 0", "2 0 1"].iter().enumerate() {
+        let e = ply_err(&ascii_tet("4", "1", &format!("{TET_VERTS}{f}\n")));
+        assert!(e.contains("line 14") && e.contains(&format!("{k} vertex indices")), "{e}");
+    }
+    // Junk after the last face, and a face more than the header declares.
+    let e = ply_err(&ascii_tet("4", "4", &format!("{TET_VERTS}{TET_FACES}\nhello\n")));
+    assert!(e.contains("line 19") && e.contains("after the last element"), "{e}");
+    let e = ply_err(&ascii_tet("4", "3", &format!("{TET_VERTS}{TET_FACES}")));
+    assert!(e.contains("line 17") && e.contains("after the last element"), "{e}");
+    // A fractional or out-of-range integer, and a non-number.
+    let e = ply_err(&ascii_tet("4", "1", &format!("{TET_VERTS}3 0 1.5 2\n")));
+    assert!(e.contains("line 14") && e.contains("'1.5'"), "{e}");
+    let e = ply_err(&ascii_tet("4", "1", &format!("{TET_VERTS}300 0 1 2\n")));
+    assert!(e.contains("line 14") && e.contains("uchar"), "{e}");
+    let e = ply_err(&ascii_tet("4", "1", &format!("0 0 0\n1 0 0\n0 x 0\n0 0 1\n3 0 1 2\n")));
+    assert!(e.contains("line 12") && e.contains("'x'"), "{e}");
+    // A non-finite normal.
+    let n = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n\
+             property float nx\nproperty float ny\nproperty float nz\nend_header\n0 0 0 0 inf 0\n";
+    let e = ply_err(n.as_bytes());
+    assert!(e.contains("line 11") && e.contains("non-finite normal"), "{e}");
+}
+
+#[test]
+fn binary_ply_body_must_have_the_declared_size() {
+    // A short vertex list: 4 declared, 3 present (the faces would be read as the 4th vertex).
+    let e = ply_err(&binary_tet("4", "4", 3, 4));
+    assert!(e.contains("byte"), "{e}");
+    // Faces missing, and a face more than declared.
+    let e = ply_err(&binary_tet("4", "4", 4, 3));
+    assert!(e.contains("face 3 of 4") && e.contains("end of file"), "{e}");
+    let e = ply_err(&binary_tet("4", "3", 4, 4));
+    assert!(e.contains("byte") && e.contains("after the last element"), "{e}");
+    // A face of two indices.
+    let mut b = binary_tet("4", "1", 4, 0);
+    b.push(2);
+    b.extend_from_slice(&0i32.to_le_bytes());
+    b.extend_from_slice(&1i32.to_le_bytes());
+    let e = ply_err(&b);
+    assert!(e.contains("face 0 of 1") && e.contains("2 vertex indices"), "{e}");
+}
+
+#[test]
+fn obj_errors_name_the_line() {
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    for (text, needle) in [
+        (format!("{tri}v 1e39 0 0\nf 1 2 3\n"), "line 4"),
+        (format!("{tri}vn 0 inf 1\nf 1 2 3\n"), "line 4"),
+        (format!("{tri}v 1 1 1 0\nf 1 2 3\n"), "line 4"),
+        (format!("{tri}f 1 2 0\n"), "line 4"),
+        (format!("{tri}f 1 2 -4\n"), "line 4"),
+        (format!("{tri}f 1 2 4294967299\n"), "line 4"),
+        (format!("{tri}f 1 2 -9223372036854775808\n"), "line 4"),
+        (format!("{tri}f 1 2\n"), "line 4"),
+        (format!("{tri}f 1/1 2/1 3/1\n"), "texture coordinate index 1 out of range"),
+        (format!("{tri}f 1//2 2//2 3//2\n"), "normal index 2 out of range"),
+        (format!("{tri}f 1 2 x\n"), "line 4"),
+        (format!("f 1 2 3\n{tri}"), "line 1"),
+    ] {
+        let e = format!("{:#}", render::shape::mesh::parse_obj(text.as_bytes(), "t").expect_err(&text));
+        assert!(e.contains(needle) && !e.contains('\n'), "{text:?}: {e}");
+    }
+    // Relative indices and a w coordinate are fine.
+    let ok = render::shape::mesh::parse_obj(format!("{tri}v 2 2 2 2\nf -4 -3 -2\nf 1 2 4\n").as_bytes(), "t").unwrap();
+    assert_eq!(ok[0].1.indices.len(), 2);
+}
+
+#[test]
+fn shared_meshes_still_load() {
+    // The full-resolution dragon lives in the shared data folder, next to the repository.
+    let shared = repo().join("../shared/data/meshes");
+    for (f, nv, nt) in [("dragon-871k.ply.gz", 437645, 871414), ("bunny.ply", 1839, 3674), ("dragon-48k.ply", 22998, 47794)] {
+        let p = shared.join(f);
+        if !p.exists() {
+            eprintln!("skipping {}: not present", p.display());
+            continue;
+        }
+        let m = load_one(&p);
+        assert_eq!((m.positions.len(), m.indices.len()), (nv, nt), "{f}");
+    }
+    for f in ["scenes/meshes/tumbler.obj", "scenes/meshes/milk.obj", "crates/render/data/cornell-box/cbox_tri.obj"] {
+        assert!(!TriangleMesh::load(&repo().join(f)).unwrap_or_else(|e| panic!("{e:#}")).is_empty(), "{f}");
+    }
 }

@@ -1,6 +1,6 @@
 //! Tests of the `volpath` integrator and homogeneous media: energy conservation (furnace),
 //! Beer–Lambert transmittance, unbiased spectral free-flight sampling, agreement with the
-//! layered-slab Monte Carlo (`render::slab`), agreement with `path` without media, and scene errors.
+//! layered-slab Monte Carlo (`optics::slab`), agreement with `path` without media, and scene errors.
 
 #[allow(unused_imports)]
 use crate::common::*;
@@ -305,7 +305,7 @@ fn similarity_option_reduces_the_medium() {
     assert!(e.contains("similarity") && e.contains("true or false"), "{e}");
 }
 
-/// Against the layered-slab Monte Carlo (`render::slab`, MCML-style, independent code): a thick
+/// Against the layered-slab Monte Carlo (`optics::slab`, MCML-style, independent code): a thick
 /// index-matched slab (albedo 0.9, g = 0.5, n = 1) seen along its normal under a uniform
 /// environment has radiance equal to its directional-hemispherical albedo for normal incidence
 /// (reciprocity), which is the slab program's diffuse reflectance R_d.
@@ -342,10 +342,10 @@ radiance = 1
     );
     let s = scene(&text);
     let (m, se) = mean_y(&s, &volpath(100_000), 400, 11);
-    let mut set = render::slab::SlabSettings::new(vec![render::slab::Layer { mua_per_mm: mua, mus_per_mm: mus, g, n: 1.0, thickness_mm: f64::INFINITY }]);
+    let mut set = optics::slab::SlabSettings::new(vec![optics::slab::Layer { mua_per_mm: mua, mus_per_mm: mus, g, n: 1.0, thickness_mm: f64::INFINITY }]);
     set.photons = 400_000;
     set.seed = 5;
-    let r = render::slab::simulate(&set).unwrap();
+    let r = optics::slab::simulate(&set).unwrap();
     let tol = 4.0 * (se * se + r.rd_stderr * r.rd_stderr).sqrt();
     eprintln!("slab: volpath {m} ± {se}, slab R_d {} ± {}", r.rd, r.rd_stderr);
     assert!((m - r.rd).abs() < tol, "volpath {m} ± {se} vs slab R_d {} ± {}", r.rd, r.rd_stderr);

@@ -4,10 +4,26 @@
 //! transport in multi-layered tissues", Comput. Methods Programs Biomed. 47 (1995) 131–146:
 //! a pencil beam enters at normal incidence at the origin; each photon packet carries a
 //! weight; free paths are sampled with dimensionless optical depth −ln ξ, spent across
-//! layers; at each interaction a fraction μa/μt of the weight is absorbed and the packet is
+//! layers; at each interaction a fraction σ_a/σ_t of the weight is absorbed and the packet is
 //! scattered with the Henyey–Greenstein phase function; at interfaces between different
 //! refractive indices the packet is reflected or transmitted with the Fresnel probability
-//! (all-or-none); packets below a weight threshold play Russian roulette.
+//! (all-or-none); packets below a weight threshold play Russian roulette. (MCML writes the
+//! coefficients μa, μs; this project writes σ_a, σ_s, as in pbrt and the radiative-transfer
+//! literature. The field names `mua_per_mm`, `mus_per_mm` keep MCML's spelling.)
+//!
+//! Termination: every walk ends with probability 1 except one, which [`validate`] refuses: a
+//! semi-infinite layer that scatters but does not absorb (σ_a = 0, σ_s > 0). There a packet's
+//! return to the surface is certain but its expected number of steps is infinite (the
+//! first-return time of a random walk in a half-space has a tail ∝ n^(−1/2); Feller, *An
+//! Introduction to Probability Theory and Its Applications* I, ch. III), so a run of N photons
+//! needs of order N² steps. Tiny absorption has the same tail up to ~σ_t/σ_a steps, so each packet
+//! is also held to [`SlabSettings::max_steps_per_photon`] free flights: a packet still alive then is
+//! dropped and counted ([`SlabResult::photons_truncated`]), and its weight
+//! ([`SlabResult::truncated_weight`]) is missing from R_d, the absorbed fraction and T_t, each of
+//! which is therefore biased low by at most that amount (their sum by exactly that amount). The
+//! default cap, 10⁶ steps, is not reached in practice in media of albedo up to 0.9999: a packet's
+//! weight falls below the roulette threshold within ~10⁵ steps, and each further ~2·10⁴ steps
+//! need a roulette survival of probability 1/10.
 //!
 //! Units: lengths in millimetres and coefficients in mm⁻¹ (the conventional units of tissue
 //! optics, and those of the `lucent slab` command); every field names its unit.
@@ -16,7 +32,7 @@
 //!
 //! | case | published | lucent slab |
 //! |---|---|---|
-//! | n = 1, μa = 1, μs = 9 mm⁻¹, g = 0.75, d = 0.2 mm: R_d (van de Hulst, via MCML) | 0.09739 | 0.09748 ± 0.00007 (10⁷ photons) |
+//! | n = 1, σ_a = 1, σ_s = 9 mm⁻¹, g = 0.75, d = 0.2 mm: R_d (van de Hulst, via MCML) | 0.09739 | 0.09748 ± 0.00007 (10⁷ photons) |
 //! | same: T_t | 0.66096 | 0.66088 ± 0.00010 |
 //! | semi-infinite, n = 1.5, albedo 0.9, g = 0: R_sp + R_d (Giovanelli 1955) | 0.2600 | 0.25995 ± 0.00013 (5·10⁶) |
 //! | semi-infinite, n = 1, albedo 0.9, g = 0: 1 − H(1)√(1−a) (Chandrasekhar) | 0.41495 | 0.41488 ± 0.00035 (10⁶) |
@@ -25,39 +41,41 @@
 //! above (index `n_above`) and layer 1; the last layer may be semi-infinite.
 
 use anyhow::{bail, Result};
-use optics::fresnel::{cos_theta_transmitted, fresnel_dielectric};
-use optics::phase::HenyeyGreenstein;
+use crate::fresnel::{cos_theta_transmitted, fresnel_dielectric};
+use crate::phase::HenyeyGreenstein;
 use rayon::prelude::*;
 use std::time::Instant;
 
 /// One plane-parallel layer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Layer {
-    /// Absorption coefficient μa in mm⁻¹ (≥ 0).
+    /// Absorption coefficient σ_a in mm⁻¹ (≥ 0; MCML's μa).
     pub mua_per_mm: f64,
-    /// Scattering coefficient μs in mm⁻¹ (≥ 0).
+    /// Scattering coefficient σ_s in mm⁻¹ (≥ 0; MCML's μs).
     pub mus_per_mm: f64,
     /// Henyey–Greenstein asymmetry parameter, −1 < g < 1.
     pub g: f64,
     /// Refractive index (> 0).
     pub n: f64,
-    /// Thickness in mm (> 0); `f64::INFINITY` for a semi-infinite last layer.
+    /// Thickness in mm (> 0); `f64::INFINITY` for a semi-infinite last layer (which must absorb
+    /// if it scatters: see the module notes on termination).
     pub thickness_mm: f64,
 }
 
 impl Layer {
-    /// Check the values of one layer; the error names the field (MUA, MUS, G, N, THICKNESS_MM).
+    /// Check the values of one layer; the error names the field (SIGMA_A, SIGMA_S, G, N,
+    /// THICKNESS_MM, as in `lucent slab --layer`).
     pub fn validate(&self) -> Result<()> {
         let l = self;
         if !(l.mua_per_mm.is_finite() && l.mua_per_mm >= 0.0) {
             bail!(
-                "absorption coefficient MUA = {} must be finite and >= 0 (mm^-1)",
+                "absorption coefficient SIGMA_A = {} must be finite and >= 0 (mm⁻¹)",
                 l.mua_per_mm
             );
         }
         if !(l.mus_per_mm.is_finite() && l.mus_per_mm >= 0.0) {
             bail!(
-                "scattering coefficient MUS = {} must be finite and >= 0 (mm^-1)",
+                "scattering coefficient SIGMA_S = {} must be finite and >= 0 (mm⁻¹)",
                 l.mus_per_mm
             );
         }
@@ -114,11 +132,14 @@ pub struct SlabSettings {
     pub incidence_deg: f64,
     /// Diffuse reflectance along the x axis, if wanted.
     pub line: Option<LineGrid>,
+    /// Most free-flight steps one packet may take (≥ 1); a packet still alive after them is
+    /// dropped and counted in [`SlabResult::photons_truncated`] (see the module notes).
+    pub max_steps_per_photon: u64,
 }
 
 impl SlabSettings {
     /// Settings for a normally incident beam in air above and below, 10⁶ photons, seed 1,
-    /// no resolved tallies.
+    /// no resolved tallies, [`DEFAULT_MAX_STEPS_PER_PHOTON`].
     pub fn new(layers: Vec<Layer>) -> Self {
         SlabSettings {
             layers,
@@ -129,6 +150,7 @@ impl SlabSettings {
             radial: None,
             incidence_deg: 0.0,
             line: None,
+            max_steps_per_photon: DEFAULT_MAX_STEPS_PER_PHOTON,
         }
     }
 }
@@ -181,8 +203,13 @@ pub struct SlabResult {
     /// Standard error of `tt`.
     pub tt_stderr: f64,
     /// Net weight created by Russian roulette per photon (zero in expectation): the tallies
-    /// satisfy specular + rd + absorbed + tt − roulette_gain = 1 to rounding.
+    /// satisfy specular + rd + absorbed + tt + truncated_weight − roulette_gain = 1 to rounding.
     pub roulette_gain: f64,
+    /// Packets dropped alive at [`SlabSettings::max_steps_per_photon`] (0 in ordinary media).
+    pub photons_truncated: u64,
+    /// Their weight per incident photon (dimensionless): what R_d, absorbed and T_t together
+    /// miss, so each is biased low by at most this much.
+    pub truncated_weight: f64,
     /// R(r) when a radial grid was requested.
     pub radial: Option<RadialReflectance>,
     /// R(x, 0) when a line grid was requested.
@@ -232,6 +259,14 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
                 i + 1
             );
         }
+        if l.thickness_mm.is_infinite() && l.mua_per_mm == 0.0 && l.mus_per_mm > 0.0 {
+            bail!(
+                "layer {}: a semi-infinite layer that scatters needs absorption SIGMA_A > 0 (got 0): \
+                 without it a photon's walk has no bounded expected length and the run would not end; \
+                 give SIGMA_A > 0 or a finite THICKNESS_MM",
+                i + 1
+            );
+        }
     }
     for (name, n) in [("n-above", settings.n_above), ("n-below", settings.n_below)] {
         if !(n.is_finite() && n > 0.0) {
@@ -240,6 +275,9 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     }
     if settings.photons == 0 {
         bail!("photons must be at least 1");
+    }
+    if settings.max_steps_per_photon == 0 {
+        bail!("max-steps-per-photon must be at least 1");
     }
     if !(settings.incidence_deg >= 0.0 && settings.incidence_deg < 90.0) {
         bail!(
@@ -272,6 +310,8 @@ const CHUNK: u64 = 1 << 13;
 const GROUP: u64 = 64;
 /// Most bins a histogram may have.
 pub const MAX_BINS: usize = 100_000;
+/// Default of [`SlabSettings::max_steps_per_photon`]: ~0.05 s of one core per packet at worst.
+pub const DEFAULT_MAX_STEPS_PER_PHOTON: u64 = 1_000_000;
 /// Russian roulette: packets below this weight survive with probability 1/ROULETTE_M.
 const WEIGHT_THRESHOLD: f64 = 1e-4;
 const ROULETTE_M: f64 = 10.0;
@@ -304,6 +344,7 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         line_bins,
         line_max_mm,
         inv_dx: 1.0 / dx_mm,
+        max_steps: settings.max_steps_per_photon,
     };
     let chunks = settings.photons.div_ceil(CHUNK);
     let start = Instant::now();
@@ -393,6 +434,8 @@ pub fn simulate(settings: &SlabSettings) -> Result<SlabResult> {
         tt: total.tt / n,
         tt_stderr: stderr(total.tt, total.tt_sq),
         roulette_gain: total.roulette_gain / n,
+        photons_truncated: total.truncated,
+        truncated_weight: total.truncated_weight / n,
         radial,
         photons: settings.photons,
         photon_steps: total.steps,
@@ -468,6 +511,8 @@ struct Tally {
     line_sq: Vec<f64>,
     rd_x: f64,
     steps: u64,
+    truncated: u64,
+    truncated_weight: f64,
     /// CPU time of the thread that ran the chunk, when the platform tells it.
     cpu_ns: Option<u64>,
 }
@@ -490,6 +535,8 @@ impl Tally {
             line_sq: vec![0.0; line_bins],
             rd_x: 0.0,
             steps: 0,
+            truncated: 0,
+            truncated_weight: 0.0,
             cpu_ns: Some(0),
         }
     }
@@ -520,6 +567,8 @@ impl Tally {
         }
         self.rd_x += o.rd_x;
         self.steps += o.steps;
+        self.truncated += o.truncated;
+        self.truncated_weight += o.truncated_weight;
         self.cpu_ns = match (self.cpu_ns, o.cpu_ns) {
             (Some(a), Some(b)) => Some(a + b),
             _ => None,
@@ -536,6 +585,7 @@ struct Ctx<'a> {
     line_bins: usize,
     line_max_mm: f64,
     inv_dx: f64,
+    max_steps: u64,
 }
 
 impl Ctx<'_> {
@@ -550,6 +600,12 @@ impl Ctx<'_> {
         let mut absorbed = 0.0f64;
         let mut steps = 0u64;
         loop {
+            if steps == self.max_steps {
+                // Still alive at the cap: drop the packet and account for its weight.
+                t.truncated += 1;
+                t.truncated_weight += w;
+                break;
+            }
             steps += 1;
             let l = &self.layers[layer];
             if tau == 0.0 {

@@ -2,7 +2,7 @@
 //! radiative-transfer solution. Tolerances are three standard errors of the estimator
 //! (plus the rounding of the published value).
 
-use render::slab::{simulate, validate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
+use optics::slab::{simulate, validate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 
 fn layer(mua: f64, mus: f64, g: f64, n: f64, d: f64) -> Layer {
     Layer {
@@ -182,6 +182,8 @@ fn energy_is_conserved_exactly() {
         layer(0.05, 10.0, 0.9, 1.33, f64::INFINITY),
     ];
     let r = run(layers, 1.0, 1.0, 50_000, 16);
+    assert_eq!(r.photons_truncated, 0);
+    assert_eq!(r.truncated_weight, 0.0);
     let total = r.specular + r.rd + r.tt + r.absorbed;
     assert!((total - r.roulette_gain - 1.0).abs() < 1e-12, "{r:?}");
     assert!(r.roulette_gain.abs() < 0.01, "{r:?}");
@@ -290,14 +292,14 @@ fn bad_input_is_rejected_naming_the_field() {
             layers: vec![layer(-0.1, 1.0, 0.0, 1.4, 1.0)],
             ..base.clone()
         },
-        "MUA",
+        "SIGMA_A",
     );
     check(
         SlabSettings {
             layers: vec![layer(0.1, -1.0, 0.0, 1.4, 1.0)],
             ..base.clone()
         },
-        "MUS",
+        "SIGMA_S",
     );
     check(
         SlabSettings {
@@ -336,6 +338,13 @@ fn bad_input_is_rejected_naming_the_field() {
             ..base.clone()
         },
         "layer 1",
+    );
+    check(
+        SlabSettings {
+            max_steps_per_photon: 0,
+            ..base.clone()
+        },
+        "max-steps-per-photon",
     );
     check(
         SlabSettings {
@@ -589,4 +598,97 @@ fn clear_index_matched_cover_changes_nothing() {
         covered.rd
     );
     assert!(covered.absorbed_per_layer[0] == 0.0);
+}
+
+/// One thread, as `lucent slab --threads 1` runs it.
+fn run_one_thread(s: &SlabSettings) -> anyhow::Result<SlabResult> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| simulate(s))
+}
+
+#[test]
+fn scattering_semi_infinite_layer_without_absorption_is_refused() {
+    // σ_a = 0, σ_s = 10 mm⁻¹, n = 1.4, semi-infinite (`lucent slab --layer 0,10,0,1.4,inf
+    // --photons 816 --threads 1` ran without end): a packet's return time has infinite mean.
+    for layers in [
+        vec![layer(0.0, 10.0, 0.0, 1.4, f64::INFINITY)],
+        vec![
+            layer(1.0, 5.0, 0.5, 1.3, 0.1),
+            layer(0.0, 10.0, 0.0, 1.4, f64::INFINITY),
+        ],
+    ] {
+        let last = layers.len();
+        let s = SlabSettings {
+            photons: 816,
+            ..SlabSettings::new(layers)
+        };
+        let start = std::time::Instant::now();
+        let e = run_one_thread(&s).unwrap_err().to_string();
+        assert!(start.elapsed().as_secs_f64() < 1.0, "refusal took {:?}", start.elapsed());
+        assert!(e.starts_with(&format!("layer {last}:")), "{e}");
+        assert!(e.contains("SIGMA_A") && e.contains("semi-infinite"), "{e}");
+        assert!(!e.contains('\n'), "one line: {e}");
+        assert_eq!(validate(&s).unwrap_err().to_string(), e);
+    }
+    // A clear semi-infinite layer (no scattering either) is fine: everything is transmitted.
+    let r = run(vec![layer(0.0, 0.0, 0.0, 1.4, f64::INFINITY)], 1.0, 1.0, 816, 1);
+    assert!((r.specular + r.tt - 1.0).abs() < 1e-12, "{r:?}");
+}
+
+#[test]
+fn semi_infinite_layer_with_tiny_absorption_ends() {
+    // Albedo 0.9999 (σ_a = 10⁻³, σ_s = 10 mm⁻¹): long walks, but absorption and roulette end
+    // each one well before the step cap.
+    let s = SlabSettings {
+        photons: 816,
+        ..SlabSettings::new(vec![layer(1e-3, 10.0, 0.0, 1.4, f64::INFINITY)])
+    };
+    let r = run_one_thread(&s).unwrap();
+    assert_eq!(r.photons_truncated, 0, "{r:?}");
+    let total = r.specular + r.rd + r.tt + r.absorbed;
+    assert!((total - r.roulette_gain - 1.0).abs() < 1e-12, "{r:?}");
+    // Nearly conservative half-space: most of the light comes back.
+    assert!(r.rd > 0.6 && r.tt == 0.0, "{r:?}");
+}
+
+#[test]
+fn step_cap_drops_and_reports_the_walks_it_cuts() {
+    // A cap far below the typical walk (albedo 0.99, ~10² steps): many packets are dropped,
+    // counted, and their weight closes the energy balance.
+    let s = SlabSettings {
+        photons: 5000,
+        seed: 3,
+        max_steps_per_photon: 20,
+        ..SlabSettings::new(vec![layer(0.01, 1.0, 0.0, 1.0, f64::INFINITY)])
+    };
+    let r = simulate(&s).unwrap();
+    assert!(r.photons_truncated > 100 && r.photons_truncated < s.photons, "{r:?}");
+    assert!(r.truncated_weight > 0.0, "{r:?}");
+    assert!(r.photon_steps <= 20 * s.photons, "{r:?}");
+    let total = r.specular + r.rd + r.tt + r.absorbed + r.truncated_weight;
+    assert!((total - r.roulette_gain - 1.0).abs() < 1e-12, "{r:?}");
+    // The dropped weight is missing from R_d: the capped R_d lies below the uncapped one.
+    let full = simulate(&SlabSettings {
+        max_steps_per_photon: u64::MAX,
+        ..s.clone()
+    })
+    .unwrap();
+    assert_eq!(full.photons_truncated, 0);
+    assert!(r.rd < full.rd, "capped {} vs full {}", r.rd, full.rd);
+    // The default cap is not reached in an ordinary medium, and then changes nothing.
+    let ordinary = SlabSettings {
+        photons: 20_000,
+        ..SlabSettings::new(vec![layer(0.1, 0.9, 0.0, 1.5, f64::INFINITY)])
+    };
+    let a = simulate(&ordinary).unwrap();
+    let b = simulate(&SlabSettings {
+        max_steps_per_photon: u64::MAX,
+        ..ordinary.clone()
+    })
+    .unwrap();
+    assert_eq!(a.photons_truncated, 0);
+    assert_eq!((a.rd, a.tt, a.absorbed, a.photon_steps), (b.rd, b.tt, b.absorbed, b.photon_steps));
 }
