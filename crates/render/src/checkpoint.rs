@@ -8,7 +8,7 @@
 //! height     u32      pixels
 //! scene_hash u64      FNV-1a 64 of scene content hash + resolution + integrator settings (see scene_hash)
 //! scene      u32 length + UTF-8   what was rendered (file path or "built-in Cornell box"), for messages
-//! integrator u8 kind (0 path, 1 direct, 2 ao), u32 max_depth, u32 rr_depth
+//! integrator u8 kind (IntegratorKind::code: 0 path, 1 direct, 2 ao, 3 volpath), u32 max_depth, u32 rr_depth
 //! target_spp u64      samples per pixel the run was asked for (0: none, e.g. --time)
 //! spp        u64      samples per pixel accumulated
 //! rejected   u64      non-finite samples counted as zero

@@ -9,7 +9,7 @@
 //! σ_a = 0.0115). Milks at η = 1.3 as in Jensen et al. The simulations use g = 0 with σ_s = σ'_s
 //! (these tables give only reduced coefficients; far from the source only σ'_s matters).
 //!
-//! Targets (issue 6): σ'_s within 5 %, σ_a within 20 %. The tabulated Monte Carlo model meets
+//! Targets (docs/inverse.md): σ'_s within 5 %, σ_a within 20 %. The tabulated Monte Carlo model meets
 //! both over the whole profile; the dipoles are fitted from 1 mm outwards (about 2–4 transport
 //! lengths), where diffusion holds — each test asserts what its model reaches (docs/inverse.md).
 
@@ -69,7 +69,7 @@ fn errors(c: &Case, p: &ReflectanceProfile, model: &ReflectanceModel, r_min_mm: 
     e
 }
 
-/// `mc_sp_tol`: tolerance on σ'_s with the Monte Carlo model (the issue's 5 %; the marble needed
+/// `mc_sp_tol`: tolerance on σ'_s with the Monte Carlo model (the documented 5 %; the marble needed
 /// the η = 1.5 table rebuilt with 6·10⁵ photons per albedo — with 2·10⁵ its far tail was 10 %
 /// high and σ'_s came back +5.2 %; now −0.2 to −0.7 % over seeds 101, 202, 303, see docs/inverse.md).
 /// `dip_tol`: (σ'_s, σ_a) tolerances for the standard dipole (10 %, 30 % for the milks; the

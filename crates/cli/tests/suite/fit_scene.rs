@@ -1,5 +1,5 @@
 //! `lucent fit scene` end to end: a round trip (render at known parameters, fit from 50 % off)
-//! and the bad-input errors of issue 6.
+//! and its bad-input errors.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

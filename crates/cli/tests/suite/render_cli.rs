@@ -372,7 +372,7 @@ fn lost_checkpoint_folder_still_yields_the_images() {
     assert!(img.rgb.iter().any(|p| p[1] > 0.0));
 }
 
-/// `lucent bench --json` prints the keys (the contract) with sane values; the packet,
+/// `lucent bench --json` prints the documented JSON keys (a contract for scripts) with sane values; the packet,
 /// batched and single-ray camera traversals found the same hits (the command checks and fails
 /// otherwise); `--scaling` adds the one-thread figure. Speeds are not asserted (benchmarks, not tests).
 #[test]

@@ -559,7 +559,7 @@ fn ray_source_leaving(m: &DirectionalDipole) -> f64 {
 }
 
 /// Analysis of the directional dipole's total diffuse reflectance at normal incidence, σ_a = 0
-/// (issue 5 measured rd = 1.346 at α' = 1, η = 1, where all entering light must leave).
+/// (the published model gives rd = 1.346 at α' = 1, η = 1, where all entering light must leave).
 /// With σ_tr = 0 every term of π∫S_d dA has a closed form except those of the real source:
 ///   π∫S_d dA = N/2 [C_φ/D ∫(1/d_r − 1/d_v) r dr + 3C_φ + C_E + 3DC_E ∫ r dr/d_r³],
 /// N = 1/(4C_φ(1/η)), d_v = √(r² + (2Ad_e)²). If the real source sat at constant depth c

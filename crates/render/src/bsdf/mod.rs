@@ -134,7 +134,7 @@ impl Bsdf {
             Bsdf::RoughDielectric { lobe, dispersive } => {
                 Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: lobe.distrib, eta: 1.0 / lobe.eta }, dispersive }
             }
-            other => other,
+            Bsdf::Diffuse { .. } | Bsdf::Black | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => self,
         }
     }
 

@@ -1,4 +1,4 @@
-//! Point-cloud BSSRDF rendering (issue 5, rendering part): rejection control is unbiased, a flat
+//! Point-cloud BSSRDF rendering: rejection control is unbiased, a flat
 //! slab under uniform light reproduces the standard dipole's closed-form total diffuse
 //! reflectance, zero albedo gives zero, the cost per shading point is far below M, bad input;
 //! the rough boundary: roughness 0 is the smooth boundary bit for bit, the rough reflection lobe
