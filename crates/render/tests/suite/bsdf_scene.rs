@@ -1,4 +1,4 @@
-//! Scene-file syntax of the dielectric, conductor and plastic materials (dielectric, conductor, rough_*, plastic), their
+//! Scene-file syntax of the dielectric, conductor, rough_* and plastic materials, their
 //! errors, and furnace renders of the new BSDFs through the path tracer.
 
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
