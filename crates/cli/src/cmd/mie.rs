@@ -21,7 +21,7 @@ pub struct Args {
     #[arg(long = "radius-um", allow_hyphen_values = true)]
     pub radius_um: Option<String>,
     /// Vacuum wavelength in nm.
-    #[arg(long = "wavelength-nm", allow_hyphen_values = true)]
+    #[arg(long = "wavelength-nm", alias = "lambda-nm", allow_hyphen_values = true)]
     pub wavelength_nm: Option<String>,
     /// Particle refractive index `RE` or `RE+IMi`.
     #[arg(long = "n-particle", allow_hyphen_values = true)]
@@ -38,6 +38,41 @@ pub struct Args {
     /// Draw the phase function (polar, log scale) to this SVG file.
     #[arg(long)]
     pub plot: Option<std::path::PathBuf>,
+}
+
+/// clap value parser for numeric flags: a finite number (NaN and ±inf are refused).
+pub(crate) fn finite_f64(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("{s:?} is not a finite number"));
+    }
+    Ok(v)
+}
+
+/// A measured quantity in text output: `digits` significant digits, trailing zeros dropped,
+/// exponent notation outside [10⁻⁴, 10^digits) (JSON output keeps full precision).
+pub(crate) fn sig(v: f64, digits: usize) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = digits.max(1);
+    let e = v.abs().log10().floor() as i32;
+    if (-4..digits as i32).contains(&e) {
+        let decimals = (digits as i32 - 1 - e).max(0) as usize;
+        let t = format!("{v:.decimals$}");
+        let t = if t.contains('.') { t.trim_end_matches('0').trim_end_matches('.').to_string() } else { t };
+        // rounding may carry into a new digit (9.9999996 → 10.000000): still correct
+        if t == "-0" { "0".into() } else { t }
+    } else {
+        let t = format!("{v:.*e}", digits - 1);
+        match t.split_once('e') {
+            Some((mant, exp)) if mant.contains('.') => format!("{}e{exp}", mant.trim_end_matches('0').trim_end_matches('.')),
+            _ => t,
+        }
+    }
 }
 
 /// Parse a finite number given to `flag`.
@@ -114,7 +149,7 @@ pub fn run(args: Args) -> Result<()> {
             None => Complex64::new(1.0, 0.0),
         };
         let x = nm * (2.0 * PI * r_um * 1e3 / l_nm);
-        check_x(x.norm())?;
+        mie::check_size(x, np / nm).context("--radius-um, --wavelength-nm, --n-particle, --n-medium")?;
         let alpha = 2.0 * x.im;
         if alpha > mie::MAX_HOST_ATTENUATION {
             bail!("--n-medium: the host absorbs too strongly for this sphere (4πr·n″/λ = {alpha:.3} > {}): the light dies out inside one diameter", mie::MAX_HOST_ATTENUATION);
@@ -124,7 +159,7 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         let x = positive("--x", args.x.as_deref().ok_or_else(|| anyhow!("--x is required (or use --radius-um …)"))?)?;
         let m = index("--m", args.m.as_deref().ok_or_else(|| anyhow!("--m is required"))?)?;
-        check_x(x)?;
+        mie::check_size(Complex64::new(x, 0.0), m).context("--x, --m")?;
         (Complex64::new(x, 0.0), m, None)
     };
     let eff = match &sphere {
@@ -179,32 +214,27 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         println!("{}", Value::Object(out));
     } else {
-        println!("x      {:>14.6}", x.re);
+        println!("{:<8} {:>14}", "x", sig(x.re, 7));
         if x.im != 0.0 {
-            println!("x_im   {:>14.6e}", x.im);
+            println!("{:<8} {:>14}", "x_im", sig(x.im, 7));
         }
-        println!("m      {:>14.6} {:+.6e}i", m.re, m.im);
-        println!("terms  {:>14}", eff.terms);
-        for k in ["qext", "qsca", "qabs", "qback", "g", "c_ext_m2", "c_sca_m2", "c_abs_m2"] {
+        let m_im = if m.im == 0.0 { String::new() } else { format!("{}{}i", if m.im < 0.0 { "-" } else { "+" }, sig(m.im.abs(), 7)) };
+        println!("{:<8} {:>14}{m_im}", "m", sig(m.re, 7));
+        println!("{:<8} {:>14}", "terms", eff.terms);
+        for (k, unit) in [("qext", ""), ("qsca", ""), ("qabs", ""), ("qback", ""), ("g", ""), ("c_ext_m2", " m²"), ("c_sca_m2", " m²"), ("c_abs_m2", " m²")] {
             if let Some(v) = out.get(k) {
-                println!("{k:<8} {:>14.7e}", v.as_f64().unwrap_or(f64::NAN));
+                println!("{k:<8} {:>14}{unit}", sig(v.as_f64().unwrap_or(f64::NAN), 7));
             }
         }
         if let Some(theta) = &theta {
-            println!("{:>10} {:>14} {:>14} {:>14} {:>14} {:>14}", "theta_deg", "S1.re", "S1.im", "S2.re", "S2.im", "p [1/sr]");
+            println!("{:>10} {:>14} {:>14} {:>14} {:>14} {:>14}", "theta_deg", "s1_re", "s1_im", "s2_re", "s2_im", "phase_per_sr");
             for &t in theta {
                 let mu = t.to_radians().cos();
                 let (s1, s2) = mie::amplitudes(&a, &b, mu);
-                println!("{t:>10.3} {:>14.6e} {:>14.6e} {:>14.6e} {:>14.6e} {:>14.6e}", s1.re, s1.im, s2.re, s2.im, mie::phase_function(&a, &b, mu));
+                let p = mie::phase_function(&a, &b, mu);
+                println!("{:>10} {:>14} {:>14} {:>14} {:>14} {:>14}", sig(t, 6), sig(s1.re, 7), sig(s1.im, 7), sig(s2.re, 7), sig(s2.im, 7), sig(p, 7));
             }
         }
-    }
-    Ok(())
-}
-
-fn check_x(x: f64) -> Result<()> {
-    if x > 1e6 {
-        bail!("size parameter {x:.3e} is above the supported 1e6");
     }
     Ok(())
 }
