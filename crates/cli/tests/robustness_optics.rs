@@ -227,7 +227,7 @@ fn binned_profile(h: f64) -> PathBuf {
         let r = (k as f64 + 0.5) * h;
         s.push_str(&format!("{r},{}\n", dipole_rd_per_mm2(r, 0.01, 1.0, 1.33)));
     }
-    tmp("binned.csv", &s)
+    tmp(&format!("binned-{h}.csv"), &s)
 }
 
 #[test]
@@ -242,7 +242,7 @@ fn fit_refuses_non_finite_numbers() {
         a.extend([flag, v]);
         refused(&a, &[flag]);
     }
-    refused(&["fit", "reflectance", p, "--eta", "1.33", "--r-min-mm", "-1"], &["--r-min-mm"]);
+    refused(&["fit", "reflectance", p, "--eta", "1.33", "--r-min-mm=-1"], &["--r-min-mm"]);
     refused(&["fit", "oblique", p, "--eta", "1.33", "--incidence-deg", "nan"], &["--incidence-deg"]);
     refused(&["fit", "particles", p, "--medium", "milk", "--protein-percent", "inf"], &["--protein-percent"]);
 }
