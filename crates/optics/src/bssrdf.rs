@@ -23,13 +23,15 @@ use std::sync::OnceLock;
 // ---------------------------------------------------------------------------------------------
 
 /// Diffuse Fresnel reflectance F_dr(η) of the inner side of the boundary, rational fit of Egan &
-/// Hilgeman (1973) as used by Jensen et al. 2001: −1.440/η² + 0.710/η + 0.668 + 0.0636η.
+/// Hilgeman (1973) as used by Jensen et al. 2001: −1.440/η² + 0.710/η + 0.668 + 0.0636η;
+/// accurate within [`EGAN_HILGEMAN_ETA_RANGE`] only (see [`fdr`] for every η).
 pub fn fdr_egan_hilgeman(eta: f64) -> f64 {
     -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
 }
 
 /// Fresnel moment fit 2C₁(η) = 2∫₀¹ R(μ) μ dμ for light inside a medium of relative index η hitting
-/// its boundary (d'Eon & Irving 2011, as used by Frisvad et al. 2014), η > 0.
+/// its boundary (d'Eon & Irving 2011, as used by Frisvad et al. 2014); accurate within
+/// [`MOMENT_FIT_ETA_RANGE`] only (see [`two_c1_moment`] for every η).
 pub fn two_c1(eta: f64) -> f64 {
     let n = eta;
     if n < 1.0 {
@@ -39,7 +41,8 @@ pub fn two_c1(eta: f64) -> f64 {
     }
 }
 
-/// Fresnel moment fit 3C₂(η) = 3∫₀¹ R(μ) μ² dμ (d'Eon & Irving 2011), η > 0.
+/// Fresnel moment fit 3C₂(η) = 3∫₀¹ R(μ) μ² dμ (d'Eon & Irving 2011); accurate within
+/// [`MOMENT_FIT_ETA_RANGE`] only (see [`three_c2_moment`] for every η).
 pub fn three_c2(eta: f64) -> f64 {
     let n = eta;
     if n < 1.0 {
@@ -51,20 +54,68 @@ pub fn three_c2(eta: f64) -> f64 {
     }
 }
 
-/// C_φ(η) = (1 − 2C₁(η))/4 (fluence boundary term).
-pub fn c_phi(eta: f64) -> f64 {
-    0.25 * (1.0 - two_c1(eta))
+/// Supported relative indices η of the dipole models ([`OpticalProperties::validate`]).
+pub const ETA_RANGE: [f64; 2] = [0.01, 100.0];
+
+/// η where the d'Eon–Irving fits [`two_c1`] and [`three_c2`] are used by [`c_phi`] and [`c_e`]:
+/// there they lie within 0.007 of the numerical moments (A(η) within 0.3 %); beyond it the
+/// polynomials diverge (2C₁ > 1 from η ≈ 2.7, A < 0), so the moments are integrated numerically
+/// ([`crate::fresnel::fresnel_moment`]).
+pub const MOMENT_FIT_ETA_RANGE: [f64; 2] = [0.4, 2.0];
+
+/// η where [`fdr_egan_hilgeman`] is used by [`a_standard`]: there A(η) is within 0.1 % of the
+/// numerical F_dr = 2C₁(1/η); below η = 1 the fit goes negative and above η ≈ 2.5 it grows
+/// beyond 0.9 (and 1 at η ≈ 4), so F_dr is integrated numerically outside.
+pub const EGAN_HILGEMAN_ETA_RANGE: [f64; 2] = [1.0, 2.0];
+
+fn within(eta: f64, r: [f64; 2]) -> bool {
+    eta >= r[0] && eta <= r[1]
 }
 
-/// C_E(η) = (1 − 3C₂(η))/2 (flux boundary term).
+/// 2C₁(η) for light inside a medium of relative index η: [`two_c1`] within
+/// [`MOMENT_FIT_ETA_RANGE`], else 2∫₀¹ R(μ; 1/η) μ dμ by quadrature.
+pub fn two_c1_moment(eta: f64) -> f64 {
+    if within(eta, MOMENT_FIT_ETA_RANGE) {
+        two_c1(eta)
+    } else {
+        2.0 * crate::fresnel::fresnel_moment(1, 1.0 / eta)
+    }
+}
+
+/// 3C₂(η) for light inside a medium of relative index η: [`three_c2`] within
+/// [`MOMENT_FIT_ETA_RANGE`], else 3∫₀¹ R(μ; 1/η) μ² dμ by quadrature.
+pub fn three_c2_moment(eta: f64) -> f64 {
+    if within(eta, MOMENT_FIT_ETA_RANGE) {
+        three_c2(eta)
+    } else {
+        3.0 * crate::fresnel::fresnel_moment(2, 1.0 / eta)
+    }
+}
+
+/// C_φ(η) = (1 − 2C₁(η))/4 (fluence boundary term), 2C₁ from [`two_c1_moment`].
+pub fn c_phi(eta: f64) -> f64 {
+    0.25 * (1.0 - two_c1_moment(eta))
+}
+
+/// C_E(η) = (1 − 3C₂(η))/2 (flux boundary term), 3C₂ from [`three_c2_moment`].
 pub fn c_e(eta: f64) -> f64 {
-    0.5 * (1.0 - three_c2(eta))
+    0.5 * (1.0 - three_c2_moment(eta))
+}
+
+/// Diffuse Fresnel reflectance F_dr(η) of the inner side used by the standard dipole:
+/// [`fdr_egan_hilgeman`] within [`EGAN_HILGEMAN_ETA_RANGE`], else 2C₁(1/η) by quadrature.
+pub fn fdr(eta: f64) -> f64 {
+    if within(eta, EGAN_HILGEMAN_ETA_RANGE) {
+        fdr_egan_hilgeman(eta)
+    } else {
+        2.0 * crate::fresnel::fresnel_moment(1, 1.0 / eta)
+    }
 }
 
 /// Boundary mismatch A(η) = (1 + F_dr)/(1 − F_dr) of the standard dipole (Jensen et al. 2001),
-/// with F_dr from [`fdr_egan_hilgeman`].
+/// with F_dr from [`fdr`] (≥ 1 for every supported η, so R_d stays in [0, α']).
 pub fn a_standard(eta: f64) -> f64 {
-    let f = fdr_egan_hilgeman(eta);
+    let f = fdr(eta);
     (1.0 + f) / (1.0 - f)
 }
 
@@ -112,7 +163,7 @@ pub struct DerivedProperties {
 }
 
 impl OpticalProperties {
-    /// Checks the inputs: finite; η > 0; σ'_t > 0; α' ∈ [0, 1]; σ_s, σ_a ≥ 0; −1 < g < 1.
+    /// Checks the inputs: finite; η in [`ETA_RANGE`]; σ'_t > 0; α' ∈ [0, 1]; σ_s, σ_a ≥ 0; −1 < g < 1.
     /// Errors name the offending field.
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [
@@ -127,6 +178,12 @@ impl OpticalProperties {
         }
         if !(self.eta > 0.0) {
             bail!("eta must be > 0 (got {})", self.eta);
+        }
+        if !within(self.eta, ETA_RANGE) {
+            bail!(
+                "eta must lie in [{}, {}] (got {}): the diffusion boundary terms are supported there (Fresnel-moment fits within [{}, {}], numerical moments outside)",
+                ETA_RANGE[0], ETA_RANGE[1], self.eta, MOMENT_FIT_ETA_RANGE[0], MOMENT_FIT_ETA_RANGE[1]
+            );
         }
         if !(self.g > -1.0 && self.g < 1.0) {
             bail!("g must lie in (-1, 1) (got {})", self.g);
@@ -212,8 +269,13 @@ impl StandardDipole {
         let s = self.props.sigma_tr_per_m;
         let r2 = r_m * r_m;
         let term = |z: f64| {
-            let d = (r2 + z * z).sqrt();
-            z * (1.0 + s * d) * (-s * d).exp() / (d * d * d)
+            let d2 = r2 + z * z;
+            let d = if d2.is_finite() { d2.sqrt() } else { r_m.hypot(z) };
+            let e = (-s * d).exp();
+            if e == 0.0 {
+                return 0.0; // also where (1 + σ_tr d) or d³ overflow: the term underflows to 0
+            }
+            z * (1.0 + s * d) * e / (d * d * d)
         };
         self.props.alpha_prime / (4.0 * PI) * (term(self.z_r_m) + term(self.z_v_m))
     }

@@ -5,8 +5,14 @@
 // NaN-rejecting comparisons (`!(x > 0.0)`) are deliberate.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::spectrum::{LAMBDA_MIN_NM, N_DENSE};
 use std::sync::OnceLock;
+
+/// Shortest wavelength of the visible range used for colour (nm), start of the CIE table.
+pub const LAMBDA_MIN_NM: f64 = 360.0;
+/// Longest wavelength of the visible range used for colour (nm), end of the CIE table.
+pub const LAMBDA_MAX_NM: f64 = 830.0;
+/// Number of 1-nm samples in [`LAMBDA_MIN_NM`], [`LAMBDA_MAX_NM`] inclusive.
+pub const N_DENSE: usize = 471;
 
 /// Σ ȳ(λ)·1 nm over the embedded CIE 1931 2° 1-nm table, 360–830 nm (nm); the test suite recomputes
 /// it. (pbrt-v4 quotes 106.856895 for its copy of the table, 2e-7 relative lower.)
@@ -18,7 +24,7 @@ fn cmf_table() -> &'static [[f64; 3]] {
     T.get_or_init(|| {
         let text = include_str!("../data/cie/cie1931_2deg_xyz_1nm.csv");
         let (_, cols) =
-            crate::spectrum::read_csv_columns(text).expect("embedded CIE table is valid");
+            crate::csv::read_csv_columns(text).expect("embedded CIE table is valid");
         assert_eq!(cols[0].len(), N_DENSE, "embedded CIE table has 471 rows");
         (0..N_DENSE)
             .map(|i| {

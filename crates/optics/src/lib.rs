@@ -3,6 +3,7 @@
 //! Units: SI inside (metres, m⁻¹, kelvin); wavelengths of spectra are in nanometres
 //! (every function and field names its unit, e.g. `lambda_nm`, `radius_m`).
 
+pub mod csv;
 pub mod spectrum;
 pub mod color;
 pub mod fresnel;

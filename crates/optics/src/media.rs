@@ -133,6 +133,18 @@ pub struct BulkProperties {
     pub phase: Option<PhaseTable>,
 }
 
+/// Largest number of angles of a tabulated phase function.
+pub const MAX_PHASE_ANGLES: usize = 100_000;
+
+/// Largest angular table of the phase function, series terms × angles (10⁷ entries, 160 MB).
+pub const MAX_PHASE_TABLE: f64 = 1e7;
+
+/// Largest estimated work of one [`bulk_properties`] call in recurrence steps: the sum over
+/// wavelengths and radius bins of [`mie::work_estimate`], plus terms × angles per bin for the
+/// phase function. 10¹⁰ steps are roughly a minute of one core; typical media (milk: 17
+/// wavelengths, 800 bins, x ≲ 100) need about 10⁷.
+pub const MAX_WORK: f64 = 1e10;
+
 /// Options of [`bulk_properties`] (default: no phase table).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct BulkOptions {
@@ -144,6 +156,8 @@ pub struct BulkOptions {
 struct Accum {
     sigma_s: f64,
     sigma_t: f64,
+    /// Σ C_abs N (exactly 0 for non-absorbing particles in a non-absorbing host).
+    sigma_a: f64,
     g_sigma_s: f64,
     phase: Vec<f64>,
 }
@@ -170,12 +184,13 @@ fn angular_table(mu: &[f64], terms: usize) -> (Vec<f64>, Vec<f64>) {
 fn component_at(ws: &mut MieWorkspace, comp: &Component, lambda_nm: f64, n_host: Complex64, mu: &[f64]) -> Accum {
     let lambda_m = lambda_nm * 1e-9;
     let n_p = comp.index.eval(lambda_nm);
-    let mut acc = Accum { sigma_s: 0.0, sigma_t: 0.0, g_sigma_s: 0.0, phase: vec![0.0; mu.len()] };
+    let mut acc = Accum { sigma_s: 0.0, sigma_t: 0.0, sigma_a: 0.0, g_sigma_s: 0.0, phase: vec![0.0; mu.len()] };
     let mut weights = Vec::with_capacity(comp.bins.radius_m.len());
     for (&r, &n) in comp.bins.radius_m.iter().zip(&comp.bins.number_per_m3) {
         let s = ws.sphere(r, lambda_m, n_p, n_host);
         acc.sigma_s += s.c_sca_m2 * n;
         acc.sigma_t += s.c_ext_m2 * n;
+        acc.sigma_a += s.c_abs_m2 * n;
         acc.g_sigma_s += s.eff.g * s.c_sca_m2 * n;
         weights.push(s.c_sca_m2 * n);
     }
@@ -242,12 +257,12 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
             }
         }
     }
+    let r_maxes: Vec<f64> = components.iter().map(|c| c.bins.radius_m.iter().cloned().fold(0.0, f64::max)).collect();
     for &l in lambda_nm {
         if !(l.is_finite() && l > 0.0) {
             bail!("wavelength {l} nm must be positive and finite");
         }
-        for c in components {
-            let r_max = c.bins.radius_m.iter().cloned().fold(0.0, f64::max);
+        for (c, &r_max) in components.iter().zip(&r_maxes) {
             let alpha = 4.0 * PI * r_max * host.eval(l).im / (l * 1e-9);
             if alpha > mie::MAX_HOST_ATTENUATION {
                 bail!("particle {:?}: the host absorbs too strongly at {l} nm for radius {:.3e} m (4πr·n″/λ = {alpha:.3} > {})", c.name, r_max, mie::MAX_HOST_ATTENUATION);
@@ -255,6 +270,10 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
         }
     }
     let na = options.phase_angles;
+    if na > MAX_PHASE_ANGLES {
+        bail!("phase_angles: at most {MAX_PHASE_ANGLES} angles are supported, got {na}");
+    }
+    check_work(lambda_nm, host, components, na)?;
     let theta_deg: Vec<f64> = (0..na).map(|j| if na == 1 { 0.0 } else { 180.0 * j as f64 / (na - 1) as f64 }).collect();
     let mu: Vec<f64> = theta_deg.iter().map(|t| t.to_radians().cos()).collect();
     let nc = components.len();
@@ -279,12 +298,12 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
     for (w, &l) in lambda_nm.iter().enumerate() {
         let lambda_m = l * 1e-9;
         let host_sa = 4.0 * PI * host.eval(l).im / lambda_m;
-        let (mut ss, mut st, mut gs) = (0.0, 0.0, 0.0);
+        let (mut ss, mut sa, mut gs) = (0.0, 0.0, 0.0);
         let mut p = vec![0.0; mu.len()];
         for c in 0..nc {
             let a = &results[w * nc + c];
             ss += a.sigma_s;
-            st += a.sigma_t;
+            sa += a.sigma_a;
             gs += a.g_sigma_s;
             for (pj, aj) in p.iter_mut().zip(&a.phase) {
                 *pj += aj;
@@ -294,10 +313,15 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
             cp.sigma_t_per_m.push(a.sigma_t);
             cp.g.push(if a.sigma_s > 0.0 { a.g_sigma_s / a.sigma_s } else { 0.0 });
         }
-        st += host_sa;
+        // σ_a from the absorption cross sections (so exactly 0 for a non-absorbing medium, not a
+        // round-off difference of σ_t and σ_s); a negative round-off of σ_a is clamped to 0.
+        sa += host_sa;
+        if sa < 0.0 && -sa <= 1e-9 * (ss + sa.abs()) {
+            sa = 0.0;
+        }
         out.sigma_s_per_m.push(ss);
-        out.sigma_t_per_m.push(st);
-        out.sigma_a_per_m.push(st - ss);
+        out.sigma_t_per_m.push(ss + sa);
+        out.sigma_a_per_m.push(sa);
         out.g.push(if ss > 0.0 { gs / ss } else { 0.0 });
         out.host_sigma_a_per_m.push(host_sa);
         if na > 0 {
@@ -313,6 +337,62 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
         out.phase = Some(phase);
     }
     Ok(out)
+}
+
+/// Refuses, before any allocation, sizes outside [`mie::check_size`] and jobs whose estimated
+/// work exceeds [`MAX_WORK`] or whose phase table exceeds [`MAX_PHASE_TABLE`].
+fn check_work(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Component], na: usize) -> Result<()> {
+    let mut work = 0.0;
+    let size_error = |c: &Component, l: f64, r: f64, e: anyhow::Error| {
+        anyhow!("particle {:?} at {l} nm, radius {:.4e} µm: {e}", c.name, r * 1e6)
+    };
+    let extremes: Vec<(f64, f64)> = components
+        .iter()
+        .map(|c| {
+            let r = &c.bins.radius_m;
+            (r.iter().cloned().fold(f64::INFINITY, f64::min), r.iter().cloned().fold(0.0, f64::max))
+        })
+        .collect();
+    for &l in lambda_nm {
+        let n_host = host.eval(l);
+        let k0 = 2.0 * PI / (l * 1e-9);
+        for (c, &(r_min, r_max)) in components.iter().zip(&extremes) {
+            let m = c.index.eval(l) / n_host;
+            if c.bins.radius_m.is_empty() {
+                continue;
+            }
+            for r in [r_max, r_min] {
+                mie::check_size(n_host * (k0 * r), m).map_err(|e| size_error(c, l, r, e))?;
+            }
+            let x_max = n_host * (k0 * r_max);
+            let terms = (x_max.norm() + 4.3 * x_max.norm().cbrt() + 1.0).ceil();
+            if terms * na as f64 > MAX_PHASE_TABLE {
+                bail!(
+                    "particle {:?} at {l} nm: a phase table of {na} angles × {terms} series terms exceeds the supported {MAX_PHASE_TABLE:e} entries (use fewer phase angles)",
+                    c.name
+                );
+            }
+            work += c.bins.radius_m.len() as f64 * (mie::work_estimate(x_max, m) + terms * na as f64);
+        }
+    }
+    if !(work <= MAX_WORK) {
+        bail!(
+            "the medium needs about {work:.2e} recurrence steps ({} wavelengths × radius bins × series terms), above the supported {MAX_WORK:e}: use fewer wavelengths, bins or phase angles",
+            lambda_nm.len()
+        );
+    }
+    // Every bin (the unsupported sizes need not lie at the ends of the grid).
+    for &l in lambda_nm {
+        let n_host = host.eval(l);
+        let k0 = 2.0 * PI / (l * 1e-9);
+        for c in components {
+            let m = c.index.eval(l) / n_host;
+            for &r in &c.bins.radius_m {
+                mie::check_size(n_host * (k0 * r), m).map_err(|e| size_error(c, l, r, e))?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Parse a wavelength list: `START:STOP:STEP` (inclusive) or comma-separated values, in nm.
@@ -601,6 +681,9 @@ impl Recipe {
             Some(l) => l.to_vec(),
             None => self.wavelengths_nm()?,
         };
+        if self.phase_angles > MAX_PHASE_ANGLES {
+            bail!("field phase_angles: at most {MAX_PHASE_ANGLES}, got {}", self.phase_angles);
+        }
         bulk_properties(&l, &host, &comps, &BulkOptions { phase_angles: self.phase_angles })
     }
 }

@@ -15,6 +15,16 @@
 //! Number of terms M = ⌈|x| + 4.3|x|^{1/3} + 1⌉ (10⁻⁸ error bound quoted in the tutorial).
 //! The logarithmic derivative D_n(z) is started at zero well above max(M, |z|): at
 //! max(M, |z|) + 16 + 4·max(M,|z|)^{1/3}. Starting it at M only is wrong for large |mx|.
+//!
+//! Supported sizes ([`check_size`]): the work is O(M) for the series and O(|mx|) for the
+//! downward recurrence, so both are bounded — at most [`MAX_TERMS`] terms (|x| ≲ 9.96·10⁵) and a
+//! recurrence start of at most [`MAX_DOWNWARD_START`] (|mx| ≲ 10⁷), about a tenth of a second
+//! each; the smallest size parameter is [`MIN_SIZE_PARAMETER`]. Spheres with |x| and |mx| both
+//! below [`SMALL_PARTICLE_LIMIT`] use the small-particle expansion of a₁, b₁, a₂ of Wiscombe
+//! (Appl. Opt. 19, 1505, 1980, eqs. R40–R42, here in the e^{−iωt} convention): the upward
+//! recurrence of ψ_n(x) loses about 10⁻¹⁶/x² relative accuracy to cancellation, the expansion
+//! errs by O(x⁶), so the switch at 0.01 keeps both near 10⁻¹². The functions that return numbers
+//! without a `Result` give NaN (or no coefficients) for unsupported sizes instead of hanging.
 
 /// Complex numbers used throughout (re-exported so callers need no direct dependency).
 pub use num_complex::Complex64;
@@ -32,9 +42,96 @@ pub fn number_of_terms(x_abs: f64) -> usize {
 
 /// Index at which the downward recurrence of D_n(z) is started (with D = 0).
 fn downward_start(terms: usize, z_abs: f64) -> usize {
-    let top = (terms as f64).max(z_abs);
-    (top + 16.0 + 4.0 * top.cbrt()).ceil() as usize
+    downward_start_f64(terms as f64, z_abs).min(MAX_DOWNWARD_START as f64) as usize
 }
+
+fn downward_start_f64(terms: f64, z_abs: f64) -> f64 {
+    let top = terms.max(z_abs);
+    (top + 16.0 + 4.0 * top.cbrt()).ceil()
+}
+
+/// Largest number of series terms M supported (|x| up to about 9.96·10⁵).
+pub const MAX_TERMS: usize = 1_000_000;
+
+/// Largest start index of the downward recurrence of D_n(mx) supported (|mx| up to about 10⁷).
+pub const MAX_DOWNWARD_START: usize = 10_000_000;
+
+/// Smallest |x| supported: below it |a₁|² ∝ |x|⁶ underflows and the phase function is lost.
+pub const MIN_SIZE_PARAMETER: f64 = 1e-30;
+
+/// |x| and |mx| below which the small-particle expansion (Wiscombe 1980) replaces the series.
+pub const SMALL_PARTICLE_LIMIT: f64 = 0.01;
+
+/// Smallest |x| at which the series is used when |mx| ≥ [`SMALL_PARTICLE_LIMIT`] (a tiny sphere
+/// of a very large index): below it the upward recurrence of ψ_n(x) loses more than ~10⁻⁸.
+pub const MIN_SERIES_SIZE_PARAMETER: f64 = 1e-4;
+
+/// Checks that a sphere of host size parameter `x` (complex for an absorbing host) and relative
+/// index `m` lies within the supported sizes: finite, |x| ≥ [`MIN_SIZE_PARAMETER`], at most
+/// [`MAX_TERMS`] series terms and a downward-recurrence start of at most [`MAX_DOWNWARD_START`].
+/// The error says which limit is exceeded and by what.
+pub fn check_size(x: Complex64, m: Complex64) -> anyhow::Result<()> {
+    let (xa, mxa) = (x.norm(), (m * x).norm());
+    if !(xa.is_finite() && mxa.is_finite() && m.re.is_finite() && m.im.is_finite()) {
+        anyhow::bail!("size parameter x = {x} and relative index m = {m} must be finite");
+    }
+    if xa < MIN_SIZE_PARAMETER {
+        anyhow::bail!("size parameter |x| = {xa:.3e} is below the supported {MIN_SIZE_PARAMETER:e}");
+    }
+    if xa < MIN_SERIES_SIZE_PARAMETER && mxa >= SMALL_PARTICLE_LIMIT {
+        anyhow::bail!(
+            "|x| = {xa:.3e} with |m·x| = {mxa:.3e} is not supported: a sphere this small needs |m·x| < {SMALL_PARTICLE_LIMIT} (small-particle expansion) or |x| ≥ {MIN_SERIES_SIZE_PARAMETER:e} (series)"
+        );
+    }
+    let terms = (xa + 4.3 * xa.cbrt() + 1.0).ceil();
+    if terms > MAX_TERMS as f64 {
+        anyhow::bail!("the Mie series for |x| = {xa:.4e} needs {terms:.0} terms, above the supported {MAX_TERMS} (|x| ≤ 9.96e5)");
+    }
+    let start = downward_start_f64(terms, mxa);
+    if start > MAX_DOWNWARD_START as f64 {
+        anyhow::bail!(
+            "|m·x| = {mxa:.4e} needs the downward recurrence of D_n(mx) to start at n = {start:.3e}, above the supported {MAX_DOWNWARD_START} (|m·x| ≲ 1e7)"
+        );
+    }
+    Ok(())
+}
+
+/// Estimated work of one sphere in recurrence steps: the series terms M plus the start index of
+/// the downward recurrence of D_n(mx) (infinite for non-finite input). Used to bound the work of
+/// whole size distributions.
+pub fn work_estimate(x: Complex64, m: Complex64) -> f64 {
+    let (xa, mxa) = (x.norm(), (m * x).norm());
+    let terms = (xa + 4.3 * xa.cbrt() + 1.0).ceil().max(1.0);
+    let w = terms + downward_start_f64(terms, mxa);
+    if w.is_nan() {
+        f64::INFINITY
+    } else {
+        w
+    }
+}
+
+/// Whether the small-particle expansion is used for (x, m).
+fn is_small(x: Complex64, m: Complex64) -> bool {
+    x.norm() < SMALL_PARTICLE_LIMIT && (m * x).norm() < SMALL_PARTICLE_LIMIT
+}
+
+/// Small-particle Mie coefficients (a₁, b₁, a₂) of Wiscombe 1980 (eqs. R42a–c), written for the
+/// e^{−iωt} convention (n″ ≥ 0 absorbs): relative error O(|x|⁶, |mx|⁶); all other a_n, b_n are
+/// smaller than |x|⁷.
+pub fn small_particle_coefficients(x: Complex64, m: Complex64) -> [Complex64; 3] {
+    let m2 = m * m;
+    let x2 = x * x;
+    let x3 = x2 * x;
+    let x4 = x2 * x2;
+    let c = Complex64::new(0.0, -2.0 / 3.0) * (m2 - 1.0);
+    let a1 = c * (1.0 - 0.1 * x2 + (m2 / 350.0 + 1.0 / 280.0) * x4)
+        / (m2 + 2.0 + (1.0 - 0.7 * m2) * x2 - (m2 * m2 / 175.0 - 0.275 * m2 + 0.25) * x4 + x3 * c * (1.0 - 0.1 * x2));
+    let b1 = x2 / 30.0 * c * (1.0 + (m2 / 35.0 - 1.0 / 14.0) * x2) / (1.0 - (m2 / 15.0 - 1.0 / 6.0) * x2);
+    let a2 = 0.1 * x2 * c * (1.0 - x2 / 14.0) / (2.0 * m2 + 3.0 - (m2 / 7.0 - 0.5) * x2);
+    [a1 * x3, b1 * x3, a2 * x3]
+}
+
+const NAN_EFFICIENCIES: Efficiencies = Efficiencies { terms: 0, qext: f64::NAN, qsca: f64::NAN, qabs: f64::NAN, qback: f64::NAN, g: f64::NAN };
 
 /// 1/z with one real division.
 #[inline(always)]
@@ -141,7 +238,29 @@ impl MieWorkspace {
 
     /// Q's and g for a real size parameter `x` > 0 (non-absorbing host) and relative index `m`.
     /// Classical Bohren–Huffman formulation, fused with the sums.
+    /// Unsupported sizes ([`check_size`]) give NaN efficiencies with `terms` = 0.
     pub fn efficiencies(&mut self, x: f64, m: Complex64) -> Efficiencies {
+        let xc = Complex64::new(x, 0.0);
+        if check_size(xc, m).is_err() {
+            return NAN_EFFICIENCIES;
+        }
+        if is_small(xc, m) {
+            let [a1, b1, a2] = small_particle_coefficients(xc, m);
+            let z = Complex64::new(0.0, 0.0);
+            let mut sums = Sums { terms: 2, ..Default::default() };
+            sums.add(1, a1, b1, z, z, -1.0);
+            sums.add(2, a2, z, a1, b1, 1.0);
+            let x2 = x * x;
+            let (qext, qsca) = (2.0 * sums.ext.re / x2, 2.0 * sums.sca / x2);
+            return Efficiencies {
+                terms: 2,
+                qext,
+                qsca,
+                qabs: qabs_of(qext, qsca, m.im),
+                qback: sums.back.norm_sqr() / x2,
+                g: if sums.sca > 0.0 { 2.0 * sums.g_num / sums.sca } else { 0.0 },
+            };
+        }
         let terms = number_of_terms(x);
         log_derivative(m * x, terms, &mut self.d_p);
         let d = &self.d_p;
@@ -196,7 +315,7 @@ impl MieWorkspace {
             terms,
             qext,
             qsca,
-            qabs: qext - qsca,
+            qabs: qabs_of(qext, qsca, m.im),
             qback: back.norm_sqr() / x2,
             g: if sca > 0.0 { 2.0 * (g_cross + g_ab) / sca } else { 0.0 },
         }
@@ -205,7 +324,22 @@ impl MieWorkspace {
     /// Mie coefficients a_n, b_n (n = 1..=M, stored at index n−1) for a host size parameter
     /// `x` (complex when the host absorbs) and relative index `m` = n_p/n_med.
     /// Upward recurrence of ψ_n(x), ξ_n(x) when |Im x| ≤ [`UPWARD_MAX_IM_X`], else the ratio formulation.
+    /// Small spheres ([`SMALL_PARTICLE_LIMIT`]) get a₁, a₂, b₁ of the small-particle expansion
+    /// (b₂ = 0); unsupported sizes ([`check_size`]) get no coefficients.
     pub fn coefficients(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        if check_size(x, m).is_err() {
+            self.a.clear();
+            self.b.clear();
+            return (&self.a, &self.b);
+        }
+        if is_small(x, m) {
+            let [a1, b1, a2] = small_particle_coefficients(x, m);
+            self.a.clear();
+            self.b.clear();
+            self.a.extend([a1, a2]);
+            self.b.extend([b1, Complex64::new(0.0, 0.0)]);
+            return (&self.a, &self.b);
+        }
         if x.im.abs() <= UPWARD_MAX_IM_X {
             self.coefficients_upward(x, m)
         } else {
@@ -216,6 +350,11 @@ impl MieWorkspace {
     /// a_n, b_n by the Bohren–Huffman formulas with D_n(mx) downward and ψ_n(x), ξ_n(x) upward
     /// (complex x allowed; accurate while |Im x| is moderate).
     pub fn coefficients_upward(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        if check_size(x, m).is_err() {
+            self.a.clear();
+            self.b.clear();
+            return (&self.a, &self.b);
+        }
         let terms = number_of_terms(x.norm());
         log_derivative(m * x, terms, &mut self.d_p);
         self.a.clear();
@@ -249,6 +388,11 @@ impl MieWorkspace {
     /// a_n, b_n by the ratio formulation (A_n = ψ_n′/ψ_n downward for x and mx; ψ_nξ_n and ψ_n/ξ_n
     /// upward; B_n = A_n + i/(ψ_nξ_n)), stable for complex x with large imaginary part.
     pub fn coefficients_ratio(&mut self, x: Complex64, m: Complex64) -> (&[Complex64], &[Complex64]) {
+        if check_size(x, m).is_err() {
+            self.a.clear();
+            self.b.clear();
+            return (&self.a, &self.b);
+        }
         let terms = number_of_terms(x.norm());
         log_derivative(m * x, terms, &mut self.d_p);
         log_derivative(x, terms, &mut self.d_h);
@@ -297,7 +441,10 @@ impl MieWorkspace {
             };
         }
         let x = n_medium * (k0 * radius_m);
-        if x.im.abs() <= UPWARD_MAX_IM_X {
+        if check_size(x, m).is_err() {
+            return Sphere { eff: NAN_EFFICIENCIES, c_ext_m2: f64::NAN, c_sca_m2: f64::NAN, c_abs_m2: f64::NAN };
+        }
+        if x.im.abs() <= UPWARD_MAX_IM_X && !is_small(x, m) {
             let sums = self.sums_upward(x, m);
             return cross_sections(&sums, x, radius_m, lambda_m, n_medium);
         }
@@ -346,6 +493,11 @@ impl MieWorkspace {
         let k0 = 2.0 * PI / lambda_m;
         let m = n_particle / n_medium;
         let x = n_medium * (k0 * radius_m);
+        if check_size(x, m).is_err() {
+            self.a.clear();
+            self.b.clear();
+            return Sphere { eff: NAN_EFFICIENCIES, c_ext_m2: f64::NAN, c_sca_m2: f64::NAN, c_abs_m2: f64::NAN };
+        }
         self.coefficients(x, m);
         let mut sums = Sums { terms: self.a.len(), ..Default::default() };
         let (mut a_prev, mut b_prev, mut sign) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0), -1.0);
@@ -386,6 +538,17 @@ impl Sums {
         }
         self.g_num += w / (nf * (nf + 1.0)) * (an.re * bn.re + an.im * bn.im);
         self.back += (an - bn) * (w * sign);
+    }
+}
+
+/// Q_abs = Q_ext − Q_sca in a non-absorbing host: exactly 0 for a non-absorbing particle
+/// (m″ = 0), and ≥ 0 otherwise, so a negative round-off of at most 10⁻⁹ Q_ext is clamped to 0.
+fn qabs_of(qext: f64, qsca: f64, m_im: f64) -> f64 {
+    let d = qext - qsca;
+    if m_im == 0.0 || (d < 0.0 && -d <= 1e-9 * qext.abs()) {
+        0.0
+    } else {
+        d
     }
 }
 

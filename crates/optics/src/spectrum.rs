@@ -16,12 +16,8 @@
 use anyhow::{bail, Context, Result};
 use std::sync::OnceLock;
 
-/// Shortest wavelength of the visible range used for colour (nm), start of the CIE table.
-pub const LAMBDA_MIN_NM: f64 = 360.0;
-/// Longest wavelength of the visible range used for colour (nm), end of the CIE table.
-pub const LAMBDA_MAX_NM: f64 = 830.0;
-/// Number of 1-nm samples in [`LAMBDA_MIN_NM`], [`LAMBDA_MAX_NM`] inclusive.
-pub const N_DENSE: usize = 471;
+pub use crate::color::{LAMBDA_MAX_NM, LAMBDA_MIN_NM, N_DENSE};
+pub use crate::csv::read_csv_columns;
 
 /// Planck constant h (J·s), exact since SI 2019.
 pub const PLANCK_H: f64 = 6.626_070_15e-34;
@@ -110,60 +106,6 @@ impl Tabulated {
     pub fn values(&self) -> &[f64] {
         &self.values
     }
-}
-
-/// Parses a CSV text: lines starting with `#` and blank lines are skipped, the first other line is
-/// the header row (column names), every following line has one number per column.
-/// Returns (names, columns). Errors name the line (1-based) and column.
-pub fn read_csv_columns(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
-    let mut names: Option<Vec<String>> = None;
-    let mut cols: Vec<Vec<f64>> = Vec::new();
-    for (lineno, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        match &names {
-            None => {
-                names = Some(fields.iter().map(|s| s.to_string()).collect());
-                cols = vec![Vec::new(); fields.len()];
-            }
-            Some(n) => {
-                if fields.len() != n.len() {
-                    bail!(
-                        "CSV line {}: {} fields but the header has {}",
-                        lineno + 1,
-                        fields.len(),
-                        n.len()
-                    );
-                }
-                for (j, f) in fields.iter().enumerate() {
-                    let v: f64 = f.parse().with_context(|| {
-                        format!(
-                            "CSV line {}, column '{}': '{}' is not a number",
-                            lineno + 1,
-                            n[j],
-                            f
-                        )
-                    })?;
-                    if !v.is_finite() {
-                        bail!(
-                            "CSV line {}, column '{}': value is not finite",
-                            lineno + 1,
-                            n[j]
-                        );
-                    }
-                    cols[j].push(v);
-                }
-            }
-        }
-    }
-    let names = names.context("CSV has no header row")?;
-    if cols.first().is_none_or(|c| c.is_empty()) {
-        bail!("CSV has a header but no data rows");
-    }
-    Ok((names, cols))
 }
 
 /// Planck's law: spectral radiance of a blackbody, W·m⁻²·sr⁻¹·m⁻¹ (per metre of wavelength),

@@ -1,5 +1,7 @@
 //! `lucent bssrdf`: total diffuse reflectance and radial profiles of the dipole BSSRDF models.
 
+use super::format::sig;
+use super::mie::finite_f64;
 use anyhow::{bail, Context, Result};
 use optics::bssrdf::{
     find_medium, jensen2001_media, narasimhan2006_media, DipoleModel, DirectionalDipole,
@@ -14,16 +16,16 @@ pub struct Args {
     #[arg(long, default_value = "standard")]
     model: String,
     /// Relative index of refraction η = n_medium / n_outside.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     eta: Option<f64>,
     /// Scattering coefficient σ_s in mm⁻¹.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     sigma_s_per_mm: Option<f64>,
     /// Absorption coefficient σ_a in mm⁻¹.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     sigma_a_per_mm: Option<f64>,
     /// Henyey–Greenstein asymmetry parameter g (default 0, or the preset's).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     g: Option<f64>,
     /// A measured medium (Jensen 2001 or Narasimhan 2006, e.g. "Apple", "Regular Milk") giving
     /// η, σ_s, σ_a and g for `--channel`; explicit flags override it.
@@ -33,21 +35,21 @@ pub struct Args {
     #[arg(long, default_value = "r")]
     channel: String,
     /// Milk by content declaration: σ_s, σ_a and g from the Lorenz–Mie model of `optics::milk` at
-    /// `--lambda-nm` (η defaults to the host's real index there); explicit flags override them.
+    /// `--wavelength-nm` (η defaults to the host's real index there); explicit flags override them.
     #[arg(long)]
     milk: bool,
     /// Milk: fat content in weight percent.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     fat_percent: Option<f64>,
     /// Milk: protein content in weight percent (default 3.4).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     protein_percent: Option<f64>,
     /// Milk: homogenization pressure in MPa (default 20; 0 = unhomogenized).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_f64)]
     pressure_mpa: Option<f64>,
     /// Milk: vacuum wavelength in nm.
-    #[arg(long, allow_hyphen_values = true)]
-    lambda_nm: Option<f64>,
+    #[arg(long = "wavelength-nm", alias = "lambda-nm", allow_hyphen_values = true, value_parser = finite_f64)]
+    wavelength_nm: Option<f64>,
     /// List the preset media and exit.
     #[arg(long)]
     list_presets: bool,
@@ -63,6 +65,10 @@ pub struct Args {
     json: bool,
 }
 
+/// Largest distance of `--profile-mm` (1000 km): far beyond any measurable profile, and small
+/// enough that r³ in the dipole formulas stays finite.
+const MAX_PROFILE_MM: f64 = 1e9;
+
 fn parse_list(text: &str, field: &str) -> Result<Vec<f64>> {
     text.split(',')
         .map(str::trim)
@@ -72,7 +78,10 @@ fn parse_list(text: &str, field: &str) -> Result<Vec<f64>> {
                 .parse()
                 .map_err(|_| anyhow::anyhow!("{field}: '{s}' is not a number"))?;
             if !v.is_finite() || v < 0.0 {
-                bail!("{field}: distance {s} must be finite and >= 0");
+                bail!("{field}: distance {s} must be finite and ≥ 0");
+            }
+            if v > MAX_PROFILE_MM {
+                bail!("{field}: distance {s} is above the supported {MAX_PROFILE_MM:e} mm");
             }
             Ok(v)
         })
@@ -91,27 +100,22 @@ pub fn run(args: Args) -> Result<()> {
         println!("{}", serde_json::Value::Object(o));
     } else {
         let num = |k: &str| o.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        let q = |k: &str| sig(num(k), 6);
         println!(
-            "{} dipole: eta {}, sigma_s {} /mm, sigma_a {} /mm, g {}; alpha' {:.6}, sigma_tr {:.6} /mm, D {:.6} mm, A {:.6}",
+            "{} dipole: eta {}, sigma_s {} mm⁻¹, sigma_a {} mm⁻¹, g {}; alpha' {}, sigma_tr {} mm⁻¹, D {} mm, A {}",
             args.model,
-            num("eta"),
-            num("sigma_s_per_mm"),
-            num("sigma_a_per_mm"),
-            num("g"),
-            num("alpha_prime"),
-            num("sigma_tr_per_mm"),
-            num("d_mm"),
-            num("a")
+            q("eta"),
+            q("sigma_s_per_mm"),
+            q("sigma_a_per_mm"),
+            q("g"),
+            q("alpha_prime"),
+            q("sigma_tr_per_mm"),
+            q("d_mm"),
+            q("a")
         );
         if o.contains_key("rd") {
-            println!(
-                "rd (numerical, pi * integral of S_d over the plane) = {:.6}",
-                num("rd")
-            );
-            println!(
-                "rd_closed_form (standard dipole)                   = {:.6}",
-                num("rd_closed_form")
-            );
+            println!("rd (numerical, pi * integral of S_d over the plane) = {}", q("rd"));
+            println!("rd_closed_form (standard dipole)                   = {}", q("rd_closed_form"));
         }
         if let (Some(rs), Some(p)) = (o.get("profile_mm"), o.get("profile")) {
             println!("r_mm,rd_per_mm2");
@@ -121,7 +125,7 @@ pub fn run(args: Args) -> Result<()> {
                 .flatten()
                 .zip(p.as_array().into_iter().flatten())
             {
-                println!("{},{:.9e}", r, v.as_f64().unwrap_or(f64::NAN));
+                println!("{},{}", sig(r.as_f64().unwrap_or(f64::NAN), 9), sig(v.as_f64().unwrap_or(f64::NAN), 9));
             }
         }
     }
@@ -159,10 +163,10 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
             .unwrap_or(optics::milk::DEFAULT_PROTEIN_PERCENT);
         let pressure = args.pressure_mpa.unwrap_or(20.0);
         let lambda = args
-            .lambda_nm
-            .context("--lambda-nm is required with --milk")?;
+            .wavelength_nm
+            .context("--wavelength-nm is required with --milk")?;
         if !(lambda.is_finite() && lambda > 0.0) {
-            bail!("--lambda-nm must be a positive wavelength, got {lambda}");
+            bail!("--wavelength-nm must be a positive wavelength, got {lambda}");
         }
         optics::milk::validate(fat, protein, pressure)?;
         let bulk = optics::milk::milk_properties_with(
@@ -279,7 +283,9 @@ mod tests {
     fn eval(argv: &[&str]) -> Result<serde_json::Map<String, serde_json::Value>> {
         let mut v = vec!["bssrdf"];
         v.extend_from_slice(argv);
-        compute(&Cli::try_parse_from(v)?.args)
+        // As `lucent` reports it: clap's first line.
+        let cli = Cli::try_parse_from(v).map_err(|e| anyhow::anyhow!("{}", e.to_string().lines().next().unwrap_or_default()))?;
+        compute(&cli.args)
     }
 
     /// The JSON keys of `lucent bssrdf --rd --json`; for the standard dipole `rd` equals the closed form to 1e-4

@@ -3,6 +3,8 @@
 //! optical property spectra (`particles`), the Monte Carlo table behind `--model montecarlo`
 //! (`mc-table`), and analysis by synthesis (`scene`).
 
+use super::format::sig;
+use super::mie::finite_f64;
 use anyhow::{bail, Context, Result};
 use optics::fitting::{fit_milk, MilkSpectra};
 use optics::reflectometry::{
@@ -50,7 +52,7 @@ pub struct ReflectanceArgs {
     /// output (rd_per_mm2, rd_per_mm2_stderr) is accepted as is.
     data: PathBuf,
     /// Relative refractive index of the medium (n_medium / n_outside).
-    #[arg(long)]
+    #[arg(long, value_parser = finite_f64)]
     eta: f64,
     /// Forward model.
     #[arg(long, value_enum, default_value_t = ModelName::Dipole)]
@@ -60,13 +62,13 @@ pub struct ReflectanceArgs {
     table: Option<PathBuf>,
     /// Use only points at r ≥ this (mm). Diffusion models fail within ~2 transport lengths of
     /// the source: leave that out for the dipoles (e.g. 1 mm for milk), or use montecarlo.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, value_parser = finite_f64, default_value_t = 0.0)]
     r_min_mm: f64,
     /// Use only points at r ≤ this (mm).
-    #[arg(long)]
+    #[arg(long, value_parser = finite_f64)]
     r_max_mm: Option<f64>,
     /// Relative noise of each point (added in quadrature to the stderr column).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, value_parser = finite_f64, default_value_t = 0.01)]
     noise: f64,
     /// Print JSON.
     #[arg(long)]
@@ -79,13 +81,13 @@ pub struct ObliqueArgs {
     /// --line-bins`): the diffuse reflectance along the plane of incidence.
     data: PathBuf,
     /// Relative refractive index of the medium.
-    #[arg(long)]
+    #[arg(long, value_parser = finite_f64)]
     eta: f64,
     /// Angle of incidence from the normal, degrees (the beam travels towards +x).
-    #[arg(long)]
+    #[arg(long, value_parser = finite_f64)]
     incidence_deg: f64,
     /// Ignore points within this distance of the peak (mm), where diffusion theory fails.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, value_parser = finite_f64, default_value_t = 1.0)]
     exclude_mm: f64,
     /// Print JSON.
     #[arg(long)]
@@ -105,7 +107,7 @@ pub struct ParticlesArgs {
     #[arg(long)]
     particle: Option<String>,
     /// Protein content, wt-% (milk).
-    #[arg(long, default_value_t = optics::milk::DEFAULT_PROTEIN_PERCENT)]
+    #[arg(long, value_parser = finite_f64, default_value_t = optics::milk::DEFAULT_PROTEIN_PERCENT)]
     protein_percent: f64,
     /// Print JSON.
     #[arg(long)]
@@ -115,16 +117,16 @@ pub struct ParticlesArgs {
 #[derive(clap::Args, Debug)]
 pub struct McTableArgs {
     /// Relative refractive index of the medium.
-    #[arg(long)]
+    #[arg(long, value_parser = finite_f64)]
     eta: f64,
     /// Henyey–Greenstein anisotropy of the simulations.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, value_parser = finite_f64, default_value_t = 0.0)]
     g: f64,
     /// Photon packets per albedo.
     #[arg(long, default_value_t = 200_000)]
     photons: u64,
     /// Largest scaled radius σ'_t r.
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, value_parser = finite_f64, default_value_t = 20.0)]
     rho_max: f64,
     /// Radial bins.
     #[arg(long, default_value_t = 100)]
@@ -133,7 +135,7 @@ pub struct McTableArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Replace each row beyond this scaled radius by the dipole matched over the 3 units before.
-    #[arg(long)]
+    #[arg(long, value_parser = finite_f64)]
     diffusion_tail_rho: Option<f64>,
     /// Output CSV.
     #[arg(long)]
@@ -189,6 +191,14 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
     if !(a.noise.is_finite() && a.noise > 0.0) {
         bail!("--noise must be finite and > 0, got {}", a.noise);
     }
+    if a.r_min_mm < 0.0 {
+        bail!("--r-min-mm must be ≥ 0, got {}", a.r_min_mm);
+    }
+    if let Some(r) = a.r_max_mm {
+        if r <= a.r_min_mm {
+            bail!("--r-max-mm ({r}) must be greater than --r-min-mm ({})", a.r_min_mm);
+        }
+    }
     let name = a.data.display().to_string();
     let profiles = read_reflectance_csv(&read_text(&a.data)?, &name)?;
     let model = load_model(a.model, a.table.as_deref(), a.eta)?;
@@ -208,7 +218,7 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
         })?;
         let mut f = f;
         if let Some(h) = bin {
-            f.notes.push(format!("r_mm are centres of {} mm bins: the model is averaged over each annulus", super::slab::sig(h, 4)));
+            f.notes.push(format!("r_mm are centres of {} mm bins: the model is averaged over each annulus", sig(h, 6)));
         }
         fits.push(f);
     }
@@ -254,20 +264,20 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
         out.insert("notes".into(), json!(notes));
         println!("{}", serde_json::to_string_pretty(&Value::Object(out))?);
     } else {
-        println!("model {}  eta {}  ({} data)", model.name(), a.eta, if relative { "relative" } else { "absolute" });
+        println!("model {}  eta {}  ({} data)", model.name(), sig(a.eta, 6), if relative { "relative" } else { "absolute" });
         let show = |e: Option<Estimate>| match e {
-            Some(e) => format!("{:.5} [{:.5}, {:.5}]", e.value, e.ci95[0], e.ci95[1]),
+            Some(e) => format!("{} [{}, {}]", sig(e.value, 5), sig(e.ci95[0], 5), sig(e.ci95[1], 5)),
             None => "not determined".into(),
         };
         for f in &fits {
             if let Some(l) = f.lambda_nm {
-                println!("wavelength {l} nm");
+                println!("wavelength {} nm", sig(l, 6));
             }
-            println!("  sigma_a        {} mm^-1", show(f.sigma_a_per_mm));
-            println!("  sigma_s'       {} mm^-1", show(f.sigma_s_prime_per_mm));
-            println!("  mu_eff         {} mm^-1", show(f.mu_eff_per_mm));
+            println!("  sigma_a        {} mm⁻¹", show(f.sigma_a_per_mm));
+            println!("  sigma_s'       {} mm⁻¹", show(f.sigma_s_prime_per_mm));
+            println!("  mu_eff         {} mm⁻¹", show(f.mu_eff_per_mm));
             println!("  sigma_s'/sigma_a {}", show(f.sigma_s_prime_over_sigma_a));
-            println!("  residual rms   {:.4} (weighted), {:.4} (relative), {} points", f.residual_rms, f.relative_rms, f.points);
+            println!("  residual rms   {} (weighted), {} (relative), {} points", sig(f.residual_rms, 4), sig(f.relative_rms, 4), f.points);
             for n in &f.notes {
                 println!("  note: {n}");
             }
@@ -337,13 +347,13 @@ fn run_oblique(a: ObliqueArgs) -> Result<()> {
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
     } else {
-        let s = |e: Estimate| format!("{:.5} [{:.5}, {:.5}]", e.value, e.ci95[0], e.ci95[1]);
+        let s = |e: Estimate| format!("{} [{}, {}]", sig(e.value, 5), sig(e.ci95[0], 5), sig(e.ci95[1], 5));
         println!("diffuse centre shift  {} mm", s(f.delta_x_mm));
-        println!("mu_eff                {} mm^-1", s(f.mu_eff_per_mm));
+        println!("mu_eff                {} mm⁻¹", s(f.mu_eff_per_mm));
         println!("D                     {} mm", s(f.diffusion_mm));
-        println!("sigma_a               {} mm^-1", s(f.sigma_a_per_mm));
-        println!("sigma_s'              {} mm^-1", s(f.sigma_s_prime_per_mm));
-        println!("residual rms          {:.4} ({} points)", f.residual_rms, f.points);
+        println!("sigma_a               {} mm⁻¹", s(f.sigma_a_per_mm));
+        println!("sigma_s'              {} mm⁻¹", s(f.sigma_s_prime_per_mm));
+        println!("residual rms          {} ({} points)", sig(f.residual_rms, 4), f.points);
     }
     Ok(())
 }
@@ -400,7 +410,16 @@ fn run_particles(a: ParticlesArgs) -> Result<()> {
         let path = Path::new(&a.medium);
         let recipe = optics::media::Recipe::load(path).with_context(|| format!("--medium {}", path.display()))?;
         let particle = a.particle.as_deref().context("--particle NAME is needed with a recipe --medium")?;
-        let f = optics::fitting::fit_recipe_particle(&recipe, particle, &spectra).with_context(|| name.clone())?;
+        if !recipe.particles.iter().any(|p| p.name == particle) {
+            let names: Vec<String> = recipe.particles.iter().map(|p| format!("{:?}", p.name)).collect();
+            bail!("--particle: recipe {} has no particle named {particle:?} (it has: {})", path.display(), if names.is_empty() { "none".into() } else { names.join(", ") });
+        }
+        // The recipe must evaluate at the data's wavelengths on its own: its errors name the recipe.
+        recipe
+            .bulk_properties(Some(&spectra.lambda_nm))
+            .with_context(|| format!("--medium {} at the wavelengths of {name}", path.display()))?;
+        let f = optics::fitting::fit_recipe_particle(&recipe, particle, &spectra)
+            .with_context(|| format!("fitting particle {particle:?} of {} to {name}", path.display()))?;
         if a.json {
             let j = json!({
                 "medium": a.medium, "particle": particle,
@@ -410,9 +429,9 @@ fn run_particles(a: ParticlesArgs) -> Result<()> {
             });
             println!("{}", serde_json::to_string_pretty(&j)?);
         } else {
-            println!("{particle}: mean radius     {:.4} um [{:.4}, {:.4}]", f.radius_um, f.radius_um_ci[0], f.radius_um_ci[1]);
-            println!("{particle}: volume fraction {:.5} [{:.5}, {:.5}]", f.volume_fraction, f.volume_fraction_ci[0], f.volume_fraction_ci[1]);
-            println!("residual rms      {:.5} (relative)", f.residual_rms);
+            println!("{particle}: mean radius     {} µm [{}, {}]", sig(f.radius_um, 4), sig(f.radius_um_ci[0], 4), sig(f.radius_um_ci[1], 4));
+            println!("{particle}: volume fraction {} [{}, {}]", sig(f.volume_fraction, 4), sig(f.volume_fraction_ci[0], 4), sig(f.volume_fraction_ci[1], 4));
+            println!("residual rms      {} (relative)", sig(f.residual_rms, 4));
         }
         return Ok(());
     }
@@ -428,10 +447,10 @@ fn run_particles(a: ParticlesArgs) -> Result<()> {
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
     } else {
-        println!("fat content       {:.3} wt-% [{:.3}, {:.3}]", f.fat_percent, f.fat_percent_ci[0], f.fat_percent_ci[1]);
-        println!("pressure          {:.3} MPa [{:.3}, {:.3}]", f.pressure_mpa, f.pressure_mpa_ci[0], f.pressure_mpa_ci[1]);
-        println!("fat globules r_vs {:.4} um, volume fraction {:.5}", f.fat_r_vs_um, f.fat_volume_fraction);
-        println!("residual rms      {:.5} (relative)", f.residual_rms);
+        println!("fat content       {} wt-% [{}, {}]", sig(f.fat_percent, 4), sig(f.fat_percent_ci[0], 4), sig(f.fat_percent_ci[1], 4));
+        println!("pressure          {} MPa [{}, {}]", sig(f.pressure_mpa, 4), sig(f.pressure_mpa_ci[0], 4), sig(f.pressure_mpa_ci[1], 4));
+        println!("fat globules r_vs {} µm, volume fraction {}", sig(f.fat_r_vs_um, 4), sig(f.fat_volume_fraction, 4));
+        println!("residual rms      {} (relative)", sig(f.residual_rms, 4));
     }
     Ok(())
 }

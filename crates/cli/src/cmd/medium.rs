@@ -1,6 +1,7 @@
 //! `lucent medium milk|RECIPE.toml`: bulk optical properties (σ_s, σ_a, σ_t in mm⁻¹ and g per
 //! wavelength) of milk from its content declaration, or of a medium recipe (docs/media.md).
 
+use super::format::sig;
 use super::mie::{number, spectra_svg, write_svg};
 use anyhow::{bail, Result};
 use optics::media::{self, BulkOptions, BulkProperties, Recipe};
@@ -22,7 +23,7 @@ pub struct Args {
     #[arg(long = "pressure-mpa", allow_hyphen_values = true)]
     pub pressure_mpa: Option<String>,
     /// Wavelengths in nm: START:STOP:STEP or a,b,c (default 375:775:25, or the recipe's).
-    #[arg(long = "wavelengths-nm", allow_hyphen_values = true)]
+    #[arg(long = "wavelengths-nm", alias = "wavelength-nm", alias = "lambda-nm", allow_hyphen_values = true)]
     pub wavelengths_nm: Option<String>,
     /// Also tabulate the bulk phase function at this many angles from 0° to 180° (JSON keys theta_deg, phase_per_sr).
     #[arg(long = "phase-angles")]
@@ -41,8 +42,8 @@ pub fn run(args: Args) -> Result<()> {
         None => None,
     };
     if let Some(n) = args.phase_angles {
-        if n > 100_000 {
-            bail!("--phase-angles: at most 100000, got {n}");
+        if n > media::MAX_PHASE_ANGLES {
+            bail!("--phase-angles: at most {}, got {n}", media::MAX_PHASE_ANGLES);
         }
     }
     let (props, title): (BulkProperties, String) = if args.medium == "milk" {
@@ -80,7 +81,7 @@ pub fn run(args: Args) -> Result<()> {
         let svg = spectra_svg(
             &props.lambda_nm,
             &[
-                ("coefficient [1/mm]", true, vec![("σs", mm(&props.sigma_s_per_m)), ("σa", mm(&props.sigma_a_per_m)), ("σt", mm(&props.sigma_t_per_m))]),
+                ("coefficient [mm⁻¹]", true, vec![("σs", mm(&props.sigma_s_per_m)), ("σa", mm(&props.sigma_a_per_m)), ("σt", mm(&props.sigma_t_per_m))]),
                 ("asymmetry g", false, vec![("g", props.g.clone())]),
             ],
             &title,
@@ -109,17 +110,21 @@ pub fn run(args: Args) -> Result<()> {
         println!("{}", Value::Object(o));
     } else {
         println!("# {title}");
-        println!("{:>10} {:>14} {:>14} {:>14} {:>9} {:>14}", "lambda_nm", "sigma_s/mm", "sigma_a/mm", "sigma_t/mm", "g", "sigma_s'/mm");
+        println!("# sigma_* in mm⁻¹ (sigma_s_prime = sigma_s (1 − g)); g dimensionless");
+        println!(
+            "{:>13} {:>14} {:>14} {:>14} {:>9} {:>20}",
+            "wavelength_nm", "sigma_s_per_mm", "sigma_a_per_mm", "sigma_t_per_mm", "g", "sigma_s_prime_per_mm"
+        );
         for i in 0..props.lambda_nm.len() {
             let s = props.sigma_s_per_m[i] * 1e-3;
             println!(
-                "{:>10.1} {:>14.6} {:>14.6e} {:>14.6} {:>9.5} {:>14.6}",
-                props.lambda_nm[i],
-                s,
-                props.sigma_a_per_m[i] * 1e-3,
-                props.sigma_t_per_m[i] * 1e-3,
-                props.g[i],
-                s * (1.0 - props.g[i])
+                "{:>13} {:>14} {:>14} {:>14} {:>9} {:>20}",
+                sig(props.lambda_nm[i], 6),
+                sig(s, 6),
+                sig(props.sigma_a_per_m[i] * 1e-3, 6),
+                sig(props.sigma_t_per_m[i] * 1e-3, 6),
+                sig(props.g[i], 5),
+                sig(s * (1.0 - props.g[i]), 6)
             );
         }
     }

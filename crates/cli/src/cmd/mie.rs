@@ -2,6 +2,7 @@
 //! (`--x X --m RE+IMi`) or by radius, wavelength and the two indices. Also holds the small
 //! hand-written SVG plotting used by `lucent mie` and `lucent medium` (`--plot FILE.svg`).
 
+use super::format::sig;
 use anyhow::{anyhow, bail, Context, Result};
 use optics::mie::{self, Complex64, MieWorkspace};
 use serde_json::{json, Value};
@@ -21,7 +22,7 @@ pub struct Args {
     #[arg(long = "radius-um", allow_hyphen_values = true)]
     pub radius_um: Option<String>,
     /// Vacuum wavelength in nm.
-    #[arg(long = "wavelength-nm", allow_hyphen_values = true)]
+    #[arg(long = "wavelength-nm", alias = "lambda-nm", allow_hyphen_values = true)]
     pub wavelength_nm: Option<String>,
     /// Particle refractive index `RE` or `RE+IMi`.
     #[arg(long = "n-particle", allow_hyphen_values = true)]
@@ -39,6 +40,16 @@ pub struct Args {
     #[arg(long)]
     pub plot: Option<std::path::PathBuf>,
 }
+
+/// clap value parser for numeric flags: a finite number (NaN and ±inf are refused).
+pub(crate) fn finite_f64(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("{s:?} is not a finite number"));
+    }
+    Ok(v)
+}
+
 
 /// Parse a finite number given to `flag`.
 pub(crate) fn number(flag: &str, s: &str) -> Result<f64> {
@@ -114,7 +125,7 @@ pub fn run(args: Args) -> Result<()> {
             None => Complex64::new(1.0, 0.0),
         };
         let x = nm * (2.0 * PI * r_um * 1e3 / l_nm);
-        check_x(x.norm())?;
+        mie::check_size(x, np / nm).context("--radius-um, --wavelength-nm, --n-particle, --n-medium")?;
         let alpha = 2.0 * x.im;
         if alpha > mie::MAX_HOST_ATTENUATION {
             bail!("--n-medium: the host absorbs too strongly for this sphere (4πr·n″/λ = {alpha:.3} > {}): the light dies out inside one diameter", mie::MAX_HOST_ATTENUATION);
@@ -124,7 +135,7 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         let x = positive("--x", args.x.as_deref().ok_or_else(|| anyhow!("--x is required (or use --radius-um …)"))?)?;
         let m = index("--m", args.m.as_deref().ok_or_else(|| anyhow!("--m is required"))?)?;
-        check_x(x)?;
+        mie::check_size(Complex64::new(x, 0.0), m).context("--x, --m")?;
         (Complex64::new(x, 0.0), m, None)
     };
     let eff = match &sphere {
@@ -179,32 +190,27 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         println!("{}", Value::Object(out));
     } else {
-        println!("x      {:>14.6}", x.re);
+        println!("{:<8} {:>14}", "x", sig(x.re, 7));
         if x.im != 0.0 {
-            println!("x_im   {:>14.6e}", x.im);
+            println!("{:<8} {:>14}", "x_im", sig(x.im, 7));
         }
-        println!("m      {:>14.6} {:+.6e}i", m.re, m.im);
-        println!("terms  {:>14}", eff.terms);
-        for k in ["qext", "qsca", "qabs", "qback", "g", "c_ext_m2", "c_sca_m2", "c_abs_m2"] {
+        let m_im = if m.im == 0.0 { String::new() } else { format!("{}{}i", if m.im < 0.0 { "-" } else { "+" }, sig(m.im.abs(), 7)) };
+        println!("{:<8} {:>14}{m_im}", "m", sig(m.re, 7));
+        println!("{:<8} {:>14}", "terms", eff.terms);
+        for (k, unit) in [("qext", ""), ("qsca", ""), ("qabs", ""), ("qback", ""), ("g", ""), ("c_ext_m2", " m²"), ("c_sca_m2", " m²"), ("c_abs_m2", " m²")] {
             if let Some(v) = out.get(k) {
-                println!("{k:<8} {:>14.7e}", v.as_f64().unwrap_or(f64::NAN));
+                println!("{k:<8} {:>14}{unit}", sig(v.as_f64().unwrap_or(f64::NAN), 7));
             }
         }
         if let Some(theta) = &theta {
-            println!("{:>10} {:>14} {:>14} {:>14} {:>14} {:>14}", "theta_deg", "S1.re", "S1.im", "S2.re", "S2.im", "p [1/sr]");
+            println!("{:>10} {:>14} {:>14} {:>14} {:>14} {:>14}", "theta_deg", "s1_re", "s1_im", "s2_re", "s2_im", "phase_per_sr");
             for &t in theta {
                 let mu = t.to_radians().cos();
                 let (s1, s2) = mie::amplitudes(&a, &b, mu);
-                println!("{t:>10.3} {:>14.6e} {:>14.6e} {:>14.6e} {:>14.6e} {:>14.6e}", s1.re, s1.im, s2.re, s2.im, mie::phase_function(&a, &b, mu));
+                let p = mie::phase_function(&a, &b, mu);
+                println!("{:>10} {:>14} {:>14} {:>14} {:>14} {:>14}", sig(t, 6), sig(s1.re, 7), sig(s1.im, 7), sig(s2.re, 7), sig(s2.im, 7), sig(p, 7));
             }
         }
-    }
-    Ok(())
-}
-
-fn check_x(x: f64) -> Result<()> {
-    if x > 1e6 {
-        bail!("size parameter {x:.3e} is above the supported 1e6");
     }
     Ok(())
 }

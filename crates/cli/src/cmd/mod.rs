@@ -7,6 +7,7 @@ pub mod bssrdf;
 pub mod compare;
 pub mod fit;
 pub mod fit_scene;
+pub mod format;
 pub mod medium;
 pub mod merge;
 pub mod mie;

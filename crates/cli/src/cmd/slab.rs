@@ -1,5 +1,6 @@
 //! `lucent slab`: MCML-style Monte Carlo photon transport in a stack of plane-parallel layers.
 
+use super::format::sig;
 use anyhow::{bail, Context, Result};
 use optics::slab::{simulate, Layer, LineGrid, RadialGrid, SlabResult, SlabSettings};
 use std::io::Write;
@@ -311,19 +312,6 @@ fn print_text(r: &SlabResult) {
     }
 }
 
-/// `x` to `digits` significant digits for human-readable output (JSON keeps full precision).
-pub(crate) fn sig(x: f64, digits: usize) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let decimals = digits as i32 - 1 - x.abs().log10().floor() as i32;
-    if (0..=12).contains(&decimals) {
-        format!("{x:.*}", decimals as usize)
-    } else {
-        format!("{x:.*e}", digits.saturating_sub(1))
-    }
-}
-
 /// Write R(r) as CSV to a temporary name, then rename (never a half-written file).
 fn write_radial_csv(path: &Path, r: &optics::slab::RadialReflectance) -> Result<()> {
     let tmp = path.with_file_name(format!(
@@ -434,12 +422,4 @@ mod tests {
         assert!(v.get("radial").is_none());
     }
 
-    #[test]
-    fn significant_digits() {
-        assert_eq!(sig(50.0 / 101.0, 4), "0.4950");
-        assert_eq!(sig(0.0021000000000000003, 3), "0.00210");
-        assert_eq!(sig(123.456, 3), "123");
-        assert_eq!(sig(1e-20, 3), "1.00e-20");
-        assert_eq!(sig(0.0, 3), "0");
-    }
 }

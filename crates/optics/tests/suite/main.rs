@@ -12,5 +12,6 @@ mod particles;
 mod phase;
 mod reflectometry;
 mod reflectometry_milk;
+mod robustness;
 mod slab;
 mod spectrum;
