@@ -207,14 +207,22 @@ impl Checkpoint {
             let seed = r.u64("run seed")?;
             let first_pass = r.u64("run first_pass")?;
             let passes = r.u64("run passes")?;
+            if first_pass.checked_add(passes).is_none() {
+                bail!("run {} (seed {seed}): passes {first_pass} + {passes} overflow a 64-bit counter", runs.len());
+            }
             runs.push(Run { seed, first_pass, passes });
         }
-        if runs.iter().map(|r| r.passes).sum::<u64>() != spp {
-            bail!("runs add up to {} samples per pixel but the film holds {spp}", runs.iter().map(|r| r.passes).sum::<u64>());
+        let total = runs.iter().try_fold(0u64, |t, r| t.checked_add(r.passes));
+        if total != Some(spp) {
+            match total {
+                Some(t) => bail!("runs add up to {t} samples per pixel but the film holds {spp}"),
+                None => bail!("the runs' pass counts overflow a 64-bit counter (the film holds {spp} samples per pixel)"),
+            }
         }
         let n = width as usize * height as usize;
-        if body.len() - r.pos != n * 24 {
-            bail!("expected {} bytes of sums for {width}×{height} pixels, found {}", n * 24, body.len() - r.pos);
+        let need = n.checked_mul(24).ok_or_else(|| anyhow::anyhow!("bad resolution {width}×{height}: too many pixels"))?;
+        if body.len() - r.pos != need {
+            bail!("expected {need} bytes of sums for {width}×{height} pixels, found {}", body.len() - r.pos);
         }
         let sums: Vec<[f64; 3]> = body[r.pos..]
             .chunks_exact(24)

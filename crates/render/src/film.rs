@@ -110,13 +110,25 @@ impl Film {
                 self.height
             );
         }
+        let (Some(spp), Some(rejected)) = (
+            self.samples_per_pixel.checked_add(other.samples_per_pixel),
+            self.rejected_samples.checked_add(other.rejected_samples),
+        ) else {
+            bail!(
+                "sample counts overflow: {} + {} samples per pixel ({} + {} rejected)",
+                self.samples_per_pixel,
+                other.samples_per_pixel,
+                self.rejected_samples,
+                other.rejected_samples
+            );
+        };
         for (s, o) in self.sum_xyz.iter_mut().zip(&other.sum_xyz) {
             s[0] += o[0];
             s[1] += o[1];
             s[2] += o[2];
         }
-        self.samples_per_pixel += other.samples_per_pixel;
-        self.rejected_samples += other.rejected_samples;
+        self.samples_per_pixel = spp;
+        self.rejected_samples = rejected;
         Ok(())
     }
 

@@ -9,7 +9,7 @@
 //! write never leaves a partial image in place of an existing one.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -140,12 +140,18 @@ pub fn write_image(path: &Path, image: &Image, exposure_stops: f32) -> Result<()
 /// ignored), an OpenEXR (first layer with R, G, B channels) or a PFM (either byte order).
 pub fn read_image(path: &Path) -> Result<Image> {
     let format = Format::from_path(path)?;
-    let result = match format {
-        Format::Png => read_png(path),
-        Format::Exr => read_exr(path),
-        Format::Pfm => read_pfm(path),
-    };
+    let result = std::fs::read(path).context("cannot open").and_then(|bytes| decode_image(&bytes, format));
     result.with_context(|| format!("reading {}", path.display()))
+}
+
+/// Decodes an image file held in memory, as [`read_image`] does for a file of that format
+/// (errors do not name a file).
+pub fn decode_image(bytes: &[u8], format: Format) -> Result<Image> {
+    match format {
+        Format::Png => read_png(bytes),
+        Format::Exr => read_exr(bytes),
+        Format::Pfm => read_pfm(bytes),
+    }
 }
 
 fn write_png(tmp: &Path, image: &Image, exposure_stops: f32) -> Result<()> {
@@ -169,9 +175,8 @@ fn write_png(tmp: &Path, image: &Image, exposure_stops: f32) -> Result<()> {
 
 use image::ImageEncoder as _;
 
-fn read_png(path: &Path) -> Result<Image> {
-    let file = File::open(path).context("cannot open")?;
-    let decoded = image::load(BufReader::new(file), image::ImageFormat::Png).map_err(|e| anyhow!("PNG decoder: {e}"))?;
+fn read_png(bytes: &[u8]) -> Result<Image> {
+    let decoded = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).map_err(|e| anyhow!("PNG decoder: {e}"))?;
     let (width, height) = (decoded.width(), decoded.height());
     let rgb: Vec<[f32; 3]> = match decoded.color() {
         image::ColorType::L8 | image::ColorType::La8 | image::ColorType::Rgb8 | image::ColorType::Rgba8 => {
@@ -214,15 +219,20 @@ struct ExrPixels {
     rgb: Vec<[f32; 3]>,
 }
 
-fn read_exr(path: &Path) -> Result<Image> {
+fn read_exr(bytes: &[u8]) -> Result<Image> {
     use exr::prelude::*;
-    let image = read_first_rgba_layer_from_file(
-        path,
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
         |size: Vec2<usize>, _channels: &RgbaChannels| ExrPixels { width: size.0, rgb: vec![[0.0; 3]; size.0 * size.1] },
         |px: &mut ExrPixels, pos: Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
             px.rgb[pos.1 * px.width + pos.0] = [r, g, b];
         },
     )
+    .first_valid_layer()
+    .all_attributes()
+    .from_buffered(std::io::Cursor::new(bytes))
     .map_err(|e| anyhow!("OpenEXR decoder: {e}"))?;
     let size = image.layer_data.size;
     self::Image::from_rgb(size.0 as u32, size.1 as u32, image.layer_data.channel_data.pixels.rgb)
@@ -249,9 +259,7 @@ fn write_pfm(tmp: &Path, image: &Image) -> Result<()> {
     Ok(())
 }
 
-fn read_pfm(path: &Path) -> Result<Image> {
-    let mut bytes = Vec::new();
-    File::open(path).context("cannot open")?.read_to_end(&mut bytes)?;
+fn read_pfm(bytes: &[u8]) -> Result<Image> {
     // Header: three whitespace-separated tokens, then exactly one whitespace byte before data.
     let mut pos = 0usize;
     let mut tokens = Vec::new();

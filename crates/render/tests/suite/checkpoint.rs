@@ -97,3 +97,25 @@ fn checkpoint_of_another_scene_is_refused() {
     assert!(ck.check_matches(Path::new("b.ckpt"), &RenderIdentity::of_scene(&bigger, &settings)).is_err());
     assert!(ck.check_matches(Path::new("b.ckpt"), &id).is_ok());
 }
+
+/// Fuzz reproducers (`fuzz/regressions/checkpoint/`): counters and sizes that overflow u64 are
+/// refused with a message, not wrapped (release) or panicked on (debug).
+#[test]
+fn overflowing_counters_and_sizes_are_refused() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/regressions/checkpoint");
+    let read = |name: &str| std::fs::read(dir.join(name)).unwrap();
+    for (name, expect) in [
+        ("runs-passes-sum-overflows-u64.ckpt", "overflow"),
+        ("resolution-4294967295-squared-overflows-byte-count.ckpt", "too many pixels"),
+        ("run-first-pass-plus-passes-overflows-u64.ckpt", "overflow"),
+    ] {
+        let err = Checkpoint::from_bytes(&read(name)).expect_err(name);
+        assert!(format!("{err:#}").contains(expect), "{name}: {err:#}");
+    }
+    // 2^63 samples per pixel parses; merged with a second such run the count would overflow.
+    let c = Checkpoint::from_bytes(&read("merge-samples-per-pixel-overflows-u64.ckpt")).unwrap();
+    let mut other = c.clone();
+    other.runs[0].seed += 1;
+    let err = Checkpoint::merge(&[("a.ckpt".into(), c), ("b.ckpt".into(), other)]).unwrap_err();
+    assert!(format!("{err:#}").contains("overflow"), "{err:#}");
+}

@@ -1,0 +1,155 @@
+//! The library calls of every fuzz target, in one place.
+//!
+//! Shared by the fuzz targets (through `lucent_fuzz`, `fuzz/src/lib.rs`) and by the corpus
+//! replay test `crates/render/tests/fuzz_corpus.rs` (through `#[path]`), so both run exactly the
+//! same code. When the library's modules move, only this file changes.
+//!
+//! Each function takes one input, returns nothing and must never panic, abort or hang: an input
+//! the library refuses is fine (`Err` is ignored), a panic is a finding. Work is bounded: inputs
+//! are capped at [`MAX_INPUT`] bytes and nothing is rendered.
+
+use std::path::Path;
+
+/// Inputs longer than this are ignored (libFuzzer is run with `-max_len` at most this).
+pub const MAX_INPUT: usize = 64 * 1024;
+
+/// The targets, by the name of their folder under `fuzz/corpus/` and `fuzz/regressions/`.
+pub const TARGETS: &[&str] = &["scene", "obj", "ply", "medium", "checkpoint", "image"];
+
+/// Run target `name` on `data`; `repo` is the repository root. Panics on an unknown name.
+pub fn run(name: &str, data: &[u8], repo: &Path) {
+    match name {
+        "scene" => scene(data, &repo.join("scenes")),
+        "obj" => obj(data),
+        "ply" => ply(data),
+        "medium" => medium(data),
+        "checkpoint" => checkpoint(data),
+        "image" => image(data),
+        other => panic!("unknown fuzz target {other}"),
+    }
+}
+
+/// Scene TOML: parse and build (meshes, spectra, media, BVH), relative files resolved against
+/// `scenes_dir` (the repository's `scenes/`, so that the seeds' meshes and CSVs load).
+pub fn scene(data: &[u8], scenes_dir: &Path) {
+    let Some(text) = text(data) else { return };
+    // A scene names files to read: keep the fuzzer off device files and the like (`/dev/zero`,
+    // `/proc/…`, `/sys/…` would read forever or block) and off TOML escapes that could spell them.
+    let lower = text.to_ascii_lowercase();
+    if ["dev", "proc", "sys", "\\u"].iter().any(|s| lower.contains(s)) {
+        return;
+    }
+    if let Ok(mut scene) = render::scene::Scene::from_toml_str(text, "fuzz.toml", scenes_dir) {
+        let _ = scene.content_hash();
+        let (w, h) = scene.resolution();
+        scene.set_resolution(w.clamp(1, 16), h.clamp(1, 16));
+    }
+}
+
+/// OBJ text: parse every group/object, validate, sum the area.
+pub fn obj(data: &[u8]) {
+    if data.len() > MAX_INPUT {
+        return;
+    }
+    if let Ok(meshes) = render::mesh::parse_obj(data, "fuzz") {
+        for (_, m) in &meshes {
+            if m.validate().is_ok() {
+                let _ = m.area();
+            }
+        }
+    }
+}
+
+/// PLY (ASCII or binary): parse, validate, sum the area.
+pub fn ply(data: &[u8]) {
+    if data.len() > MAX_INPUT {
+        return;
+    }
+    if let Ok(m) = render::mesh::parse_ply(data) {
+        if m.validate().is_ok() {
+            let _ = m.area();
+        }
+    }
+}
+
+/// Medium recipe TOML: parse, wavelengths, components (size distributions discretised) and,
+/// where the Mie work is small, bulk properties at up to three of the recipe's wavelengths.
+pub fn medium(data: &[u8]) {
+    let Some(text) = text(data) else { return };
+    let Ok(mut recipe) = optics::media::Recipe::from_toml(text) else { return };
+    let Ok(lambdas) = recipe.wavelengths_nm() else { return };
+    let Ok((host, comps)) = recipe.components() else { return };
+    // Up to three wavelengths: first, middle and last of the recipe's.
+    let mut coarse = vec![lambdas[0], lambdas[lambdas.len() / 2], lambdas[lambdas.len() - 1]];
+    coarse.dedup();
+    // Cost of the Mie series ~ bins × (max(|m x|, |x|) + phase angles): skip large work (known
+    // unbounded, issue 12 item 5) rather than time out on it.
+    let angles = recipe.phase_angles.min(181);
+    let mut cost = 0.0f64;
+    for c in &comps {
+        for &l in &coarse {
+            let k0 = 2.0 * std::f64::consts::PI / (l * 1e-9);
+            let n = host.eval(l).norm().max(c.index.eval(l).norm());
+            for &r in &c.bins.radius_m {
+                cost += (k0 * r * n).abs() + 30.0 + angles as f64 * (k0 * r * n).abs().min(1e6);
+            }
+        }
+    }
+    if !(cost.is_finite() && cost < 3e6) {
+        return;
+    }
+    recipe.phase_angles = angles;
+    let _ = recipe.bulk_properties(Some(&coarse));
+}
+
+/// Checkpoint bytes: parse as given, and again with the trailing checksum recomputed (so that
+/// mutations get past it to the fields); a parsed one is resumed and merged with a copy.
+pub fn checkpoint(data: &[u8]) {
+    use render::checkpoint::{Checkpoint, Fnv1a64, Merger};
+    if data.len() > MAX_INPUT {
+        return;
+    }
+    let _ = Checkpoint::from_bytes(data);
+    if data.len() < 8 {
+        return;
+    }
+    let mut fixed = data.to_vec();
+    let body = fixed.len() - 8;
+    let mut h = Fnv1a64::new();
+    h.write(&fixed[..body]);
+    fixed[body..].copy_from_slice(&h.finish().to_le_bytes());
+    if let Ok(c) = Checkpoint::from_bytes(&fixed) {
+        let path = Path::new("fuzz.ckpt");
+        let _ = c.resume_point(path);
+        let _ = c.check_matches(path, &c.identity);
+        let mut other = c.clone();
+        for run in &mut other.runs {
+            run.seed = run.seed.wrapping_add(1);
+        }
+        let mut m = Merger::new();
+        if m.add(path, c.clone()).is_ok() && m.add(Path::new("other.ckpt"), other).is_ok() {
+            if let Ok(merged) = m.finish() {
+                let _ = merged.to_bytes();
+            }
+        }
+        let _ = c.to_bytes();
+    }
+}
+
+/// Image bytes: decoded as PNG, OpenEXR and PFM in turn.
+pub fn image(data: &[u8]) {
+    use render::image_io::{decode_image, Format};
+    if data.len() > MAX_INPUT {
+        return;
+    }
+    for format in [Format::Png, Format::Exr, Format::Pfm] {
+        let _ = decode_image(data, format);
+    }
+}
+
+fn text(data: &[u8]) -> Option<&str> {
+    if data.len() > MAX_INPUT {
+        return None;
+    }
+    std::str::from_utf8(data).ok()
+}
