@@ -1,7 +1,7 @@
 //! The library calls of every fuzz target, in one place.
 //!
 //! Shared by the fuzz targets (through `lucent_fuzz`, `fuzz/src/lib.rs`) and by the corpus
-//! replay test `crates/render/tests/fuzz_corpus.rs` (through `#[path]`), so both run exactly the
+//! replay test `crates/render/tests/suite/fuzz_corpus.rs` (through `#[path]`), so both run exactly the
 //! same code. When the library's modules move, only this file changes.
 //!
 //! Each function takes one input, returns nothing and must never panic, abort or hang: an input
@@ -51,7 +51,7 @@ pub fn obj(data: &[u8]) {
     if data.len() > MAX_INPUT {
         return;
     }
-    if let Ok(meshes) = render::mesh::parse_obj(data, "fuzz") {
+    if let Ok(meshes) = render::shape::mesh::parse_obj(data, "fuzz") {
         for (_, m) in &meshes {
             if m.validate().is_ok() {
                 let _ = m.area();
@@ -65,7 +65,7 @@ pub fn ply(data: &[u8]) {
     if data.len() > MAX_INPUT {
         return;
     }
-    if let Ok(m) = render::mesh::parse_ply(data) {
+    if let Ok(m) = render::shape::mesh::parse_ply(data) {
         if m.validate().is_ok() {
             let _ = m.area();
         }
@@ -83,7 +83,7 @@ pub fn medium(data: &[u8]) {
     let mut coarse = vec![lambdas[0], lambdas[lambdas.len() / 2], lambdas[lambdas.len() - 1]];
     coarse.dedup();
     // Cost of the Mie series ~ bins × (max(|m x|, |x|) + phase angles): skip large work (known
-    // unbounded, issue 12 item 5) rather than time out on it.
+    // unbounded before the library bounded it) rather than time out on it.
     let angles = recipe.phase_angles.min(181);
     let mut cost = 0.0f64;
     for c in &comps {

@@ -1,5 +1,5 @@
 //! Fuzz targets of lucent: see `fuzz/README.md`. The library calls live in `calls.rs`, shared
-//! with the corpus replay test `crates/render/tests/fuzz_corpus.rs`.
+//! with the corpus replay test `crates/render/tests/suite/fuzz_corpus.rs`.
 
 #[path = "calls.rs"]
 pub mod calls;

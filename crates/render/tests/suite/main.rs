@@ -5,6 +5,7 @@ mod bsdf;
 mod bsdf_scene;
 mod bvh;
 mod checkpoint;
+mod fuzz_corpus;
 mod geometry;
 mod golden_renders;
 mod image_io;

@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-#[path = "../../../fuzz/src/calls.rs"]
+#[path = "../../../../fuzz/src/calls.rs"]
 mod calls;
 
 fn repo() -> PathBuf {
