@@ -375,7 +375,7 @@ fn check_work(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Component],
             work += c.bins.radius_m.len() as f64 * (mie::work_estimate(x_max, m) + terms * na as f64);
         }
     }
-    if !(work <= MAX_WORK) {
+    if work.is_nan() || work > MAX_WORK {
         bail!(
             "the medium needs about {work:.2e} recurrence steps ({} wavelengths × radius bins × series terms), above the supported {MAX_WORK:e}: use fewer wavelengths, bins or phase angles",
             lambda_nm.len()
