@@ -520,7 +520,7 @@ pub fn fit_color(render: &Image, photo: &Image, mask: Option<&Mask>, options: &C
             options.model.name()
         )
     };
-    if col_scale[..k].iter().any(|&s| s == 0.0) {
+    if col_scale[..k].contains(&0.0) {
         return Err(degenerate());
     }
     let scaled: Vec<[f64; 4]> = a.iter().map(|r| std::array::from_fn(|j| if j < k { r[j] / col_scale[j] } else { 0.0 })).collect();

@@ -119,8 +119,8 @@ fn known_affine_transform_is_recovered_despite_outliers() {
     let opts = ColorFitOptions { model: ColorModel::Affine, ..Default::default() };
     let fit = fit_color(&render, &photo, None, &opts).unwrap();
     assert!(max_abs_diff(&fit.matrix, &m_true) < 1e-3, "{fit:?}");
-    for c in 0..3 {
-        assert!((fit.offset[c] - o_true[c]).abs() < 1e-3, "{fit:?}");
+    for (o, t) in fit.offset.iter().zip(o_true) {
+        assert!((o - t).abs() < 1e-3, "{fit:?}");
     }
     // A 3×3 model cannot absorb the offset: its residual stays larger.
     let m3 = fit_color(&render, &photo, None, &ColorFitOptions::default()).unwrap();
