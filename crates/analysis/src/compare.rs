@@ -328,8 +328,8 @@ pub const DEFAULT_SATURATION: f64 = 1.0;
 
 /// Huber cut-off of the colour fit in units of the robust residual scale σ: √χ²₃(0.95) = 2.7955,
 /// the 95 % quantile of the length of a 3-D Gaussian residual, so that 95 % of inlier pixels keep
-/// full weight (multivariate Huber weights, Maronna, Martin & Yohai, *Robust Statistics*, 2006,
-/// §6.4).
+/// full weight (Huber weights on a residual vector's length, as in the multivariate M-estimators
+/// of Maronna, Martin & Yohai, *Robust Statistics: Theory and Methods*, 2006).
 pub const HUBER_CUTOFF_SIGMA: f64 = 2.795_483;
 
 /// MAD → standard deviation of a Gaussian, 1/Φ⁻¹(3/4).
