@@ -254,7 +254,7 @@ fn color_correction_recovers_a_known_matrix() {
     let cm = corrected.color_matrix.unwrap();
     assert!((cm[2][2] - 1.1).abs() < 1e-5);
 
-    // With noise on the photo, the least-squares fit is still unbiased: recovered within a few
+    // With noise on the photo, the robust fit is still unbiased: recovered within a few
     // standard errors (σ_M ≈ σ / √(N E[r²]) ≈ 0.01 / √(3072 · 1/3) ≈ 3e-4).
     let mut noisy = photo.clone();
     let mut rng = Rng(77);
@@ -345,4 +345,61 @@ fn bad_inputs_are_errors_not_panics() {
     let tiny = random_image(3, 2, 0.0, 1.0, 4);
     let s = compare(&tiny, &tiny, None, false).unwrap().metrics.ssim;
     assert!((s - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn ssim_of_an_image_with_itself_is_exactly_one_at_any_scale() {
+    // Including the brightest finite f32 pixels: local means near 3e38 and squares near 1e77,
+    // where E[x²] − E[x]² would have lost every digit.
+    let base = random_image(24, 20, 0.0, 1.0, 31);
+    for scale in [1e-30f32, 1e-3, 1.0, 1e3, 1e20, 1e30, 3e38] {
+        let mut img = base.clone();
+        for p in img.rgb.iter_mut() {
+            for c in p.iter_mut() {
+                *c = (*c * scale).min(3e38);
+            }
+        }
+        assert_eq!(ssim(&img, &img, None).unwrap(), 1.0, "scale {scale:e}");
+        assert_eq!(compare(&img, &img, None, false).unwrap().metrics.ssim, 1.0, "scale {scale:e}");
+    }
+    let flat = Image { width: 16, height: 16, rgb: vec![[3e38; 3]; 256] };
+    assert_eq!(ssim(&flat, &flat, None).unwrap(), 1.0);
+    // Through a PFM file, as `lucent compare` reads it.
+    let path = std::env::temp_dir().join(format!("lucent-ssim-flat-{}.pfm", std::process::id()));
+    render::image_io::write_image(&path, &flat, 0.0).unwrap();
+    let back = render::image_io::read_image(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    let m = compare(&back, &back, None, false).unwrap().metrics;
+    assert_eq!(m.ssim, 1.0);
+    assert_eq!(m.rmse, 0.0);
+}
+
+#[test]
+fn ssim_keeps_precision_for_bright_images() {
+    // Constant images: the variances are exactly zero, leaving the closed form of the luminance
+    // term even at 1e30 (where the stabilising constants no longer matter).
+    for (x, y) in [(3e38f32, 1.5e38f32), (1e30, 4e29), (0.5, 0.3)] {
+        let a = Image { width: 16, height: 12, rgb: vec![[x; 3]; 192] };
+        let b = Image { width: 16, height: 12, rgb: vec![[y; 3]; 192] };
+        let (x, y, c1) = (x as f64, y as f64, SSIM_K1 * SSIM_K1);
+        let expected = (2.0 * x * y + c1) / (x * x + y * y + c1);
+        let s = ssim(&a, &b, None).unwrap();
+        assert!((s - expected).abs() < 1e-12, "{s} vs {expected}");
+    }
+    // Structured images far above the dynamic range: the direct two-pass definition agrees.
+    let a = random_image(27, 21, 0.0, 1.0, 41);
+    let mut b = a.clone();
+    let mut rng = Rng(43);
+    for p in b.rgb.iter_mut() {
+        for c in p.iter_mut() {
+            *c = (*c * 0.7 + 0.4 * rng.next() as f32).max(0.0);
+        }
+    }
+    for scale in [1e6f32, 1e15, 1e30] {
+        let scaled = |img: &Image| Image { rgb: img.rgb.iter().map(|p| p.map(|c| c * scale)).collect(), ..img.clone() };
+        let (sa, sb) = (scaled(&a), scaled(&b));
+        let s = ssim(&sa, &sb, None).unwrap();
+        let s_ref = ssim_brute_force(&sa, &sb);
+        assert!((s - s_ref).abs() < 1e-9 && s > 0.0 && s < 1.0, "scale {scale:e}: {s} vs {s_ref}");
+    }
 }
