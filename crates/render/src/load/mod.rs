@@ -18,6 +18,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
+pub mod calibration;
 pub mod camera;
 pub mod desc;
 pub mod error;
@@ -148,7 +149,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let (lights, environment) = light::lights(cx, &ld.sp, &desc, unit_m, &shapes, &mut objects)?;
     let spectra_hash = ld.sp.hash.borrow().finish();
     ld.hash.write(&spectra_hash.to_le_bytes());
-    let camera = camera::camera(cx, &desc, unit_m)?;
+    let camera = camera::camera(&mut ld, &desc)?;
     let (integrator, ao_distance_m) = integrator::integrator(cx, &desc, unit_m)?;
 
     if shapes.is_empty() {

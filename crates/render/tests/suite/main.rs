@@ -4,6 +4,7 @@ mod common;
 mod bsdf;
 mod bsdf_scene;
 mod bvh;
+mod camera;
 mod checkpoint;
 mod geometry;
 mod golden_renders;
