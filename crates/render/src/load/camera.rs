@@ -10,16 +10,33 @@ use crate::camera::{Camera, CameraModel, Distortion, Extrinsics, Intrinsics, Ope
 use crate::load::calibration::{parse_calibration, Calibration, CalibrationNodes};
 use crate::load::desc::{CameraDesc, SceneDesc};
 use crate::load::object::{finite3, v3};
-use crate::load::Build;
+use crate::load::error::Cx;
+use crate::load::{Build, SceneFiles};
 use anyhow::{anyhow, Result};
 use glam::Vec3;
 
 /// The camera, positions converted to metres.
 pub(crate) fn camera(ld: &mut Build, desc: &SceneDesc) -> Result<Camera> {
-    let (cx, unit_m) = (ld.cx, ld.unit_m);
-    let cspan = desc.camera.span();
-    let c = desc.camera.get_ref();
-    let err = |field: &str, msg: &dyn std::fmt::Display| cx.err(&cspan, &format!("camera.{field}"), msg);
+    let (cx, files, unit_m) = (ld.cx, ld.files, ld.unit_m);
+    let hash = &mut ld.hash;
+    camera_from(cx, files, unit_m, desc.camera.get_ref(), &desc.camera.span(), "camera", None, &mut |b| hash.write(b))
+}
+
+/// A camera from its table `c` at `cspan`, errors naming `field`; `default_size` replaces the
+/// 256×256 default (a projector's image size); `hash` receives the bytes of files read.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn camera_from(
+    cx: &Cx,
+    files: &dyn SceneFiles,
+    unit_m: f64,
+    c: &CameraDesc,
+    cspan: &std::ops::Range<usize>,
+    field: &str,
+    default_size: Option<(u32, u32)>,
+    hash: &mut dyn FnMut(&[u8]),
+) -> Result<Camera> {
+    let cspan = cspan.clone();
+    let err = |key: &str, msg: &dyn std::fmt::Display| cx.err(&cspan, &format!("{field}.{key}"), msg);
     let to_m = |x: f64| (x * unit_m) as f32;
     for (key, p) in [("eye", &c.eye), ("look_at", &c.look_at), ("up", &c.up), ("t", &c.t), ("rvec", &c.rvec)] {
         if let Some(p) = p {
@@ -38,18 +55,19 @@ pub(crate) fn camera(ld: &mut Build, desc: &SceneDesc) -> Result<Camera> {
                 return Err(err(if c.eye.is_none() { "eye" } else { "look_at" }, &"missing"));
             };
             let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
-            let (w, h) = (c.width.unwrap_or(256), c.height.unwrap_or(256));
+            let (dw, dh) = default_size.unwrap_or((256, 256));
+            let (w, h) = (c.width.unwrap_or(dw), c.height.unwrap_or(dh));
             let eye = Vec3::new(to_m(e[0]), to_m(e[1]), to_m(e[2]));
             let at = Vec3::new(to_m(a[0]), to_m(a[1]), to_m(a[2]));
             match (c.vfov_deg, c.camera_constant) {
-                (Some(_), Some(_)) => return Err(cx.err(&cspan, "camera", "give vfov_deg or camera_constant, not both")),
+                (Some(_), Some(_)) => return Err(cx.err(&cspan, field, "give vfov_deg or camera_constant, not both")),
                 (Some(f), None) => Camera::look_at(eye, at, v3(up), f as f32, w, h),
                 (None, Some(d)) => Camera::with_constant(eye, at, v3(up), d as f32, w, h),
                 (None, None) => return Err(err("vfov_deg", &"missing (or give camera_constant)")),
             }
-            .map_err(|e| cx.err(&cspan, "camera", e))?
+            .map_err(|e| cx.err(&cspan, field, e))?
         }
-        "opencv" => opencv_camera(ld, c, &cspan)?,
+        "opencv" => opencv_camera(cx, files, unit_m, c, &cspan, field, default_size, hash)?,
         other => return Err(err("model", &format!("unknown camera model `{other}` (use pinhole or opencv)"))),
     };
     camera.lens = lens(c, unit_m).map_err(|(k, e)| err(k, &e))?;
@@ -83,9 +101,18 @@ fn opencv_keys(c: &CameraDesc) -> Vec<&'static str> {
     f.iter().filter(|(_, p)| *p).map(|(k, _)| *k).collect()
 }
 
-fn opencv_camera(ld: &mut Build, c: &CameraDesc, cspan: &std::ops::Range<usize>) -> Result<Camera> {
-    let (cx, unit_m) = (ld.cx, ld.unit_m);
-    let err = |field: &str, msg: &dyn std::fmt::Display| cx.err(cspan, &format!("camera.{field}"), msg);
+#[allow(clippy::too_many_arguments)]
+fn opencv_camera(
+    cx: &Cx,
+    files: &dyn SceneFiles,
+    unit_m: f64,
+    c: &CameraDesc,
+    cspan: &std::ops::Range<usize>,
+    field: &str,
+    default_size: Option<(u32, u32)>,
+    hash: &mut dyn FnMut(&[u8]),
+) -> Result<Camera> {
+    let err = |key: &str, msg: &dyn std::fmt::Display| cx.err(cspan, &format!("{field}.{key}"), msg);
     for (k, p) in [("vfov_deg", c.vfov_deg.is_some()), ("camera_constant", c.camera_constant.is_some())] {
         if p {
             return Err(err(k, &"is a pinhole key; the OpenCV model takes fx, fy, cx, cy"));
@@ -99,8 +126,8 @@ fn opencv_camera(ld: &mut Build, c: &CameraDesc, cspan: &std::ops::Range<usize>)
             None
         }
         Some(rel) => {
-            let text = ld.files.read_text(rel).map_err(|e| err("calibration", &format!("{e:#}")))?;
-            ld.hash.write(text.as_bytes());
+            let text = files.read_text(rel).map_err(|e| err("calibration", &format!("{e:#}")))?;
+            hash(text.as_bytes());
             let mut nodes = CalibrationNodes::default();
             if let Some(m) = &c.matrix_node {
                 nodes.matrix = m.clone();
@@ -138,7 +165,7 @@ fn opencv_camera(ld: &mut Build, c: &CameraDesc, cspan: &std::ops::Range<usize>)
     };
     let scene_size = match (c.width, c.height) {
         (Some(w), Some(h)) => Some((w, h)),
-        (None, None) => None,
+        (None, None) => default_size,
         _ => return Err(err(if c.width.is_none() { "width" } else { "height" }, &"give both width and height")),
     };
     // The calibration's intrinsics belong to its image size; another size rescales them.
@@ -180,8 +207,8 @@ fn opencv_camera(ld: &mut Build, c: &CameraDesc, cspan: &std::ops::Range<usize>)
     }
     let (key, extr) = ways.pop().ok_or_else(|| err("R", &"missing pose: give R (or rvec) and t, pose, or eye and look_at"))?;
     let extrinsics = extr.map_err(|e| err(key, &e))?;
-    let cam = OpenCv::new(intrinsics, distortion, extrinsics, w0, h0).map_err(|e| cx.err(cspan, "camera", e))?;
-    let mut camera = Camera::opencv(cam, w0, h0).map_err(|e| cx.err(cspan, "camera", e))?;
+    let cam = OpenCv::new(intrinsics, distortion, extrinsics, w0, h0).map_err(|e| cx.err(cspan, field, e))?;
+    let mut camera = Camera::opencv(cam, w0, h0).map_err(|e| cx.err(cspan, field, e))?;
     if let Some((w, h)) = rescale {
         camera.set_resolution(w, h);
     }

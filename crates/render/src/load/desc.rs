@@ -140,4 +140,8 @@ pub(crate) struct LightDesc {
     pub(crate) scale: Option<f64>,
     pub(crate) power_w: Option<f64>,
     pub(crate) two_sided: Option<bool>,
+    /// Projector: image file, its response, and the camera model it projects through.
+    pub(crate) image: Option<String>,
+    pub(crate) response: Option<toml::Value>,
+    pub(crate) camera: Option<Spanned<CameraDesc>>,
 }

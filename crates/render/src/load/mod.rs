@@ -49,6 +49,8 @@ pub(crate) trait SceneFiles {
     fn read_text(&self, rel: &str) -> Result<String>;
     /// Meshes in a file named in the scene, with the file's bytes for hashing.
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)>;
+    /// Path of a file named in the scene, for readers that open files themselves.
+    fn path(&self, rel: &str) -> Result<PathBuf>;
 }
 
 struct DiskFiles {
@@ -65,6 +67,9 @@ impl SceneFiles for DiskFiles {
         let bytes = std::fs::read(&p).with_context(|| format!("cannot read mesh {}", p.display()))?;
         let meshes = TriangleMesh::load(&p).with_context(|| format!("cannot load mesh {}", p.display()))?;
         Ok((meshes, bytes))
+    }
+    fn path(&self, rel: &str) -> Result<PathBuf> {
+        Ok(self.base.join(rel))
     }
 }
 
@@ -86,6 +91,9 @@ impl SceneFiles for EmbeddedFiles {
     }
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)> {
         bail!("mesh {rel} is not embedded in the binary")
+    }
+    fn path(&self, rel: &str) -> Result<PathBuf> {
+        bail!("{rel} is not embedded in the binary")
     }
 }
 

@@ -14,6 +14,7 @@ mod integrator_cornell;
 mod light;
 mod mesh;
 mod pinned_physics;
+mod projector;
 mod scene;
 mod subsurface;
 mod volpath;
