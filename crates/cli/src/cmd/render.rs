@@ -72,6 +72,15 @@ pub struct Args {
     /// No progress bar and no summary line.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Calibrated camera replacing the scene's: lucent calibration JSON or OpenCV FileStorage YAML/XML (see docs/scene-format.md).
+    #[arg(long, value_name = "CALIB")]
+    pub camera: Option<PathBuf>,
+    /// Camera-matrix node of a FileStorage calibration [default: camera_matrix].
+    #[arg(long, value_name = "NAME", requires = "camera")]
+    pub camera_matrix_node: Option<String>,
+    /// Distortion node of a FileStorage calibration [default: distortion_coefficients].
+    #[arg(long, value_name = "NAME", requires = "camera")]
+    pub camera_dist_node: Option<String>,
 }
 
 impl Args {
@@ -220,6 +229,12 @@ pub fn run(args: Args) -> Result<()> {
         Some(path) => Scene::load(path)?,
         None => Scene::cornell_box(),
     };
+    if let Some(calib) = &args.camera {
+        let mut nodes = render::load::calibration::CalibrationNodes::default();
+        nodes.matrix = args.camera_matrix_node.clone().unwrap_or(nodes.matrix);
+        nodes.dist = args.camera_dist_node.clone().unwrap_or(nodes.dist);
+        scene.use_calibration(calib, &nodes)?;
+    }
     let scene_name = match &args.scene {
         Some(path) => path.display().to_string(),
         None => "built-in Cornell box".to_string(),

@@ -59,7 +59,8 @@ pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32
 #[inline]
 pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32, sss: Option<&SubsurfacePass>) -> [f32; 3] {
     let u_lambda = rng.next_f32();
-    let ray = scene.camera.generate_ray(i, j, rng.next_2d());
+    let u_film = rng.next_2d();
+    let ray = scene.camera.sample_ray(i, j, u_film, || rng.next_2d());
     let mut wl = match sss {
         Some(p) => p.wl,
         None => SampledWavelengths::sample(u_lambda),

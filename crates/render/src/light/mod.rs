@@ -1,5 +1,5 @@
-//! Luminaires: point, spot, directional, diffuse area lights on triangle meshes and spheres, and a
-//! constant environment.
+//! Luminaires: point, spot, directional, diffuse area lights on triangle meshes and spheres, a
+//! constant environment, and image projectors ([`projector`]).
 //!
 //! Every light has a spectrum at 1-nm resolution. Units: area and environment lights give spectral
 //! radiance (W·m⁻²·sr⁻¹·nm⁻¹), point and spot lights spectral intensity (W·sr⁻¹·nm⁻¹), directional
@@ -13,6 +13,8 @@
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod projector;
 
 use crate::math::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
@@ -83,6 +85,8 @@ pub enum Light {
         /// Whether it emits on both sides (else only on the side of the geometric normal).
         two_sided: bool,
     },
+    /// Point light emitting an image through a camera model (see [`projector`]).
+    Projector(Box<projector::Projector>),
     /// Radiance arriving from every direction not blocked by the scene.
     Environment {
         /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
@@ -139,7 +143,7 @@ impl Emitter {
 impl Light {
     /// True for lights with a delta distribution in direction (cannot be hit by rays).
     pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. })
+        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_))
     }
 
     /// Approximate emitted power in W (∫ spectrum dλ over 360–830 nm) used to choose lights in
@@ -155,6 +159,7 @@ impl Light {
             Light::Area { area_m2, radiance, two_sided, .. } => {
                 PI * area_m2 * integral(radiance) * if *two_sided { 2.0 } else { 1.0 }
             }
+            Light::Projector(p) => p.weighted_solid_angle_sr * integral(&p.intensity),
             Light::Environment { radiance } => 4.0 * PI * PI * scene_radius_m * scene_radius_m * integral(radiance),
         }
     }
@@ -186,6 +191,16 @@ impl Light {
                     return None;
                 }
                 Some(LightSample { wi, dist, li: wl.eval(intensity) * (k / r2), pdf: 1.0, delta: true })
+            }
+            Light::Projector(pr) => {
+                let d = pr.position() - p;
+                let r2 = d.length_squared();
+                let v = pr.value_at(p);
+                if !(r2 > 0.0) || !(v > 0.0) {
+                    return None;
+                }
+                let dist = r2.sqrt();
+                Some(LightSample { wi: d / dist, dist, li: wl.eval(&pr.intensity) * (v / r2), pdf: 1.0, delta: true })
             }
             Light::Directional { direction, irradiance } => Some(LightSample {
                 wi: -*direction,
@@ -275,7 +290,7 @@ impl Light {
             }
             Light::Environment { .. } => UNIFORM_SPHERE_PDF,
             // Delta lights are never hit by a sampled direction.
-            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_) => 0.0,
         }
     }
 
@@ -292,7 +307,7 @@ impl Light {
                 }
             }
             Light::Environment { radiance } => wl.eval(radiance),
-            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => Vec4::ZERO,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_) => Vec4::ZERO,
         }
     }
 }

@@ -26,13 +26,43 @@ pub(crate) struct SceneDesc {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct CameraDesc {
-    pub(crate) eye: [f64; 3],
-    pub(crate) look_at: [f64; 3],
+    /// `pinhole` (default) or `opencv` (see `load::camera`).
+    pub(crate) model: Option<String>,
+    pub(crate) eye: Option<[f64; 3]>,
+    pub(crate) look_at: Option<[f64; 3]>,
     pub(crate) up: Option<[f64; 3]>,
     pub(crate) vfov_deg: Option<f64>,
     pub(crate) camera_constant: Option<f64>,
     pub(crate) width: Option<u32>,
     pub(crate) height: Option<u32>,
+    // OpenCV intrinsics (pixels), distortion, extrinsics.
+    pub(crate) fx: Option<f64>,
+    pub(crate) fy: Option<f64>,
+    pub(crate) cx: Option<f64>,
+    pub(crate) cy: Option<f64>,
+    pub(crate) k1: Option<f64>,
+    pub(crate) k2: Option<f64>,
+    pub(crate) k3: Option<f64>,
+    pub(crate) k4: Option<f64>,
+    pub(crate) k5: Option<f64>,
+    pub(crate) k6: Option<f64>,
+    pub(crate) p1: Option<f64>,
+    pub(crate) p2: Option<f64>,
+    pub(crate) dist: Option<Vec<f64>>,
+    #[serde(rename = "R")]
+    pub(crate) r: Option<[[f64; 3]; 3]>,
+    pub(crate) rvec: Option<[f64; 3]>,
+    pub(crate) t: Option<[f64; 3]>,
+    pub(crate) pose: Option<Vec<[f64; 4]>>,
+    /// Calibration file (JSON or OpenCV FileStorage) and its node names.
+    pub(crate) calibration: Option<String>,
+    pub(crate) matrix_node: Option<String>,
+    pub(crate) dist_node: Option<String>,
+    // Thin lens.
+    pub(crate) aperture_radius: Option<f64>,
+    pub(crate) f_number: Option<f64>,
+    pub(crate) focal_length_mm: Option<f64>,
+    pub(crate) focus_distance: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -110,4 +140,8 @@ pub(crate) struct LightDesc {
     pub(crate) scale: Option<f64>,
     pub(crate) power_w: Option<f64>,
     pub(crate) two_sided: Option<bool>,
+    /// Projector: image file, its response, and the camera model it projects through.
+    pub(crate) image: Option<String>,
+    pub(crate) response: Option<toml::Value>,
+    pub(crate) camera: Option<Spanned<CameraDesc>>,
 }

@@ -36,6 +36,9 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 ("intensity", l.intensity.is_some()),
                 ("irradiance", l.irradiance.is_some()),
                 ("two_sided", l.two_sided.is_some()),
+                ("image", l.image.is_some()),
+                ("response", l.response.is_some()),
+                ("camera", l.camera.is_some()),
             ];
             for (key, is) in present {
                 if is && !allowed.contains(&key) {
@@ -161,12 +164,59 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 objects[oi].light = Some(lights.len() as u32);
                 Light::Area { object: oi as u32, emitter, area_m2, radiance: scaled(need(&l.radiance, "radiance")?, geometric)?, two_sided }
             }
+            "projector" => {
+                check_keys(&["image", "response", "camera", "intensity"])?;
+                projector(cx, sp, unit_m, l, &span, &field, &scaled, need(&l.intensity, "intensity")?)?
+            }
             other => {
-                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type `{other}` (known: point, spot, directional, area, environment)")))
+                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type `{other}` (known: point, spot, directional, area, environment, projector)")))
             }
         };
         lights.push(light);
     }
 
     Ok((lights, environment))
+}
+
+/// A projector light: `image` (through `response`), `camera` (a camera table; its size defaults to
+/// the image's and must equal it), `intensity` for a pixel of value 1.
+#[allow(clippy::too_many_arguments)]
+fn projector(
+    cx: &Cx,
+    sp: &SpectrumCx,
+    unit_m: f64,
+    l: &crate::load::desc::LightDesc,
+    span: &std::ops::Range<usize>,
+    field: &str,
+    scaled: impl Fn(DenseSpectrum, f64) -> Result<DenseSpectrum>,
+    intensity: DenseSpectrum,
+) -> Result<Light> {
+    use crate::light::projector::{read_projector_image, Projector, Response};
+    let rel = l.image.as_ref().ok_or_else(|| cx.err(span, &format!("{field}.image"), "missing (the image to project)"))?;
+    let response = match &l.response {
+        None => Response::Srgb,
+        Some(toml::Value::String(s)) if s == "srgb" => Response::Srgb,
+        Some(toml::Value::String(s)) if s == "linear" => Response::Linear,
+        Some(v) => match v.as_float().or(v.as_integer().map(|i| i as f64)) {
+            Some(g) if g > 0.0 && g.is_finite() => Response::Gamma(g),
+            _ => return Err(cx.err(span, &format!("{field}.response"), format!("unknown response {v} (use \"linear\", \"srgb\" or a gamma > 0)"))),
+        },
+    };
+    let path = sp.files.path(rel).map_err(|e| cx.err(span, &format!("{field}.image"), e))?;
+    let (w, h, values) = read_projector_image(&path, response).map_err(|e| cx.err(span, &format!("{field}.image"), format!("{e:#}")))?;
+    if let Ok(bytes) = std::fs::read(&path) {
+        sp.hash.borrow_mut().write(&bytes);
+    }
+    let cam = l.camera.as_ref().ok_or_else(|| cx.err(span, &format!("{field}.camera"), "missing (the projector's camera model and pose)"))?;
+    let cfield = format!("{field}.camera");
+    let camera = crate::load::camera::camera_from(cx, sp.files, unit_m, cam.get_ref(), &cam.span(), &cfield, Some((w, h)), &mut |b| sp.hash.borrow_mut().write(b))?;
+    if (camera.width, camera.height) != (w, h) {
+        return Err(cx.err(span, &cfield, format!("is {}×{} but the image {rel} is {w}×{h}", camera.width, camera.height)));
+    }
+    if camera.lens.is_some() {
+        return Err(cx.err(span, &cfield, "a projector has no lens (aperture_radius, f_number)"));
+    }
+    let p = Projector::new(camera, values, intensity).map_err(|e| cx.err(span, &format!("{field}.image"), e))?;
+    let intensity = scaled(p.intensity.clone(), p.weighted_solid_angle_sr as f64)?;
+    Ok(Light::Projector(Box::new(Projector { intensity, ..p })))
 }

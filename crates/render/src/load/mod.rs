@@ -18,6 +18,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
+pub mod calibration;
 pub mod camera;
 pub mod desc;
 pub mod error;
@@ -48,6 +49,8 @@ pub(crate) trait SceneFiles {
     fn read_text(&self, rel: &str) -> Result<String>;
     /// Meshes in a file named in the scene, with the file's bytes for hashing.
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)>;
+    /// Path of a file named in the scene, for readers that open files themselves.
+    fn path(&self, rel: &str) -> Result<PathBuf>;
 }
 
 struct DiskFiles {
@@ -64,6 +67,9 @@ impl SceneFiles for DiskFiles {
         let bytes = std::fs::read(&p).with_context(|| format!("cannot read mesh {}", p.display()))?;
         let meshes = TriangleMesh::load(&p).with_context(|| format!("cannot load mesh {}", p.display()))?;
         Ok((meshes, bytes))
+    }
+    fn path(&self, rel: &str) -> Result<PathBuf> {
+        Ok(self.base.join(rel))
     }
 }
 
@@ -85,6 +91,9 @@ impl SceneFiles for EmbeddedFiles {
     }
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)> {
         bail!("mesh {rel} is not embedded in the binary")
+    }
+    fn path(&self, rel: &str) -> Result<PathBuf> {
+        bail!("{rel} is not embedded in the binary")
     }
 }
 
@@ -148,7 +157,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let (lights, environment) = light::lights(cx, &ld.sp, &desc, unit_m, &shapes, &mut objects)?;
     let spectra_hash = ld.sp.hash.borrow().finish();
     ld.hash.write(&spectra_hash.to_le_bytes());
-    let camera = camera::camera(cx, &desc, unit_m)?;
+    let camera = camera::camera(&mut ld, &desc)?;
     let (integrator, ao_distance_m) = integrator::integrator(cx, &desc, unit_m)?;
 
     if shapes.is_empty() {

@@ -95,8 +95,8 @@ fn cornell_geometry_is_the_published_obj() {
     }
     // Camera: 39.3077° vertical field of view at (278, 273, −800) mm looking +z.
     assert!((s.camera.vfov_deg() - 39.3077).abs() < 1e-3);
-    assert!((s.camera.eye - glam::Vec3::new(0.278, 0.273, -0.8)).length() < 1e-6);
-    assert!((s.camera.forward - glam::Vec3::Z).length() < 1e-6);
+    assert!((s.camera.eye() - glam::Vec3::new(0.278, 0.273, -0.8)).length() < 1e-6);
+    assert!((s.camera.forward() - glam::Vec3::Z).length() < 1e-6);
 }
 
 #[test]

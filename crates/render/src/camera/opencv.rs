@@ -1,0 +1,396 @@
+//! The OpenCV camera model (OpenCV's "Camera Calibration and 3D Reconstruction" documentation,
+//! `calib3d`): a pinhole with intrinsics fx, fy, cx, cy (pixels), radial distortion k1, k2, k3
+//! and the rational model's k4, k5, k6, tangential distortion p1, p2, and extrinsics R, t
+//! mapping world to camera coordinates (x right, y down, z forward).
+//!
+//! A world point X projects as
+//!   (X, Y, Z) = R·X_w + t,   x′ = X/Z,   y′ = Y/Z,   r² = x′² + y′²,
+//!   x″ = x′·(1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶) + 2 p1 x′y′ + p2 (r² + 2x′²),
+//!   y″ = y′·(same radial factor) + p1 (r² + 2y′²) + 2 p2 x′y′,
+//!   u = fx x″ + cx,   v = fy y″ + cy.
+//!
+//! Pixel convention: OpenCV puts integer coordinates at pixel centres, so pixel (i, j) of the
+//! film, sampled at offset (uₓ, u_y) ∈ [0,1)², is OpenCV position (i + uₓ − ½, j + u_y − ½):
+//! pixel (i, j) covers [i − ½, i + ½) × [j − ½, j + ½) in OpenCV coordinates, and lucent's
+//! continuous film coordinate is the OpenCV coordinate plus ½.
+//!
+//! Rays need the inverse of the distortion map (x′, y′) ↦ (x″, y″). It is solved per ray by
+//! Newton's method in f64 from (x″, y″) to a residual below 1e-9 px: about four iterations of a
+//! closed-form 2×2 Jacobian (quadratic convergence from a 50 px start at the image corners),
+//! no per-pixel cache; the `camera` test suite times it against the pinhole's ray and a path
+//! sample (about a tenth of a Cornell-box path sample). Parameters for which the map is not invertible over the
+//! image are refused when the camera is built ([`OpenCv::new`]).
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use anyhow::{bail, Result};
+
+/// Intrinsics in pixels (OpenCV's camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Intrinsics {
+    /// Focal length along x (pixels).
+    pub fx: f64,
+    /// Focal length along y (pixels).
+    pub fy: f64,
+    /// Principal point x (pixels, OpenCV convention: 0 is the centre of the first column).
+    pub cx: f64,
+    /// Principal point y (pixels, OpenCV convention: 0 is the centre of the first row).
+    pub cy: f64,
+}
+
+/// Distortion coefficients (dimensionless, acting on normalised image coordinates).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Distortion {
+    /// Radial k1…k6 (k4…k6: denominator of the rational model).
+    pub k: [f64; 6],
+    /// Tangential p1, p2.
+    pub p: [f64; 2],
+}
+
+impl Distortion {
+    /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6]]): 4, 5 or 8 entries;
+    /// 12 or 14 entries (thin-prism s1…s4, tilt τx, τy) are accepted only when the extras are 0.
+    pub fn from_opencv(c: &[f64]) -> Result<Distortion> {
+        if !matches!(c.len(), 0 | 4 | 5 | 8 | 12 | 14) {
+            bail!("distortion has {} coefficients; OpenCV uses 4, 5, 8, 12 or 14 (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1..s4[, tx, ty]]]])", c.len());
+        }
+        if let Some(x) = c.iter().find(|x| !x.is_finite()) {
+            bail!("distortion coefficient {x} is not finite");
+        }
+        if c.len() > 8 && c[8..].iter().any(|&x| x != 0.0) {
+            bail!("thin-prism and tilt coefficients (entries 9 and on) are not supported; they must be 0");
+        }
+        let g = |i: usize| c.get(i).copied().unwrap_or(0.0);
+        Ok(Distortion { k: [g(0), g(1), g(4), g(5), g(6), g(7)], p: [g(2), g(3)] })
+    }
+
+    /// Radial factor (1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶), its derivative with
+    /// respect to r², and the denominator.
+    #[inline]
+    fn radial(&self, r2: f64) -> (f64, f64, f64) {
+        let k = &self.k;
+        let n = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[2]));
+        let dn = k[0] + r2 * (2.0 * k[1] + 3.0 * r2 * k[2]);
+        let m = 1.0 + r2 * (k[3] + r2 * (k[4] + r2 * k[5]));
+        let dm = k[3] + r2 * (2.0 * k[4] + 3.0 * r2 * k[5]);
+        (n / m, (dn * m - n * dm) / (m * m), m)
+    }
+
+    /// Distorted normalised coordinates (x″, y″) of undistorted (x′, y′).
+    #[inline]
+    pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
+        let r2 = x * x + y * y;
+        let (f, _, _) = self.radial(r2);
+        let [p1, p2] = self.p;
+        (x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x), y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y)
+    }
+
+    /// The distorted point and the Jacobian [[∂x″/∂x′, ∂x″/∂y′], [∂y″/∂x′, ∂y″/∂y′]].
+    #[inline]
+    fn distort_jacobian(&self, x: f64, y: f64) -> ((f64, f64), [[f64; 2]; 2]) {
+        let r2 = x * x + y * y;
+        let (f, g, _) = self.radial(r2);
+        let [p1, p2] = self.p;
+        let xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+        let yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+        let off = 2.0 * x * y * g + 2.0 * p1 * x + 2.0 * p2 * y;
+        let j = [[f + 2.0 * x * x * g + 2.0 * p1 * y + 6.0 * p2 * x, off], [off, f + 2.0 * y * y * g + 6.0 * p1 * y + 2.0 * p2 * x]];
+        ((xd, yd), j)
+    }
+
+    /// Whether every coefficient is zero (the map is the identity).
+    pub fn is_zero(&self) -> bool {
+        self.k.iter().chain(self.p.iter()).all(|&c| c == 0.0)
+    }
+}
+
+/// World-to-camera rigid transform: X_cam = R·X_world + t (OpenCV axes: x right, y down, z forward).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extrinsics {
+    /// Rotation, rows are the camera axes in world coordinates.
+    pub r: [[f64; 3]; 3],
+    /// Translation (m).
+    pub t_m: [f64; 3],
+}
+
+impl Extrinsics {
+    /// From R and t (m); R must be a rotation (orthonormal within 1e-6, determinant +1).
+    pub fn from_rt(r: [[f64; 3]; 3], t_m: [f64; 3]) -> Result<Extrinsics> {
+        if r.iter().flatten().chain(t_m.iter()).any(|x| !x.is_finite()) {
+            bail!("R and t must be finite");
+        }
+        for a in 0..3 {
+            for b in 0..3 {
+                let dot: f64 = (0..3).map(|k| r[a][k] * r[b][k]).sum();
+                let want = if a == b { 1.0 } else { 0.0 };
+                if (dot - want).abs() > 1e-6 {
+                    bail!("R is not a rotation: rows {a} and {b} have dot product {dot:.3e} (want {want})");
+                }
+            }
+        }
+        if det3(&r) < 0.0 {
+            bail!("R is a reflection (determinant −1), not a rotation");
+        }
+        Ok(Extrinsics { r, t_m })
+    }
+
+    /// From a Rodrigues rotation vector (axis × angle in radians, as `cv::Rodrigues`) and t (m).
+    pub fn from_rvec(rvec: [f64; 3], t_m: [f64; 3]) -> Result<Extrinsics> {
+        Extrinsics::from_rt(rodrigues(rvec), t_m)
+    }
+
+    /// From a camera-to-world pose: rotation `r_cw` (columns are the camera's x right, y down,
+    /// z forward axes in world coordinates) and the camera centre `c_m` (m).
+    pub fn from_pose(r_cw: [[f64; 3]; 3], c_m: [f64; 3]) -> Result<Extrinsics> {
+        let r = transpose(&r_cw);
+        let rc = mat_vec(&r, c_m);
+        Extrinsics::from_rt(r, [-rc[0], -rc[1], -rc[2]])
+    }
+
+    /// Camera at `eye` (m) looking at `look_at` with approximate up direction `up`: x = forward × up
+    /// (right), y = forward × x (down in the image), z = forward.
+    pub fn look_at(eye: [f64; 3], look_at: [f64; 3], up: [f64; 3]) -> Result<Extrinsics> {
+        let f = sub(look_at, eye);
+        let nf = norm(f);
+        if !(nf > 0.0) || !nf.is_finite() {
+            bail!("eye and look-at point must be distinct finite points");
+        }
+        let z = scale(f, 1.0 / nf);
+        let x = cross(z, up);
+        let nx = norm(x);
+        if !(nx > 1e-6 * norm(up)) || !nx.is_finite() {
+            bail!("up direction must not be parallel to the viewing direction");
+        }
+        let x = scale(x, 1.0 / nx);
+        let y = cross(z, x);
+        let r = [x, y, z];
+        let re = mat_vec(&r, eye);
+        Extrinsics::from_rt(r, [-re[0], -re[1], -re[2]])
+    }
+
+    /// Camera centre in world coordinates (m): −Rᵀt.
+    pub fn centre_m(&self) -> [f64; 3] {
+        let c = mat_vec(&transpose(&self.r), self.t_m);
+        [-c[0], -c[1], -c[2]]
+    }
+}
+
+/// An OpenCV camera of a given resolution, checked to be invertible over its image.
+#[derive(Clone, Debug)]
+pub struct OpenCv {
+    /// Intrinsics (pixels).
+    pub intrinsics: Intrinsics,
+    /// Distortion coefficients.
+    pub distortion: Distortion,
+    /// World-to-camera transform.
+    pub extrinsics: Extrinsics,
+    /// Camera centre (m).
+    centre_m: [f64; 3],
+}
+
+/// Pixel residual the ray's distortion inverse is solved to.
+pub const INVERSE_TOLERANCE_PX: f64 = 1e-9;
+
+impl OpenCv {
+    /// Build and check: focal lengths positive, and the distortion invertible over the
+    /// `width`×`height` image — the radial map r ↦ r·(radial factor) increasing (and its
+    /// denominator positive) up to beyond the image corners' radius, the Jacobian determinant of
+    /// the full map positive over a grid covering that disc, and Newton's inverse converging at a
+    /// 33×33 grid of image positions including the borders.
+    pub fn new(intrinsics: Intrinsics, distortion: Distortion, extrinsics: Extrinsics, width: u32, height: u32) -> Result<OpenCv> {
+        let Intrinsics { fx, fy, cx, cy } = intrinsics;
+        if !(fx > 0.0 && fy > 0.0 && fx.is_finite() && fy.is_finite()) {
+            bail!("focal lengths fx, fy must be positive pixels, got {fx}, {fy}");
+        }
+        if !(cx.is_finite() && cy.is_finite()) {
+            bail!("principal point cx, cy must be finite, got {cx}, {cy}");
+        }
+        if width == 0 || height == 0 {
+            bail!("resolution must be at least 1×1, got {width}×{height}");
+        }
+        let cam = OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() };
+        if !distortion.is_zero() {
+            cam.check_invertible(width, height)?;
+        }
+        Ok(cam)
+    }
+
+    fn check_invertible(&self, width: u32, height: u32) -> Result<()> {
+        let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
+        let d = &self.distortion;
+        let (u0, u1, v0, v1) = (-0.5, width as f64 - 0.5, -0.5, height as f64 - 0.5);
+        let rd_max = [(u0, v0), (u0, v1), (u1, v0), (u1, v1)]
+            .iter()
+            .map(|&(u, v)| ((u - cx) / fx).hypot((v - cy) / fy))
+            .fold(0.0f64, f64::max);
+        // Walk the radial map outwards until it passes the corner radius (with margin for the
+        // tangential terms); it must increase and keep a positive denominator all the way.
+        let target = rd_max * 1.05 + 2.0 * (d.p[0].abs() + d.p[1].abs()) * rd_max * rd_max;
+        let dr = (rd_max / 4000.0).max(1e-6);
+        let mut r = 0.0f64;
+        loop {
+            let (f, g, m) = d.radial(r * r);
+            if !(m > 0.0) {
+                bail!("distortion is not invertible inside the image: the rational denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ reaches 0 at r = {r:.4} (the image corners are at r = {rd_max:.4})");
+            }
+            let slope = f + 2.0 * r * r * g;
+            if !(slope > 0.0) {
+                bail!("distortion is not invertible inside the image: the radial map r·(1 + k1 r² + …) turns back at r = {r:.4} (normalised), before the image corners at r = {rd_max:.4}");
+            }
+            if r * f >= target {
+                break;
+            }
+            r += dr;
+            if r > 100.0 * rd_max.max(0.01) {
+                bail!("distortion is not invertible inside the image: the radial map does not reach the image corners (r = {rd_max:.4})");
+            }
+        }
+        let r_u = r;
+        let n = 64;
+        for a in 0..=n {
+            for b in 0..=n {
+                let x = r_u * (2.0 * a as f64 / n as f64 - 1.0);
+                let y = r_u * (2.0 * b as f64 / n as f64 - 1.0);
+                if x * x + y * y > r_u * r_u {
+                    continue;
+                }
+                let (_, j) = d.distort_jacobian(x, y);
+                let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                if !(det > 0.0) {
+                    bail!("distortion is not invertible inside the image: its Jacobian determinant is {det:.3e} at normalised ({x:.4}, {y:.4})");
+                }
+            }
+        }
+        let n = 32;
+        for a in 0..=n {
+            for b in 0..=n {
+                let u = u0 + (u1 - u0) * a as f64 / n as f64;
+                let v = v0 + (v1 - v0) * b as f64 / n as f64;
+                let (xd, yd) = ((u - cx) / fx, (v - cy) / fy);
+                let (x, y, ok) = self.undistort(xd, yd);
+                if !ok || x * x + y * y > r_u * r_u * 1.0001 {
+                    bail!("distortion is not invertible inside the image: no undistorted point found for pixel ({u:.1}, {v:.1})");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Undistorted normalised coordinates (x′, y′) of distorted (x″, y″) by Newton's method, and
+    /// whether the residual fell below [`INVERSE_TOLERANCE_PX`].
+    pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64, bool) {
+        let Intrinsics { fx, fy, .. } = self.intrinsics;
+        let d = &self.distortion;
+        let tol2 = INVERSE_TOLERANCE_PX * INVERSE_TOLERANCE_PX;
+        // Squared pixel residual of a candidate and its normalised residual vector.
+        let resid2 = |a: f64, b: f64| {
+            let (rx, ry) = ((a - xd) * fx, (b - yd) * fy);
+            rx * rx + ry * ry
+        };
+        let (mut x, mut y) = (xd, yd);
+        let ((mut a, mut b), mut j) = d.distort_jacobian(x, y);
+        let mut e2 = resid2(a, b);
+        for _ in 0..100 {
+            if e2 < tol2 {
+                return (x, y, true);
+            }
+            let (rx, ry) = (a - xd, b - yd);
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            if !(det.abs() > 0.0) || !det.is_finite() {
+                return (x, y, false);
+            }
+            let sx = (j[1][1] * rx - j[0][1] * ry) / det;
+            let sy = (j[0][0] * ry - j[1][0] * rx) / det;
+            // Halve the step while it does not reduce the residual.
+            let mut t = 1.0;
+            loop {
+                let (nx, ny) = (x - t * sx, y - t * sy);
+                let ((na, nb), nj) = d.distort_jacobian(nx, ny);
+                let ne2 = resid2(na, nb);
+                if ne2 < e2 || t < 1e-6 {
+                    (x, y, a, b, j, e2) = (nx, ny, na, nb, nj, ne2);
+                    break;
+                }
+                t *= 0.5;
+            }
+        }
+        (x, y, e2 < tol2)
+    }
+
+    /// OpenCV pixel position (integer coordinates at pixel centres) of world point `p_m` (m), or
+    /// None behind the camera.
+    pub fn project_pixel(&self, p_m: [f64; 3]) -> Option<[f64; 2]> {
+        let e = &self.extrinsics;
+        let c = mat_vec(&e.r, p_m);
+        let (xc, yc, zc) = (c[0] + e.t_m[0], c[1] + e.t_m[1], c[2] + e.t_m[2]);
+        if !(zc > 0.0) {
+            return None;
+        }
+        let (xd, yd) = self.distortion.distort(xc / zc, yc / zc);
+        let k = &self.intrinsics;
+        Some([k.fx * xd + k.cx, k.fy * yd + k.cy])
+    }
+
+    /// Unit world direction (and camera centre, m) of the ray through OpenCV pixel position (u, v).
+    pub fn ray_pixel(&self, u: f64, v: f64) -> ([f64; 3], [f64; 3]) {
+        let k = &self.intrinsics;
+        let (x, y, _) = self.undistort((u - k.cx) / k.fx, (v - k.cy) / k.fy);
+        let d = mat_vec(&transpose(&self.extrinsics.r), [x, y, 1.0]);
+        (self.centre_m, scale(d, 1.0 / norm(d)))
+    }
+
+    /// Camera centre (m).
+    pub fn centre_m(&self) -> [f64; 3] {
+        self.centre_m
+    }
+
+    /// The same view at another resolution: the film scales by (sx, sy) = (W′/W, H′/H), so
+    /// fx′ = sx·fx and cx′ = sx·(cx + ½) − ½ (pixel centres stay at integers); likewise in y.
+    pub fn rescaled(&self, sx: f64, sy: f64) -> OpenCv {
+        let k = self.intrinsics;
+        let intrinsics = Intrinsics { fx: k.fx * sx, fy: k.fy * sy, cx: sx * (k.cx + 0.5) - 0.5, cy: sy * (k.cy + 0.5) - 0.5 };
+        OpenCv { intrinsics, ..self.clone() }
+    }
+}
+
+/// Rotation matrix of a Rodrigues vector (axis·angle, radians).
+pub fn rodrigues(rvec: [f64; 3]) -> [[f64; 3]; 3] {
+    let th = norm(rvec);
+    if th < 1e-300 {
+        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    }
+    let k = scale(rvec, 1.0 / th);
+    let (s, c) = th.sin_cos();
+    let kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
+    let mut r = [[0.0; 3]; 3];
+    for a in 0..3 {
+        for b in 0..3 {
+            r[a][b] = (1.0 - c) * k[a] * k[b] + s * kx[a][b] + if a == b { c } else { 0.0 };
+        }
+    }
+    r
+}
+
+pub(crate) fn mat_vec(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|a| m[a][0] * v[0] + m[a][1] * v[1] + m[a][2] * v[2])
+}
+pub(crate) fn transpose(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    [0, 1, 2].map(|a| [m[0][a], m[1][a], m[2][a]])
+}
+fn det3(m: &[[f64; 3]; 3]) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}

@@ -1,0 +1,469 @@
+//! Cameras: the OpenCV model against OpenCV's documented projection formula (written out here
+//! independently), rays through projected points, a rendered point's centroid, the thin-lens
+//! circle of confusion, refusal of non-invertible distortion, and calibration files.
+
+use crate::common::{scene, settings};
+use glam::{Vec2, Vec3};
+use render::camera::{Camera, Distortion, Extrinsics, Intrinsics, OpenCv};
+use render::integrator::{render_pass, IntegratorKind};
+use render::load::calibration::{parse_calibration, CalibrationNodes};
+use render::math::sampling::Pcg32;
+
+/// OpenCV's `projectPoints` as its documentation writes it: R, t world → camera, then
+/// x′ = X/Z, radial (1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶), tangential p1, p2.
+#[allow(clippy::too_many_arguments)]
+fn opencv_formula(r: &[[f64; 3]; 3], t: [f64; 3], k: [f64; 8], f: [f64; 4], p: [f64; 3]) -> [f64; 2] {
+    let [k1, k2, p1, p2, k3, k4, k5, k6] = k;
+    let cam: Vec<f64> = (0..3).map(|a| r[a][0] * p[0] + r[a][1] * p[1] + r[a][2] * p[2] + t[a]).collect();
+    let (x, y) = (cam[0] / cam[2], cam[1] / cam[2]);
+    let r2 = x * x + y * y;
+    let radial = (1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2) / (1.0 + k4 * r2 + k5 * r2 * r2 + k6 * r2 * r2 * r2);
+    let xpp = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+    let ypp = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+    [f[0] * xpp + f[2], f[1] * ypp + f[3]]
+}
+
+/// Rotation of a Rodrigues vector, written as the exponential of the cross-product matrix
+/// summed as a power series (independent of the closed form in the camera module).
+fn rotation_series(v: [f64; 3]) -> [[f64; 3]; 3] {
+    let k = [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]];
+    let mut r = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut term = r;
+    for n in 1..40 {
+        let mut next = [[0.0; 3]; 3];
+        for a in 0..3 {
+            for b in 0..3 {
+                next[a][b] = (0..3).map(|c| term[a][c] * k[c][b]).sum::<f64>() / n as f64;
+            }
+        }
+        term = next;
+        for a in 0..3 {
+            for b in 0..3 {
+                r[a][b] += term[a][b];
+            }
+        }
+    }
+    r
+}
+
+fn uniform(rng: &mut Pcg32, a: f64, b: f64) -> f64 {
+    a + (b - a) * rng.next_f64()
+}
+
+#[test]
+fn opencv_projection_matches_the_formula_and_rays_pass_through_the_points() {
+    let mut rng = Pcg32::new(7, 1);
+    let (w, h) = (640u32, 480u32);
+    let (mut cameras, mut points, mut refused, mut folded) = (0, 0, 0, 0);
+    let (mut worst_px, mut worst_px_f32, mut worst_ray, mut worst_ray_f32) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    while cameras < 40 {
+        let f = [uniform(&mut rng, 400.0, 900.0), uniform(&mut rng, 400.0, 900.0), uniform(&mut rng, 300.0, 340.0), uniform(&mut rng, 220.0, 260.0)];
+        let rational = rng.next_f64() < 0.5;
+        let s = |rng: &mut Pcg32, a: f64| uniform(rng, -a, a);
+        let k = [
+            s(&mut rng, 0.3),
+            s(&mut rng, 0.1),
+            s(&mut rng, 0.003),
+            s(&mut rng, 0.003),
+            s(&mut rng, 0.05),
+            if rational { s(&mut rng, 0.2) } else { 0.0 },
+            if rational { s(&mut rng, 0.05) } else { 0.0 },
+            if rational { s(&mut rng, 0.02) } else { 0.0 },
+        ];
+        let rvec = [s(&mut rng, 2.0), s(&mut rng, 2.0), s(&mut rng, 2.0)];
+        let t = [s(&mut rng, 1.0), s(&mut rng, 1.0), s(&mut rng, 1.0)];
+        let r = rotation_series(rvec);
+        let intr = Intrinsics { fx: f[0], fy: f[1], cx: f[2], cy: f[3] };
+        let dist = Distortion::from_opencv(&k).unwrap();
+        let cam = match OpenCv::new(intr, dist, Extrinsics::from_rvec(rvec, t).unwrap(), w, h) {
+            Ok(c) => c,
+            Err(_) => {
+                refused += 1;
+                continue;
+            }
+        };
+        let camera = Camera::opencv(cam.clone(), w, h).unwrap();
+        cameras += 1;
+        let mut n = 0;
+        while n < 50 {
+            // A world point in front of the camera: camera coordinates (x z, y z, z), mapped back.
+            let z = uniform(&mut rng, 0.5, 20.0);
+            let (x, y) = (s(&mut rng, 0.6), s(&mut rng, 0.45));
+            let pc = [x * z - t[0], y * z - t[1], z - t[2]];
+            let pw = [0, 1, 2].map(|a| r[0][a] * pc[0] + r[1][a] * pc[1] + r[2][a] * pc[2]);
+            // Round to f32 so that every path sees the same point.
+            let p32 = Vec3::new(pw[0] as f32, pw[1] as f32, pw[2] as f32);
+            let p = [p32.x as f64, p32.y as f64, p32.z as f64];
+            let want = opencv_formula(&r, t, k, f, p);
+            if !(want[0] >= -0.5 && want[0] < w as f64 - 0.5 && want[1] >= -0.5 && want[1] < h as f64 - 0.5) {
+                continue;
+            }
+            // Polynomial models fold back far outside the calibrated field: a point beyond the
+            // radius where r·radial(r) stops increasing can land inside the image, but it is not
+            // what the pixel sees (the ray goes through the preimage on the increasing branch).
+            let radial = |r: f64| {
+                let r2 = r * r;
+                r * (1.0 + k[0] * r2 + k[1] * r2 * r2 + k[4] * r2 * r2 * r2) / (1.0 + k[5] * r2 + k[6] * r2 * r2 + k[7] * r2 * r2 * r2)
+            };
+            let rp = x.hypot(y);
+            if (1..=200).any(|m| radial(rp * m as f64 / 200.0) <= radial(rp * (m - 1) as f64 / 200.0)) {
+                folded += 1;
+                continue;
+            }
+            n += 1;
+            let got = cam.project_pixel(p).unwrap();
+            worst_px = worst_px.max((got[0] - want[0]).hypot(got[1] - want[1]));
+            let film = camera.project(p32).unwrap();
+            worst_px_f32 = worst_px_f32.max((film.x as f64 - 0.5 - want[0]).hypot(film.y as f64 - 0.5 - want[1]));
+            // The ray through that position, f64 and the renderer's f32 ray.
+            let dist_to_ray = |o: [f64; 3], d: [f64; 3]| {
+                let v = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
+                // |v × d| / (|v| |d|): the miss distance relative to the point's distance.
+                let c = [v[1] * d[2] - v[2] * d[1], v[2] * d[0] - v[0] * d[2], v[0] * d[1] - v[1] * d[0]];
+                let n = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                n(c) / (n(v) * n(d))
+            };
+            let (o, d) = cam.ray_pixel(want[0], want[1]);
+            worst_ray = worst_ray.max(dist_to_ray(o, d));
+            let (fxp, fyp) = (want[0] + 0.5, want[1] + 0.5);
+            let (i, j) = (fxp.floor(), fyp.floor());
+            let ray = camera.generate_ray(i as u32, j as u32, Vec2::new((fxp - i) as f32, (fyp - j) as f32));
+            let f3 = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+            worst_ray_f32 = worst_ray_f32.max(dist_to_ray(f3(ray.o), f3(ray.d)));
+            points += 1;
+        }
+    }
+    eprintln!(
+        "opencv: {cameras} cameras ({refused} refused), {points} points ({folded} on the folded branch skipped): projection error {worst_px:.2e} px (f64), {worst_px_f32:.2e} px (film, f32); ray miss / distance {worst_ray:.2e} (f64), {worst_ray_f32:.2e} (f32 ray)"
+    );
+    assert!(worst_px < 1e-9, "f64 projection differs from the formula by {worst_px:e} px");
+    assert!(worst_px_f32 < 1e-4, "film projection differs from the formula by {worst_px_f32:e} px");
+    assert!(worst_ray < 1e-9, "f64 ray misses by {worst_ray:e} of the distance");
+    assert!(worst_ray_f32 < 1e-6, "ray misses by {worst_ray_f32:e} of the distance");
+}
+
+#[test]
+fn undistorted_opencv_camera_is_the_pinhole() {
+    // The pinhole with camera constant d at W×H is OpenCV's fx = fy = d·H, cx = W/2 − ½,
+    // cy = H/2 − ½, rows (right, −up, forward): the same rays and projections.
+    let (w, h) = (40u32, 30u32);
+    let pin = Camera::look_at(Vec3::new(0.3, 0.2, -2.0), Vec3::new(0.1, 0.0, 0.5), Vec3::Y, 35.0, w, h).unwrap();
+    let p = pin.pinhole().unwrap().clone();
+    let row = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+    let r = [row(p.right), row(-p.up), row(p.forward)];
+    let e = row(p.eye);
+    let t = [0, 1, 2].map(|a| -(r[a][0] * e[0] + r[a][1] * e[1] + r[a][2] * e[2]));
+    let fpx = p.d as f64 * h as f64;
+    let intr = Intrinsics { fx: fpx, fy: fpx, cx: w as f64 / 2.0 - 0.5, cy: h as f64 / 2.0 - 0.5 };
+    let cv = Camera::opencv(OpenCv::new(intr, Distortion::default(), Extrinsics::from_rt(r, t).unwrap(), w, h).unwrap(), w, h).unwrap();
+    let mut rng = Pcg32::new(3, 3);
+    let mut worst = 0.0f32;
+    for _ in 0..200 {
+        let (i, j, u) = (rng.next_u32() % w, rng.next_u32() % h, rng.next_2d());
+        let (a, b) = (pin.generate_ray(i, j, u), cv.generate_ray(i, j, u));
+        worst = worst.max((a.d - b.d).length()).max((a.o - b.o).length());
+        let q = a.o + a.d * 3.0;
+        let (pa, pb) = (pin.project(q).unwrap(), cv.project(q).unwrap());
+        assert!((pa - pb).length() < 2e-3, "{pa} vs {pb}");
+        assert!((pa - Vec2::new(i as f32 + u.x, j as f32 + u.y)).length() < 2e-3);
+    }
+    assert!(worst < 1e-6, "pinhole and OpenCV rays differ by {worst}");
+}
+
+#[test]
+fn resolution_change_keeps_the_view() {
+    let intr = Intrinsics { fx: 500.0, fy: 510.0, cx: 330.0, cy: 235.0 };
+    let dist = Distortion::from_opencv(&[-0.2, 0.05, 0.001, -0.001, 0.0]).unwrap();
+    let cam = OpenCv::new(intr, dist, Extrinsics::from_rvec([0.1, -0.2, 0.05], [0.0, 0.1, 2.0]).unwrap(), 640, 480).unwrap();
+    let mut a = Camera::opencv(cam, 640, 480).unwrap();
+    let p = Vec3::new(0.3, -0.2, 1.0);
+    let before = a.project(p).unwrap();
+    a.set_resolution(320, 240);
+    let after = a.project(p).unwrap();
+    assert!((after * 2.0 - before).length() < 1e-3, "{before} → {after}");
+}
+
+/// Centroid (film coordinates) and second moment about it of an image's Y channel.
+fn moments(img: &[[f32; 3]], w: u32) -> (Vec2, f64, f64) {
+    let (mut s, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+    for (n, p) in img.iter().enumerate() {
+        let (x, y) = ((n as u32 % w) as f64 + 0.5, (n as u32 / w) as f64 + 0.5);
+        s += p[1] as f64;
+        sx += p[1] as f64 * x;
+        sy += p[1] as f64 * y;
+    }
+    let (cx, cy) = (sx / s, sy / s);
+    let m2 = img.iter().enumerate().map(|(n, p)| {
+        let (x, y) = ((n as u32 % w) as f64 + 0.5, (n as u32 / w) as f64 + 0.5);
+        p[1] as f64 * ((x - cx).powi(2) + (y - cy).powi(2))
+    });
+    (Vec2::new(cx as f32, cy as f32), m2.sum::<f64>() / s, s)
+}
+
+fn render_mean(s: &render::scene::Scene, spp: u64, seed: u64) -> Vec<[f32; 3]> {
+    let (w, h) = s.resolution();
+    let n = (w * h) as usize;
+    let st = settings(IntegratorKind::Direct, 1, 5);
+    let mut acc = vec![[0.0f32; 3]; n];
+    let mut buf = vec![[0.0f32; 3]; n];
+    for pass in 0..spp {
+        render_pass(s, &st, seed, pass, &mut buf);
+        for (a, b) in acc.iter_mut().zip(&buf) {
+            for c in 0..3 {
+                a[c] += b[c] / spp as f32;
+            }
+        }
+    }
+    acc
+}
+
+#[test]
+fn rendered_emissive_sphere_centroid_is_the_projected_centre() {
+    // A sphere of image radius ≈ 2.5 px through a distorted OpenCV camera, direct lighting (the
+    // camera ray sees the emitter). Its image centroid differs from the projection of its centre
+    // by the distortion's curvature (≈ h R²/8 ≈ 0.003 px here) and the coverage noise.
+    let centre = [0.35, -0.2, 3.0];
+    let s = scene(&format!(
+        r#"
+        unit = "m"
+        [camera]
+        model = "opencv"
+        width = 64
+        height = 48
+        fx = 60.0
+        fy = 62.0
+        cx = 31.2
+        cy = 24.1
+        k1 = -0.12
+        k2 = 0.02
+        p1 = 0.002
+        p2 = -0.001
+        rvec = [0.02, -0.03, 0.01]
+        t = [0.05, 0.02, 0.1]
+        [materials.black]
+        type = "lambertian"
+        albedo = 0
+        [[objects]]
+        name = "dot"
+        material = "black"
+        sphere = {{ center = [{}, {}, {}], radius = 0.13 }}
+        [[lights]]
+        type = "area"
+        object = "dot"
+        radiance = 1
+        "#,
+        centre[0], centre[1], centre[2]
+    ));
+    let img = render_mean(&s, 512, 5);
+    let (c, _, _) = moments(&img, 64);
+    let want = s.camera.project(Vec3::new(centre[0] as f32, centre[1] as f32, centre[2] as f32)).unwrap();
+    let err = (c - want).length();
+    eprintln!("emissive sphere: centroid {c}, projected centre {want}, |Δ| = {err:.4} px");
+    assert!(err < 0.05, "centroid {c} vs projected {want}: {err} px");
+}
+
+#[test]
+fn thin_lens_blur_circle_matches_the_thin_lens_formula() {
+    // Pinhole + thin lens of aperture radius A focused at z_f; a small emitter on the axis at
+    // depth z images as a disc of radius R = f_px·A·|z − z_f|/(z·z_f) (see camera::thin_lens),
+    // convolved with the emitter's own image (radius s) and the pixel box: second moment
+    // M₂ = R²/2 + s²/2 + 1/6 px².
+    let (a, zf, z, rs) = (0.15f64, 1.2f64, 3.0f64, 0.05f64);
+    let s = scene(&format!(
+        r#"
+        unit = "m"
+        [camera]
+        eye = [0, 0, 0]
+        look_at = [0, 0, 1]
+        vfov_deg = 40
+        width = 48
+        height = 48
+        aperture_radius = {a}
+        focus_distance = {zf}
+        [materials.black]
+        type = "lambertian"
+        albedo = 0
+        [[objects]]
+        name = "dot"
+        material = "black"
+        sphere = {{ center = [0, 0, {z}], radius = {rs} }}
+        [[lights]]
+        type = "area"
+        object = "dot"
+        radiance = 1
+        "#
+    ));
+    let fpx = s.camera.focal_length_px();
+    let r_want = fpx * a * (z - zf).abs() / (z * zf);
+    let s_px = fpx * rs / (z * z - rs * rs).sqrt();
+    let img = render_mean(&s, 256, 9);
+    let (c, m2, _) = moments(&img, 48);
+    let r_got = (2.0 * (m2 - s_px * s_px / 2.0 - 1.0 / 6.0)).sqrt();
+    eprintln!("thin lens: blur radius {r_got:.3} px, formula {r_want:.3} px (centroid {c})");
+    assert!((r_got / r_want - 1.0).abs() < 0.02, "blur radius {r_got} px, thin-lens formula {r_want} px");
+    // The centroid stays on the axis (within the coverage noise of a few thousand lens hits).
+    assert!((c - Vec2::new(24.0, 24.0)).length() < 0.3, "centroid {c}");
+    // f-number: A = f/(2N).
+    let l = render::camera::ThinLens::from_f_number(2.0, 0.05, 1.0).unwrap();
+    assert!((l.aperture_radius_m - 0.0125).abs() < 1e-7);
+}
+
+#[test]
+fn non_invertible_distortion_is_refused() {
+    let intr = Intrinsics { fx: 400.0, fy: 400.0, cx: 319.5, cy: 239.5 };
+    let e = Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]).unwrap();
+    // r(1 + k1 r²) turns back at r = 1/√(−3 k1) = 0.577 < the corner radius 1.0.
+    let bad = Distortion::from_opencv(&[-1.0, 0.0, 0.0, 0.0]).unwrap();
+    let err = OpenCv::new(intr, bad, e, 640, 480).unwrap_err().to_string();
+    assert!(err.contains("not invertible") && !err.contains('\n'), "{err}");
+    // The same coefficient is fine for a narrower image (corner radius 0.25).
+    assert!(OpenCv::new(Intrinsics { fx: 1600.0, fy: 1600.0, ..intr }, bad, e, 640, 480).is_ok());
+    // A rational denominator that vanishes inside the image.
+    let pole = Distortion::from_opencv(&[0.0, 0.0, 0.0, 0.0, 0.0, -2.0, 0.0, 0.0]).unwrap();
+    assert!(OpenCv::new(intr, pole, e, 640, 480).unwrap_err().to_string().contains("not invertible"));
+    // In a scene: one line naming the file and the camera.
+    let text = "[camera]\nmodel = \"opencv\"\nwidth = 640\nheight = 480\nfx = 400\nfy = 400\ncx = 319.5\ncy = 239.5\nk1 = -1.0\nR = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\nt = [0, 0, 0]\n[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 5], radius = 1 }\n";
+    let e = render::scene::Scene::from_toml_str(text, "bad.toml", std::path::Path::new(".")).err().unwrap();
+    let msg = format!("{e:#}");
+    assert!(msg.starts_with("bad.toml:1:1: camera") && msg.contains("not invertible") && !msg.contains('\n'), "{msg}");
+}
+
+const YAML: &str = r#"%YAML:1.0
+---
+calibration_time: "Tue Dec  1 12:00:00 2026"
+nr_of_frames: 14
+image_width: 640
+image_height: 480
+board_width: 9
+board_height: 6
+square_size: 25.
+flags: 0
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 5.3221e+02, 0., 3.1877e+02, 0., 5.3260e+02,
+       2.4375e+02, 0., 0., 1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 5
+   cols: 1
+   dt: d
+   data: [ -2.8089e-01, 2.5e-02, 1.2e-03, -1.4e-04, 1.6e-01 ]
+avg_reprojection_error: 3.9e-01
+"#;
+
+const XML: &str = r#"<?xml version="1.0"?>
+<opencv_storage>
+<calibration_time>"Tue Dec  1 12:00:00 2026"</calibration_time>
+<image_width>640</image_width>
+<image_height>480</image_height>
+<cam_K type_id="opencv-matrix">
+  <rows>3</rows>
+  <cols>3</cols>
+  <dt>d</dt>
+  <data>
+    5.3221e+02 0. 3.1877e+02 0. 5.3260e+02 2.4375e+02 0. 0. 1.</data></cam_K>
+<cam_D type_id="opencv-matrix">
+  <rows>1</rows>
+  <cols>5</cols>
+  <dt>d</dt>
+  <data>
+    -2.8089e-01 2.5e-02 1.2e-03 -1.4e-04 1.6e-01</data></cam_D>
+<R type_id="opencv-matrix">
+  <rows>3</rows>
+  <cols>3</cols>
+  <dt>d</dt>
+  <data>
+    1. 0. 0. 0. 1. 0. 0. 0. 1.</data></R>
+<T type_id="opencv-matrix">
+  <rows>3</rows>
+  <cols>1</cols>
+  <dt>d</dt>
+  <data>
+    0.1 -0.2 3.</data></T>
+</opencv_storage>
+"#;
+
+#[test]
+fn filestorage_yaml_xml_and_json_round_trip() {
+    let want_k = Intrinsics { fx: 532.21, fy: 532.60, cx: 318.77, cy: 243.75 };
+    let want_d = Distortion::from_opencv(&[-0.28089, 0.025, 0.0012, -0.00014, 0.16]).unwrap();
+    let y = parse_calibration(YAML, "c.yml", &CalibrationNodes::default()).unwrap();
+    assert_eq!((y.width, y.height), (Some(640), Some(480)));
+    assert_eq!((y.intrinsics, y.distortion), (want_k, want_d));
+    assert!(y.r.is_none() && y.t.is_none());
+    let nodes = CalibrationNodes { matrix: "cam_K".into(), dist: "cam_D".into() };
+    let x = parse_calibration(XML, "c.xml", &nodes).unwrap();
+    assert_eq!((x.width, x.height, x.intrinsics, x.distortion), (Some(640), Some(480), want_k, want_d));
+    assert_eq!(x.t, Some([0.1, -0.2, 3.0]));
+    let json = r#"{"width": 640, "height": 480, "fx": 532.21, "fy": 532.60, "cx": 318.77, "cy": 243.75,
+        "dist": [-0.28089, 0.025, 0.0012, -0.00014, 0.16], "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [100, -200, 3000], "unit": "mm"}"#;
+    let j = parse_calibration(json, "c.json", &nodes).unwrap();
+    assert_eq!((j.intrinsics, j.distortion), (want_k, want_d));
+    let (ex, ej) = (x.extrinsics(1.0).unwrap().unwrap(), j.extrinsics(1.0).unwrap().unwrap());
+    assert!(ex.t_m.iter().zip(ej.t_m.iter()).all(|(a, b)| (a - b).abs() < 1e-12));
+    // Missing nodes name the node.
+    let e = parse_calibration(XML, "c.xml", &CalibrationNodes::default()).unwrap_err().to_string();
+    assert!(e.starts_with("c.xml: camera_matrix: no such node"), "{e}");
+    let e = parse_calibration(YAML, "c.yml", &CalibrationNodes { matrix: "camera_matrix".into(), dist: "D".into() }).unwrap_err().to_string();
+    assert!(e.starts_with("c.yml: D: no such node"), "{e}");
+    // The scene reads the same file and places the camera with its R, t.
+    let dir = std::env::temp_dir().join(format!("lucent-camera-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("c.xml"), XML).unwrap();
+    let text = "[camera]\ncalibration = \"c.xml\"\nmatrix_node = \"cam_K\"\ndist_node = \"cam_D\"\n[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 5], radius = 1 }\n";
+    let s = render::scene::Scene::from_toml_str(text, "s.toml", &dir).unwrap();
+    assert_eq!(s.resolution(), (640, 480));
+    let p = Vec3::new(0.3, 0.1, 2.0);
+    let cam = OpenCv::new(want_k, want_d, ex, 640, 480).unwrap();
+    let q = cam.project_pixel([0.3, 0.1, 2.0]).unwrap();
+    let f = s.camera.project(p).unwrap();
+    assert!((f.x as f64 - 0.5 - q[0]).abs() < 1e-3 && (f.y as f64 - 0.5 - q[1]).abs() < 1e-3);
+    // `lucent render --camera`: the calibration replaces the camera, keeping the scene's pose
+    // when the file has none (the YAML has no R, t), and joins the content hash.
+    std::fs::write(dir.join("c.yml"), YAML).unwrap();
+    let mut cb = render::scene::Scene::cornell_box();
+    let (eye, h0) = (cb.camera.eye(), cb.content_hash());
+    cb.use_calibration(&dir.join("c.yml"), &CalibrationNodes::default()).unwrap();
+    assert_eq!(cb.resolution(), (640, 480));
+    assert!((cb.camera.eye() - eye).length() < 1e-4 && (cb.camera.forward() - glam::Vec3::Z).length() < 1e-6);
+    assert!(cb.camera.pinhole().is_none() && cb.content_hash() != h0);
+    let e = cb.use_calibration(&dir.join("c.yml"), &CalibrationNodes { matrix: "K".into(), dist: "D".into() }).unwrap_err();
+    assert!(format!("{e:#}").contains("c.yml: K: no such node"), "{e:#}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn per_ray_inverse_costs_little() {
+    // The Newton inverse per ray against the pinhole's ray (the renderer traces each ray through
+    // the scene afterwards, which costs far more): printed, and bounded loosely.
+    let intr = Intrinsics { fx: 530.0, fy: 530.0, cx: 319.5, cy: 239.5 };
+    let dist = Distortion::from_opencv(&[-0.28, 0.08, 0.001, -0.0005, -0.01]).unwrap();
+    let e = Extrinsics::from_rvec([0.1, 0.2, 0.3], [0.0, 0.0, 1.0]).unwrap();
+    let cv = Camera::opencv(OpenCv::new(intr, dist, e, 640, 480).unwrap(), 640, 480).unwrap();
+    let pin = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 48.0, 640, 480).unwrap();
+    let time = |c: &Camera| {
+        let t0 = std::time::Instant::now();
+        let mut acc = 0.0f32;
+        for j in 0..480 {
+            for i in 0..640 {
+                acc += c.generate_ray(i, j, Vec2::new(0.3, 0.7)).d.x;
+            }
+        }
+        (t0.elapsed().as_secs_f64() / (640.0 * 480.0) * 1e9, std::hint::black_box(acc))
+    };
+    let (tp, _) = time(&pin);
+    let (tc, _) = time(&cv);
+    // For scale: one `path` sample of the Cornell box (64×64, 4 passes) on the same machine.
+    let mut cornell = render::scene::Scene::cornell_box();
+    cornell.set_resolution(64, 64);
+    let mut buf = vec![[0.0f32; 3]; 64 * 64];
+    let t0 = std::time::Instant::now();
+    for pass in 0..4 {
+        render_pass(&cornell, &settings(IntegratorKind::Path, 8, 5), 1, pass, &mut buf);
+    }
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) as f64;
+    let ts = t0.elapsed().as_secs_f64() * threads / (4.0 * 64.0 * 64.0) * 1e9;
+    eprintln!("ray generation: pinhole {tp:.1} ns, OpenCV with distortion (Newton per ray) {tc:.1} ns; a Cornell path sample ≈ {ts:.0} ns of one thread");
+    assert!(tc < 5000.0);
+}

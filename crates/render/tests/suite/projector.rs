@@ -1,0 +1,158 @@
+//! Projector lights: a projector and a camera with the same intrinsics, distortion and pose see
+//! the projected image on a Lambertian plane pixel for pixel (ρ/π · v · I₀ · cos θ / r²), and the
+//! irradiance falls with the inverse square of distance and the cosine of incidence.
+
+use crate::common::{settings, y_of_one};
+use render::image_io::{write_image, Image};
+use render::integrator::{render_pass, IntegratorKind};
+use render::math::sampling::Pcg32;
+use render::scene::Scene;
+
+/// Per-pixel mean and standard error of Y over `passes` passes of `direct`.
+fn mean_se(s: &Scene, passes: u64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    let (w, h) = s.resolution();
+    let n = (w * h) as usize;
+    let st = settings(IntegratorKind::Direct, 2, 5);
+    let (mut s1, mut s2) = (vec![0.0f64; n], vec![0.0f64; n]);
+    let mut buf = vec![[0.0f32; 3]; n];
+    for pass in 0..passes {
+        render_pass(s, &st, seed, pass, &mut buf);
+        for k in 0..n {
+            let y = buf[k][1] as f64;
+            s1[k] += y;
+            s2[k] += y * y;
+        }
+    }
+    let m: Vec<f64> = s1.iter().map(|a| a / passes as f64).collect();
+    let se = (0..n).map(|k| ((s2[k] / passes as f64 - m[k] * m[k]).max(0.0) / (passes - 1) as f64).sqrt()).collect();
+    (m, se)
+}
+
+#[test]
+fn projector_and_camera_with_the_same_model_see_the_image_pixel_for_pixel() {
+    let (w, h) = (32u32, 24u32);
+    let mut rng = Pcg32::new(17, 2);
+    let levels = [0.0f32, 0.25, 1.0];
+    let values: Vec<f32> = (0..w * h).map(|_| levels[(rng.next_u32() % 3) as usize]).collect();
+    let dir = std::env::temp_dir().join(format!("lucent-projector-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let img = Image::from_rgb(w, h, values.iter().map(|&v| [v, v, v]).collect()).unwrap();
+    write_image(&dir.join("pattern.pfm"), &img, 0.0).unwrap();
+    let (rho, i0, d) = (0.5f64, 3.0f64, 2.0f64);
+    let cam = "model = \"opencv\", width = 32, height = 24, fx = 40.0, fy = 41.0, cx = 15.7, cy = 11.8, k1 = -0.05, p1 = 0.001, eye = [0, 0, 0], look_at = [0, 0, 1]";
+    let text = format!(
+        r#"
+        unit = "m"
+        camera = {{ {cam} }}
+        [materials.white]
+        type = "lambertian"
+        albedo = {rho}
+        [[objects]]
+        material = "white"
+        quad = [[-5, -5, {d}], [5, -5, {d}], [5, 5, {d}], [-5, 5, {d}]]
+        [[lights]]
+        type = "projector"
+        image = "pattern.pfm"
+        intensity = {i0}
+        camera = {{ {cam} }}
+        "#
+    );
+    let s = Scene::from_toml_str(&text, "projector.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
+    std::fs::remove_dir_all(&dir).ok();
+    let (m, se) = mean_se(&s, 64, 4);
+    let (mut worst, mut zero_leak) = (0.0f64, 0.0f64);
+    for j in 0..h {
+        for i in 0..w {
+            let k = (j * w + i) as usize;
+            // cos θ / r² = d_z³ / D² for the plane z = D, averaged over the pixel.
+            let n = 8;
+            let mut g = 0.0;
+            for a in 0..n {
+                for b in 0..n {
+                    let u = glam::Vec2::new((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
+                    let dz = s.camera.generate_ray(i, j, u).d.z as f64;
+                    g += dz * dz * dz / (d * d) / (n * n) as f64;
+                }
+            }
+            let want = rho / std::f64::consts::PI * values[k] as f64 * i0 * g * y_of_one();
+            if values[k] == 0.0 {
+                zero_leak = zero_leak.max(m[k]);
+            } else {
+                let z = (m[k] - want).abs() / (se[k] + 1e-4 * want);
+                worst = worst.max(z);
+            }
+        }
+    }
+    eprintln!("projector: worst |Δ|/SE {worst:.2} over lit pixels, largest value in a dark pixel {zero_leak:e}");
+    assert!(worst < 5.0, "projected image differs from ρ/π·v·I₀·cosθ/r² by {worst} standard errors");
+    assert_eq!(zero_leak, 0.0, "light leaks into dark pixels: the projection is misaligned");
+}
+
+#[test]
+fn projector_irradiance_falls_with_inverse_square_and_cosine() {
+    // A uniform image through a narrow pinhole projector colocated with a narrow camera: the
+    // centre pixels see ρ/π · I₀ · cos α / D² on a plane at distance D tilted by α.
+    let dir = std::env::temp_dir().join(format!("lucent-projector-falloff-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_image(&dir.join("white.pfm"), &Image::from_rgb(8, 8, vec![[1.0; 3]; 64]).unwrap(), 0.0).unwrap();
+    let (rho, i0) = (0.8f64, 2.0f64);
+    for (dist, alpha_deg) in [(1.0f64, 0.0f64), (2.0, 0.0), (2.0, 60.0)] {
+        let (s_a, c_a) = alpha_deg.to_radians().sin_cos();
+        // Plane through (0, 0, D) with normal (sin α, 0, −cos α).
+        let corner = |u: f64, v: f64| [u * c_a, v, dist + u * s_a];
+        let q: Vec<String> = [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)]
+            .iter()
+            .map(|&(u, v)| {
+                let c = corner(u, v);
+                format!("[{}, {}, {}]", c[0], c[1], c[2])
+            })
+            .collect();
+        let text = format!(
+            r#"
+            camera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 2, width = 8, height = 8 }}
+            [materials.white]
+            type = "lambertian"
+            albedo = {rho}
+            [[objects]]
+            material = "white"
+            quad = [{}]
+            [[lights]]
+            type = "projector"
+            image = "white.pfm"
+            response = "linear"
+            intensity = {i0}
+            camera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 2 }}
+            "#,
+            q.join(", ")
+        );
+        let s = Scene::from_toml_str(&text, "falloff.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
+        let (m, se) = mean_se(&s, 256, 8);
+        let centre = [27usize, 28, 35, 36];
+        let got: f64 = centre.iter().map(|&k| m[k]).sum::<f64>() / 4.0;
+        let err: f64 = (centre.iter().map(|&k| se[k] * se[k]).sum::<f64>()).sqrt() / 4.0;
+        let want = rho / std::f64::consts::PI * i0 * c_a / (dist * dist) * y_of_one();
+        eprintln!("projector at D = {dist}, α = {alpha_deg}°: {got:.5} ± {err:.5}, ρ/π·I₀·cosα/D² = {want:.5}");
+        assert!((got - want).abs() < 5.0 * err + 2e-3 * want, "D = {dist}, α = {alpha_deg}: {got} vs {want}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+
+#[test]
+fn bad_projector_input_is_one_line_naming_the_field() {
+    let dir = std::env::temp_dir().join(format!("lucent-projector-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_image(&dir.join("p.pfm"), &Image::from_rgb(4, 2, vec![[0.5; 3]; 8]).unwrap(), 0.0).unwrap();
+    let base = "camera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40 }\n[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 5], radius = 1 }\n[[lights]]\ntype = \"projector\"\nintensity = 1\n";
+    for (extra, want) in [
+        ("image = \"p.pfm\"\nresponse = \"log\"\ncamera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40 }\n", "response"),
+        ("image = \"missing.png\"\ncamera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40 }\n", "image"),
+        ("image = \"p.pfm\"\ncamera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40, width = 8, height = 8 }\n", "camera"),
+        ("image = \"p.pfm\"\n", "camera"),
+    ] {
+        let e = Scene::from_toml_str(&format!("{base}{extra}"), "bad.toml", &dir).err().unwrap();
+        let msg = format!("{e:#}");
+        assert!(msg.starts_with("bad.toml:") && msg.contains(&format!("(projector).{want}")) && !msg.contains('\n'), "{msg}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
