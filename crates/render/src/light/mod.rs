@@ -1,5 +1,5 @@
-//! Luminaires: point, spot, directional, diffuse area lights on triangle meshes and spheres, and a
-//! constant environment.
+//! Luminaires: point, spot, directional, diffuse area lights on triangle meshes and spheres, a
+//! constant environment and a latitude–longitude environment map ([`envmap`]).
 //!
 //! Every light has a spectrum at 1-nm resolution. Units: area and environment lights give spectral
 //! radiance (W·m⁻²·sr⁻¹·nm⁻¹), point and spot lights spectral intensity (W·sr⁻¹·nm⁻¹), directional
@@ -9,16 +9,20 @@
 //! the incident radiance and the density per steradian of the direction (area lights: uniform by
 //! area on triangle meshes, pdf 1/A converted to solid angle; spheres seen from outside: uniform in
 //! the cone they subtend). `pdf_li` gives the same density for a direction found by BSDF sampling,
-//! for multiple importance sampling.
+//! for multiple importance sampling. Environment maps are sampled in proportion to luminance ×
+//! sin θ (see [`envmap`]).
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod envmap;
 
 use crate::math::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec2, Vec3, Vec4};
 use optics::spectrum::DenseSpectrum;
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// The surface an area light emits from (world coordinates, metres).
 #[derive(Clone, Debug)]
@@ -88,6 +92,9 @@ pub enum Light {
         /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
         radiance: DenseSpectrum,
     },
+    /// Radiance from an image over the sphere of directions (latitude–longitude), arriving from
+    /// every direction not blocked by the scene.
+    EnvMap(Arc<envmap::EnvMap>),
 }
 
 /// A sample of incident light at a shading point.
@@ -156,6 +163,7 @@ impl Light {
                 PI * area_m2 * integral(radiance) * if *two_sided { 2.0 } else { 1.0 }
             }
             Light::Environment { radiance } => 4.0 * PI * PI * scene_radius_m * scene_radius_m * integral(radiance),
+            Light::EnvMap(map) => map.power_w(scene_radius_m),
         }
     }
 
@@ -249,6 +257,10 @@ impl Light {
                 let wi = uniform_sphere(u);
                 Some(LightSample { wi, dist: f32::INFINITY, li: wl.eval(radiance), pdf: UNIFORM_SPHERE_PDF, delta: false })
             }
+            Light::EnvMap(map) => {
+                let (wi, pdf) = map.sample(u)?;
+                Some(LightSample { wi, dist: f32::INFINITY, li: map.radiance(wi, wl), pdf, delta: false })
+            }
         }
     }
 
@@ -274,6 +286,7 @@ impl Light {
                 dist2 / (cos_l * area_m2)
             }
             Light::Environment { .. } => UNIFORM_SPHERE_PDF,
+            Light::EnvMap(map) => map.pdf(wi),
             // Delta lights are never hit by a sampled direction.
             Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => 0.0,
         }
@@ -292,6 +305,7 @@ impl Light {
                 }
             }
             Light::Environment { radiance } => wl.eval(radiance),
+            Light::EnvMap(map) => map.radiance(-wo, wl),
             Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => Vec4::ZERO,
         }
     }

@@ -110,4 +110,8 @@ pub(crate) struct LightDesc {
     pub(crate) scale: Option<f64>,
     pub(crate) power_w: Option<f64>,
     pub(crate) two_sided: Option<bool>,
+    /// Image of an `envmap` light (relative to the scene file).
+    pub(crate) file: Option<String>,
+    /// Rotation of an `envmap` light (map frame → world).
+    pub(crate) transform: Option<TransformDesc>,
 }

@@ -5,6 +5,7 @@ mod bsdf;
 mod bsdf_scene;
 mod bvh;
 mod checkpoint;
+mod envmap;
 mod geometry;
 mod golden_renders;
 mod image_io;
