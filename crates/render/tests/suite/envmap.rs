@@ -171,6 +171,7 @@ fn constant_map_renders_as_the_constant_environment() {
     let (m1, e1) = render_mean_y(&map, &s, 48, 5);
     let (m2, e2) = render_mean_y(&env, &s, 48, 6);
     let se = (e1 * e1 + e2 * e2).sqrt();
+    eprintln!("constant map {m1:.4} ± {e1:.4}, environment {m2:.4} ± {e2:.4}");
     assert!((m1 - m2).abs() < 4.5 * se, "map {m1} ± {e1}, environment {m2} ± {e2}");
     assert!(se < 0.01 * m2, "noise too large for the test to mean anything: {se}");
 }
@@ -240,6 +241,7 @@ fn sampling_density_follows_the_map_chi_square() {
     let k = (dof - 1) as f64;
     // Wilson–Hilferty 0.999 quantile of χ²_k.
     let q = k * (1.0 - 2.0 / (9.0 * k) + 3.09 * (2.0 / (9.0 * k)).sqrt()).powi(3);
+    eprintln!("envmap χ² = {chi2:.1}, {k} dof, 0.999 quantile {q:.1}");
     assert!(chi2 < q, "χ² = {chi2} with {k} degrees of freedom (0.999 quantile {q})");
     // The density integrates to 1 over the sphere (uniform directions: E[4π pdf] = 1).
     let m = 200_000;
@@ -285,6 +287,7 @@ fn bright_upper_hemisphere_gives_pi_l_by_light_bsdf_and_mis_sampling() {
     let want = 1.5 * y_d65();
     for (kind, depth) in [(IntegratorKind::Direct, 2), (IntegratorKind::Path, 2), (IntegratorKind::Volpath, 2), (IntegratorKind::Path, 6)] {
         let (m, se) = render_mean_y(&scene, &settings(kind, depth, 100), 64, 3);
+        eprintln!("hemisphere plane {kind:?} depth {depth}: Y = {m:.4} ± {se:.4}, analytic {want:.4}");
         assert!((m - want).abs() < 4.5 * se && se < 0.015 * want, "{kind:?} depth {depth}: {m} ± {se} vs {want}");
     }
     // BSDF sampling alone: cosine-distributed directions, f cos / pdf = ρ, so Y = ρ E[Y(L)].
@@ -302,6 +305,7 @@ fn bright_upper_hemisphere_gives_pi_l_by_light_bsdf_and_mis_sampling() {
     }
     let m = s1 / n as f64;
     let se = ((s2 / n as f64 - m * m) / n as f64).sqrt();
+    eprintln!("hemisphere plane BSDF sampling: Y = {m:.4} ± {se:.4}, analytic {want:.4}");
     assert!((m - want).abs() < 4.5 * se, "BSDF sampling: {m} ± {se} vs {want}");
 }
 
@@ -348,6 +352,7 @@ fn light_sampling_alone_matches_mis_on_a_patchy_map() {
             lit += 1;
         }
     }
+    eprintln!("patchy map blocks (light only, MIS): {:?}", light_only.iter().zip(&mis).map(|(a, b)| (a.0 as f32, b.0 as f32)).collect::<Vec<_>>());
     assert!(lit >= 2, "the patch lights too little of the sphere to test anything: {mis:?}");
 }
 
@@ -400,8 +405,10 @@ fn a_single_bright_texel_lights_the_plane_facing_it_mitsuba_orientation() {
     }
     let want = 0.5 / PI * e * y_d65();
     let (m, se) = render_mean_y(&facing, &settings(IntegratorKind::Direct, 2, 100), 64, 4);
+    eprintln!("single texel, light sampling: {m:.5} ± {se:.5}, quadrature {want:.5}");
     assert!((m - want).abs() < 4.5 * se && se < 0.02 * want, "facing the texel: {m} ± {se} vs {want}");
     let (m, se) = render_mean_y(&facing, &settings(IntegratorKind::Path, 2, 100), 64, 5);
+    eprintln!("single texel, MIS: {m:.5} ± {se:.5}, quadrature {want:.5}");
     assert!((m - want).abs() < 4.5 * se, "facing the texel, MIS: {m} ± {se} vs {want}");
     // Seen from the other side, the plane faces away from the texel and stays black.
     let away = load(&dir, &scene_text(-n * 2.0));
