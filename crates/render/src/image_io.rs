@@ -443,7 +443,7 @@ pub fn decode_hdr(bytes: &[u8]) -> Result<Image> {
 fn rgbe_of(p: [f32; 3]) -> [u8; 4] {
     let c = p.map(|v| if v > 0.0 { v } else { 0.0 });
     let m = c[0].max(c[1]).max(c[2]);
-    if !(m >= 1e-32) {
+    if m < 1e-32 {
         return [0; 4];
     }
     let m = m.min(f32::MAX);
