@@ -1,4 +1,5 @@
-//! Image files: PNG (8-bit, sRGB transfer curve), OpenEXR and PFM (32-bit float, linear).
+//! Image files: PNG (8-bit, sRGB transfer curve), OpenEXR and PFM (32-bit float, linear), and
+//! Radiance RGBE `.hdr` (shared-exponent float, linear).
 //!
 //! Pixel values in memory are **linear** radiometric quantities in **sRGB primaries with the
 //! D65 white point** (the pbrt-v4 / Mitsuba 3 convention). Rows are stored top to bottom,
@@ -70,6 +71,8 @@ pub enum Format {
     Exr,
     /// Portable float map, 32-bit float RGB (or grey), linear.
     Pfm,
+    /// Radiance RGBE (`.hdr`, `.pic`), 8-bit mantissas with a shared exponent, linear.
+    Hdr,
 }
 
 impl Format {
@@ -80,8 +83,9 @@ impl Format {
             Some("png") => Ok(Format::Png),
             Some("exr") => Ok(Format::Exr),
             Some("pfm") => Ok(Format::Pfm),
-            Some(other) => bail!("{}: unknown image extension `.{other}` (expected .png, .exr or .pfm)", path.display()),
-            None => bail!("{}: no image extension (expected .png, .exr or .pfm)", path.display()),
+            Some("hdr") | Some("pic") => Ok(Format::Hdr),
+            Some(other) => bail!("{}: unknown image extension `.{other}` (expected .png, .exr, .pfm or .hdr)", path.display()),
+            None => bail!("{}: no image extension (expected .png, .exr, .pfm or .hdr)", path.display()),
         }
     }
 }
@@ -118,11 +122,12 @@ fn temp_path(path: &Path) -> Result<PathBuf> {
     Ok(path.with_file_name(format!("{name}.tmp-{}", std::process::id())))
 }
 
-/// Writes `image` to `path`, the format chosen by the extension (.png, .exr, .pfm), atomically.
+/// Writes `image` to `path`, the format chosen by the extension (.png, .exr, .pfm, .hdr), atomically.
 ///
 /// PNG: each channel is scaled by 2^`exposure_stops`, clamped to [0, 1] (NaN → 0), encoded with
 /// the sRGB curve and quantised to 8 bits. EXR and PFM hold the linear values unchanged
-/// (exposure is a display setting and is not applied to the measurement formats).
+/// (exposure is a display setting and is not applied to the measurement formats); HDR holds them
+/// to its 8-bit shared-exponent precision (flat scanlines, relative error < 2⁻⁸).
 pub fn write_image(path: &Path, image: &Image, exposure_stops: f32) -> Result<()> {
     let format = Format::from_path(path)?;
     if image.rgb.len() != image.width as usize * image.height as usize {
@@ -132,12 +137,14 @@ pub fn write_image(path: &Path, image: &Image, exposure_stops: f32) -> Result<()
         Format::Png => write_png(tmp, image, exposure_stops),
         Format::Exr => write_exr(tmp, image),
         Format::Pfm => write_pfm(tmp, image),
+        Format::Hdr => write_hdr(tmp, image),
     })
     .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Reads a PNG (decoded to linear with the sRGB curve; 8 or 16 bits; grey or colour; alpha
-/// ignored), an OpenEXR (first layer with R, G, B channels) or a PFM (either byte order).
+/// ignored), an OpenEXR (first layer with R, G, B channels), a PFM (either byte order) or a
+/// Radiance RGBE `.hdr` (see [`decode_hdr`]).
 pub fn read_image(path: &Path) -> Result<Image> {
     let format = Format::from_path(path)?;
     let result = std::fs::read(path).context("cannot open").and_then(|bytes| decode_image(&bytes, format));
@@ -151,6 +158,7 @@ pub fn decode_image(bytes: &[u8], format: Format) -> Result<Image> {
         Format::Png => read_png(bytes),
         Format::Exr => read_exr(bytes),
         Format::Pfm => read_pfm(bytes),
+        Format::Hdr => decode_hdr(bytes),
     }
 }
 
@@ -313,6 +321,195 @@ fn read_pfm(bytes: &[u8]) -> Result<Image> {
         }
     }
     Image::from_rgb(width, height, rgb)
+}
+
+/// Decodes a Radiance RGBE picture (Ward, "Real Pixels", Graphics Gems II, 1991; the file
+/// format of Radiance's `color.c`): a `#?RADIANCE` or `#?RGBE` header whose `FORMAT`, if given,
+/// is `32-bit_rle_rgbe`, an empty line, the resolution `-Y H +X W` (rows top to bottom) or
+/// `+Y H +X W` (bottom to top), then per scanline either the adaptive run-length encoding (bytes
+/// 2, 2, W >> 8, W & 255, then each of the four channels as runs: a count c > 128 repeats the next
+/// byte c − 128 times, a count 1 ≤ c ≤ 128 is followed by c literal bytes) or W flat 4-byte
+/// pixels. A pixel (r, g, b, e) is (r, g, b) · 2^(e − 136), 0 when e = 0 (as Bruce Walter's
+/// reader, which Mitsuba 3 and pbrt-v4 follow; `EXPOSURE` lines are ignored, as they do).
+pub fn decode_hdr(bytes: &[u8]) -> Result<Image> {
+    let mut pos = 0usize;
+    let line = |pos: &mut usize| -> Result<String> {
+        let start = *pos;
+        while *pos < bytes.len() && bytes[*pos] != b'\n' {
+            *pos += 1;
+            if *pos - start > 4096 {
+                bail!("HDR header line longer than 4096 bytes");
+            }
+        }
+        if *pos >= bytes.len() {
+            bail!("HDR header truncated (no resolution line)");
+        }
+        let s = String::from_utf8_lossy(&bytes[start..*pos]).trim_end_matches('\r').to_string();
+        *pos += 1;
+        Ok(s)
+    };
+    let magic = line(&mut pos)?;
+    if !magic.starts_with("#?") {
+        bail!("not a Radiance HDR file (first line `{}`, expected `#?RADIANCE`)", magic.chars().take(40).collect::<String>());
+    }
+    loop {
+        let l = line(&mut pos)?;
+        if l.is_empty() {
+            break;
+        }
+        if let Some(f) = l.strip_prefix("FORMAT=") {
+            if f.trim() != "32-bit_rle_rgbe" {
+                bail!("HDR FORMAT `{}` is not supported (only 32-bit_rle_rgbe)", f.trim());
+            }
+        }
+    }
+    let res = line(&mut pos)?;
+    let t: Vec<&str> = res.split_whitespace().collect();
+    let bad_res = || anyhow!("HDR resolution line `{res}` is not `-Y H +X W` or `+Y H +X W`");
+    if t.len() != 4 || t[2] != "+X" {
+        return Err(bad_res());
+    }
+    let top_down = match t[0] {
+        "-Y" => true,
+        "+Y" => false,
+        _ => return Err(bad_res()),
+    };
+    let height: u32 = t[1].parse().map_err(|_| bad_res())?;
+    let width: u32 = t[3].parse().map_err(|_| bad_res())?;
+    if width == 0 || height == 0 || width as u64 * height as u64 > 1 << 28 {
+        bail!("HDR resolution {width}×{height} is empty or too large");
+    }
+    let w = width as usize;
+    let mut rgb = vec![[0.0f32; 3]; w * height as usize];
+    let mut scan = vec![0u8; 4 * w];
+    let decode = |p: &[u8]| -> [f32; 3] {
+        if p[3] == 0 {
+            return [0.0; 3];
+        }
+        let f = (2.0f64).powi(p[3] as i32 - 136) as f32;
+        [p[0] as f32 * f, p[1] as f32 * f, p[2] as f32 * f]
+    };
+    let data = &bytes[pos..];
+    let mut at = 0usize;
+    let truncated = |row: usize| anyhow!("HDR data truncated in scanline {row} of {height}");
+    for row in 0..height as usize {
+        let rle = (8..=0x7fff).contains(&w)
+            && data.len() >= at + 4
+            && data[at] == 2
+            && data[at + 1] == 2
+            && data[at + 2] & 0x80 == 0;
+        if rle {
+            let n = ((data[at + 2] as usize) << 8) | data[at + 3] as usize;
+            if n != w {
+                bail!("HDR scanline {row} has length {n}, expected {w}");
+            }
+            at += 4;
+            // Channel c of pixel x goes to scan[4x + c].
+            for c in 0..4 {
+                let mut x = 0usize;
+                while x < w {
+                    let count = *data.get(at).ok_or_else(|| truncated(row))? as usize;
+                    at += 1;
+                    if count > 128 {
+                        let run = count - 128;
+                        let v = *data.get(at).ok_or_else(|| truncated(row))?;
+                        at += 1;
+                        if x + run > w {
+                            bail!("HDR scanline {row}: run overflows the scanline");
+                        }
+                        for k in 0..run {
+                            scan[4 * (x + k) + c] = v;
+                        }
+                        x += run;
+                    } else {
+                        if count == 0 || x + count > w {
+                            bail!("HDR scanline {row}: bad run length {count}");
+                        }
+                        let src = data.get(at..at + count).ok_or_else(|| truncated(row))?;
+                        for (k, v) in src.iter().enumerate() {
+                            scan[4 * (x + k) + c] = *v;
+                        }
+                        at += count;
+                        x += count;
+                    }
+                }
+            }
+        } else {
+            let src = data.get(at..at + 4 * w).ok_or_else(|| truncated(row))?;
+            scan.copy_from_slice(src);
+            at += 4 * w;
+        }
+        let y = if top_down { row } else { height as usize - 1 - row };
+        for x in 0..w {
+            rgb[y * w + x] = decode(&scan[4 * x..4 * x + 4]);
+        }
+    }
+    Image::from_rgb(width, height, rgb)
+}
+
+/// One RGBE pixel for linear RGB (negative and NaN components become 0).
+fn rgbe_of(p: [f32; 3]) -> [u8; 4] {
+    let c = p.map(|v| if v > 0.0 { v } else { 0.0 });
+    let m = c[0].max(c[1]).max(c[2]);
+    if m < 1e-32 {
+        return [0; 4];
+    }
+    let m = m.min(f32::MAX);
+    // m = f · 2^e with f ∈ [0.5, 1).
+    let e = m.log2().floor() as i32 + 1;
+    let e = if (m / 2f32.powi(e)) >= 1.0 { e + 1 } else { e }.clamp(-128, 127);
+    let k = 256.0 / 2f32.powi(e);
+    [(c[0] * k).min(255.0) as u8, (c[1] * k).min(255.0) as u8, (c[2] * k).min(255.0) as u8, (e + 128) as u8]
+}
+
+/// Run-length encodes one channel of a scanline (runs of ≥ 3 equal bytes, literals otherwise).
+fn rle_channel(v: &[u8], out: &mut Vec<u8>) {
+    let mut x = 0usize;
+    while x < v.len() {
+        // Length of the run starting at x (at most 127).
+        let run = v[x..].iter().take(127).take_while(|b| **b == v[x]).count();
+        if run >= 3 {
+            out.push(128 + run as u8);
+            out.push(v[x]);
+            x += run;
+            continue;
+        }
+        // Literals up to the next run of ≥ 3 (at most 128).
+        let start = x;
+        while x < v.len() && x - start < 128 {
+            if x + 2 < v.len() && v[x] == v[x + 1] && v[x] == v[x + 2] {
+                break;
+            }
+            x += 1;
+        }
+        out.push((x - start) as u8);
+        out.extend_from_slice(&v[start..x]);
+    }
+}
+
+/// Writes RGBE with run-length encoded scanlines (flat ones for widths outside 8..=32767, where
+/// the encoding is undefined).
+fn write_hdr(tmp: &Path, image: &Image) -> Result<()> {
+    let file = File::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    let mut out = BufWriter::new(file);
+    write!(out, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {} +X {}\n", image.height, image.width)?;
+    let w = image.width as usize;
+    let mut bytes = Vec::new();
+    for row in image.rgb.chunks(w.max(1)) {
+        let px: Vec<[u8; 4]> = row.iter().map(|p| rgbe_of(*p)).collect();
+        if (8..=0x7fff).contains(&w) {
+            bytes.extend_from_slice(&[2, 2, (w >> 8) as u8, (w & 255) as u8]);
+            for c in 0..4 {
+                let ch: Vec<u8> = px.iter().map(|p| p[c]).collect();
+                rle_channel(&ch, &mut bytes);
+            }
+        } else {
+            bytes.extend(px.iter().flatten());
+        }
+    }
+    out.write_all(&bytes)?;
+    out.flush()?;
+    Ok(())
 }
 
 #[cfg(test)]

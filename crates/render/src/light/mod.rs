@@ -1,5 +1,6 @@
 //! Luminaires: point, spot, directional, diffuse area lights on triangle meshes and spheres, a
-//! constant environment, and image projectors ([`projector`]).
+//! constant environment, a latitude–longitude environment map ([`envmap`]) and image
+//! projectors ([`projector`]).
 //!
 //! Every light has a spectrum at 1-nm resolution. Units: area and environment lights give spectral
 //! radiance (W·m⁻²·sr⁻¹·nm⁻¹), point and spot lights spectral intensity (W·sr⁻¹·nm⁻¹), directional
@@ -9,11 +10,13 @@
 //! the incident radiance and the density per steradian of the direction (area lights: uniform by
 //! area on triangle meshes, pdf 1/A converted to solid angle; spheres seen from outside: uniform in
 //! the cone they subtend). `pdf_li` gives the same density for a direction found by BSDF sampling,
-//! for multiple importance sampling.
+//! for multiple importance sampling. Environment maps are sampled in proportion to luminance ×
+//! sin θ (see [`envmap`]).
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod envmap;
 pub mod projector;
 
 use crate::math::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
@@ -21,6 +24,7 @@ use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec2, Vec3, Vec4};
 use optics::spectrum::DenseSpectrum;
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// The surface an area light emits from (world coordinates, metres).
 #[derive(Clone, Debug)]
@@ -92,6 +96,9 @@ pub enum Light {
         /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
         radiance: DenseSpectrum,
     },
+    /// Radiance from an image over the sphere of directions (latitude–longitude), arriving from
+    /// every direction not blocked by the scene.
+    EnvMap(Arc<envmap::EnvMap>),
 }
 
 /// A sample of incident light at a shading point.
@@ -161,6 +168,7 @@ impl Light {
             }
             Light::Projector(p) => p.weighted_solid_angle_sr * integral(&p.intensity),
             Light::Environment { radiance } => 4.0 * PI * PI * scene_radius_m * scene_radius_m * integral(radiance),
+            Light::EnvMap(map) => map.power_w(scene_radius_m),
         }
     }
 
@@ -264,6 +272,10 @@ impl Light {
                 let wi = uniform_sphere(u);
                 Some(LightSample { wi, dist: f32::INFINITY, li: wl.eval(radiance), pdf: UNIFORM_SPHERE_PDF, delta: false })
             }
+            Light::EnvMap(map) => {
+                let (wi, pdf) = map.sample(u)?;
+                Some(LightSample { wi, dist: f32::INFINITY, li: map.radiance(wi, wl), pdf, delta: false })
+            }
         }
     }
 
@@ -289,6 +301,7 @@ impl Light {
                 dist2 / (cos_l * area_m2)
             }
             Light::Environment { .. } => UNIFORM_SPHERE_PDF,
+            Light::EnvMap(map) => map.pdf(wi),
             // Delta lights are never hit by a sampled direction.
             Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_) => 0.0,
         }
@@ -307,6 +320,7 @@ impl Light {
                 }
             }
             Light::Environment { radiance } => wl.eval(radiance),
+            Light::EnvMap(map) => map.radiance(-wo, wl),
             Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_) => Vec4::ZERO,
         }
     }

@@ -144,4 +144,8 @@ pub(crate) struct LightDesc {
     pub(crate) image: Option<String>,
     pub(crate) response: Option<toml::Value>,
     pub(crate) camera: Option<Spanned<CameraDesc>>,
+    /// Image of an `envmap` light (relative to the scene file).
+    pub(crate) file: Option<String>,
+    /// Rotation of an `envmap` light (map frame → world).
+    pub(crate) transform: Option<TransformDesc>,
 }

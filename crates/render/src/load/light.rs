@@ -6,7 +6,7 @@
 
 use crate::load::desc::SceneDesc;
 use crate::load::error::Cx;
-use crate::load::object::{finite3, v3};
+use crate::load::object::{finite3, transform_matrix, v3};
 use crate::load::spectrum::{SpectrumCx, SpectrumUse};
 use crate::light::{Emitter, Light};
 use crate::scene::ObjectInfo;
@@ -39,6 +39,8 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 ("image", l.image.is_some()),
                 ("response", l.response.is_some()),
                 ("camera", l.camera.is_some()),
+                ("file", l.file.is_some()),
+                ("transform", l.transform.is_some()),
             ];
             for (key, is) in present {
                 if is && !allowed.contains(&key) {
@@ -139,6 +141,17 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 environment = Some(lights.len() as u32);
                 Light::Environment { radiance: scaled(need(&l.radiance, "radiance")?, 1.0)? }
             }
+            "envmap" => {
+                check_keys(&["file", "transform"])?;
+                if environment.is_some() {
+                    return Err(cx.err(&span, &field, "only one environment light is allowed"));
+                }
+                if l.power_w.is_some() {
+                    return Err(cx.err(&span, &format!("{field}.power_w"), "an environment has no finite power: use scale"));
+                }
+                environment = Some(lights.len() as u32);
+                Light::EnvMap(std::sync::Arc::new(envmap(cx, sp, &span, &field, l)?))
+            }
             "area" => {
                 check_keys(&["object", "radiance", "two_sided"])?;
                 let oname = l.object.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.object"), "missing (name of the emitting object)"))?;
@@ -169,7 +182,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 projector(cx, sp, unit_m, l, &span, &field, &scaled, need(&l.intensity, "intensity")?)?
             }
             other => {
-                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type `{other}` (known: point, spot, directional, area, environment, projector)")))
+                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type `{other}` (known: point, spot, directional, area, environment, envmap, projector)")))
             }
         };
         lights.push(light);
@@ -219,4 +232,24 @@ fn projector(
     let p = Projector::new(camera, values, intensity).map_err(|e| cx.err(span, &format!("{field}.image"), e))?;
     let intensity = scaled(p.intensity.clone(), p.weighted_solid_angle_sr as f64)?;
     Ok(Light::Projector(Box::new(Projector { intensity, ..p })))
+}
+
+/// An `envmap` light: the image `file`, `scale` (default 1) and the rotation `transform`.
+fn envmap(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, field: &str, l: &crate::load::desc::LightDesc) -> Result<crate::light::envmap::EnvMap> {
+    let rel = l.file.as_ref().ok_or_else(|| cx.err(span, &format!("{field}.file"), "missing (the latitude–longitude image: .exr, .pfm or .hdr)"))?;
+    let (image, bytes) = sp.files.load_image(rel).map_err(|e| cx.err(span, &format!("{field}.file"), format!("{e:#}")))?;
+    sp.hash.borrow_mut().write(&bytes);
+    let rotation = match &l.transform {
+        Some(t) => glam::Mat3::from_mat4(transform_matrix(cx, span, &format!("{field}.transform"), t)?),
+        None => glam::Mat3::IDENTITY,
+    };
+    let g = rotation.transpose() * rotation - glam::Mat3::IDENTITY;
+    if g.to_cols_array().iter().any(|x| x.abs() > 1e-4) {
+        return Err(cx.err(span, &format!("{field}.transform"), "must be a rotation (no scale or shear; a translation has no effect)"));
+    }
+    let scale = l.scale.unwrap_or(1.0);
+    if !(scale as f32).is_finite() {
+        return Err(cx.err(span, &format!("{field}.scale"), format!("{scale} overflows single precision")));
+    }
+    crate::light::envmap::EnvMap::new(&image, scale as f32, rotation).map_err(|e| cx.err(span, &format!("{field}.file"), format!("{rel}: {e}")))
 }

@@ -51,6 +51,8 @@ pub(crate) trait SceneFiles {
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)>;
     /// Path of a file named in the scene, for readers that open files themselves.
     fn path(&self, rel: &str) -> Result<PathBuf>;
+    /// An image file named in the scene (.exr, .pfm, .hdr, .png), with the file's bytes for hashing.
+    fn load_image(&self, rel: &str) -> Result<(crate::image_io::Image, Vec<u8>)>;
 }
 
 struct DiskFiles {
@@ -70,6 +72,12 @@ impl SceneFiles for DiskFiles {
     }
     fn path(&self, rel: &str) -> Result<PathBuf> {
         Ok(self.base.join(rel))
+    }
+    fn load_image(&self, rel: &str) -> Result<(crate::image_io::Image, Vec<u8>)> {
+        let p = self.base.join(rel);
+        let bytes = std::fs::read(&p).with_context(|| format!("cannot read image {}", p.display()))?;
+        let image = crate::image_io::read_image(&p)?;
+        Ok((image, bytes))
     }
 }
 
@@ -94,6 +102,9 @@ impl SceneFiles for EmbeddedFiles {
     }
     fn path(&self, rel: &str) -> Result<PathBuf> {
         bail!("{rel} is not embedded in the binary")
+    }
+    fn load_image(&self, rel: &str) -> Result<(crate::image_io::Image, Vec<u8>)> {
+        bail!("image {rel} is not embedded in the binary")
     }
 }
 

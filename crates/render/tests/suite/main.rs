@@ -6,6 +6,7 @@ mod bsdf_scene;
 mod bvh;
 mod camera;
 mod checkpoint;
+mod envmap;
 mod fuzz_corpus;
 mod geometry;
 mod golden_renders;
