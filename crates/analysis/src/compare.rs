@@ -419,7 +419,11 @@ pub fn ssim(a: &Image, b: &Image, mask: Option<&Mask>) -> Result<f64> {
         let my = sy[i] / n;
         let vx = (sxx[i] / n - mx * mx).max(0.0);
         let vy = (syy[i] / n - my * my).max(0.0);
-        let cxy = sxy[i] / n - mx * my;
+        // E[xy] − E[x]E[y] loses every digit when the means are large (3·10³⁸: the difference is
+        // rounding noise of either sign); the covariance obeys |cov| ≤ σx σy (Cauchy–Schwarz),
+        // which keeps each term within [−1, 1] and identical images at exactly 1.
+        let sd = (vx * vy).sqrt();
+        let cxy = (sxy[i] / n - mx * my).clamp(-sd, sd);
         sum += ((2.0 * mx * my + c1) * (2.0 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2));
         count += 1;
     }

@@ -207,10 +207,16 @@ impl Checkpoint {
             let seed = r.u64("run seed")?;
             let first_pass = r.u64("run first_pass")?;
             let passes = r.u64("run passes")?;
+            if first_pass.checked_add(passes).is_none() {
+                bail!("run of seed {seed}: passes {first_pass} + {passes} overflow the 64-bit pass counter");
+            }
             runs.push(Run { seed, first_pass, passes });
         }
-        if runs.iter().map(|r| r.passes).sum::<u64>() != spp {
-            bail!("runs add up to {} samples per pixel but the film holds {spp}", runs.iter().map(|r| r.passes).sum::<u64>());
+        let total = runs.iter().try_fold(0u64, |a, r| a.checked_add(r.passes));
+        match total {
+            None => bail!("the runs' passes overflow the 64-bit sample counter"),
+            Some(t) if t != spp => bail!("runs add up to {t} samples per pixel but the film holds {spp}"),
+            Some(_) => {}
         }
         let n = width as usize * height as usize;
         if body.len() - r.pos != n * 24 {
@@ -355,6 +361,11 @@ impl Merger {
                 self.merged = Some((path.to_path_buf(), first));
             }
             Some((_, merged)) => {
+                let spp = merged.film.samples_per_pixel().checked_add(part.film.samples_per_pixel());
+                let rejected = merged.film.rejected_samples().checked_add(part.film.rejected_samples());
+                if spp.is_none() || rejected.is_none() {
+                    bail!("{}: merged sample counts would overflow 64 bits", path.display());
+                }
                 merged.film.add_film(&part.film)?;
                 merged.runs.extend_from_slice(&part.runs);
             }

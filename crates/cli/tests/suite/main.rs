@@ -5,3 +5,4 @@ mod fit_cli;
 mod fit_roundtrip;
 mod fit_scene;
 mod render_cli;
+mod robustness_render;

@@ -13,6 +13,7 @@ mod integrator_cornell;
 mod light;
 mod mesh;
 mod pinned_physics;
+mod robustness;
 mod scene;
 mod subsurface;
 mod volpath;
