@@ -92,7 +92,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                     (None, Some(_)) => format!("{field}.scale"),
                     (None, None) => field.clone(),
                 };
-                return Err(cx.err(&span, &at, format!("the scaled spectrum peaks at {peak:e} per nm, above the {MAX_EMISSION:e} the renderer carries")));
+                return Err(cx.err(&span, &at, format!("the scaled spectrum peaks at {peak:.3e} per nm, above the {MAX_EMISSION:e} the renderer carries")));
             }
             Ok(DenseSpectrum::from_fn(|x| s.eval(x as f32) as f64 * k))
         };

@@ -43,9 +43,7 @@ pub(crate) fn out_of_range(shape: &Shape) -> Option<String> {
     match shape {
         Shape::Sphere(s) => {
             let reach = s.center.abs().max_element() + s.radius;
-            (!(inside(reach) && s.radius.is_finite())).then(|| {
-                format!("sphere (center {:?} m, radius {:e} m) reaches beyond ±{MAX_COORDINATE_M:e} m", s.center.to_array(), s.radius)
-            })
+            (!(inside(reach) && s.radius.is_finite())).then(|| format!("the sphere reaches beyond ±{MAX_COORDINATE_M:e} m"))
         }
         Shape::Mesh(m) => m.positions.iter().position(|p| !p.to_array().into_iter().all(inside)).map(|i| {
             format!("vertex {i} at {:?} m lies beyond ±{MAX_COORDINATE_M:e} m", m.positions[i].to_array())
@@ -237,7 +235,11 @@ pub(crate) fn objects(
             Shape::Mesh(mesh)
         };
         if let Some(why) = out_of_range(&shape) {
-            return Err(cx.err(&span, &field, format!("{why} (after the unit and transform)")));
+            let written = match &o.sphere {
+                Some(s) => format!(" (center {:?}, radius {} as written)", s.center, s.radius),
+                None => String::new(),
+            };
+            return Err(cx.err(&span, &field, format!("{why}{written} after the unit and transform")));
         }
         if matches!(&materials[material as usize], Material::Translucent(t) if t.from_medium) && o.medium.is_none() {
             return Err(cx.err(&span, &format!("{field}.medium"), "missing (its translucent material takes the coefficients from the object's medium)"));

@@ -91,7 +91,7 @@ fn spheres_beyond_the_coordinate_limit_are_refused_naming_the_object() {
     // A transform can carry a sphere out of range too; the unit counts (1e17 km = 1e20 m).
     let scaled = "[[objects]]\nname = \"big\"\nmaterial = \"m\"\nsphere = { center = [0, 0, 0], radius = 1 }\ntransform = { scale = 1e30 }";
     refused(&scene_text(TRANSLUCENT, scaled, ENV), &["objects[0] (big)", "after the unit and transform"]);
-    let km = scene_text("type = \"lambertian\"", "[[objects]]\nmaterial = \"m\"\nsphere = { center = [1e17, 0, 0], radius = 1 }", ENV)
+    let km = scene_text("type = \"lambertian\"\nalbedo = 0.5", "[[objects]]\nmaterial = \"m\"\nsphere = { center = [1e17, 0, 0], radius = 1 }", ENV)
         .replace("unit = \"m\"", "unit = \"km\"");
     refused(&km, &["objects[0] (object0)", "beyond"]);
     // At the limit's scale but inside it, the scene loads.
@@ -116,9 +116,9 @@ fn meshes_and_quads_beyond_the_limit_are_refused_also_as_medium_boundaries() {
     refused_in(&scene_text("type = \"interface\"", medium, ENV), &t.0, &["objects[0] (cube)", "vertex", "3.4e38", "beyond"]);
 
     let quad = "[[objects]]\nname = \"wall\"\nmaterial = \"m\"\nquad = [[0, 0, 0], [1e30, 0, 0], [1e30, 1, 0], [0, 1, 0]]";
-    refused(&scene_text("type = \"lambertian\"", quad, ENV), &["objects[0] (wall)", "vertex", "beyond"]);
+    refused(&scene_text("type = \"lambertian\"\nalbedo = 0.5", quad, ENV), &["objects[0] (wall)", "vertex", "beyond"]);
     let quads = "[[objects]]\nname = \"walls\"\nmaterial = \"m\"\nquads = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 0, 0], [1, 0, 0], [1, 3e38, 0], [0, 1, 0]]]";
-    refused(&scene_text("type = \"lambertian\"", quads, ENV), &["objects[0] (walls)", "beyond"]);
+    refused(&scene_text("type = \"lambertian\"\nalbedo = 0.5", quads, ENV), &["objects[0] (walls)", "beyond"]);
 }
 
 #[test]
@@ -126,9 +126,9 @@ fn a_transform_matrix_must_be_affine() {
     let m = |last: &str| {
         format!("{BALL}\ntransform = {{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], {last}] }}")
     };
-    refused(&scene_text("type = \"lambertian\"", &m("[0, 0, 0.5, 1]"), ENV), &["objects[0] (ball).transform.matrix", "last row must be [0, 0, 0, 1]"]);
-    refused(&scene_text("type = \"lambertian\"", &m("[0, 0, 0, 2]"), ENV), &["last row"]);
-    parse_in(&scene_text("type = \"lambertian\"", &m("[0, 0, 0, 1]"), ENV), Path::new(".")).unwrap_or_else(|e| panic!("{e:#}"));
+    refused(&scene_text("type = \"lambertian\"\nalbedo = 0.5", &m("[0, 0, 0.5, 1]"), ENV), &["objects[0] (ball).transform.matrix", "last row must be [0, 0, 0, 1]"]);
+    refused(&scene_text("type = \"lambertian\"\nalbedo = 0.5", &m("[0, 0, 0, 2]"), ENV), &["last row"]);
+    parse_in(&scene_text("type = \"lambertian\"\nalbedo = 0.5", &m("[0, 0, 0, 1]"), ENV), Path::new(".")).unwrap_or_else(|e| panic!("{e:#}"));
 }
 
 #[test]
@@ -187,7 +187,7 @@ fn lights_beyond_the_emission_limit_are_refused_and_bright_ones_render_in_propor
     let lamb = "type = \"lambertian\"\nalbedo = 0.5";
     refused(&scene_text(lamb, BALL, &point_light("scale = 1e39")), &["lights[0] (point).scale", "above"]);
     refused(&scene_text(lamb, BALL, &point_light("power_w = 1e308")), &["lights[0] (point).power_w"]);
-    refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1e36"), &["lights[0] (environment): ", "1e36"]);
+    refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1e36"), &["lights[0] (environment): ", "1.000e36"]);
     refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1\nscale = 1e36"), &["lights[0] (environment).scale"]);
     // Inside the limit, the image scales with the light: same seed, same paths, ×1e25 radiance.
     let one = mean_y(&parse_in(&scene_text(lamb, BALL, &point_light("")), Path::new(".")).unwrap());
@@ -206,9 +206,9 @@ fn user_strings_in_errors_are_escaped_and_shortened() {
     assert!(e.len() < 600, "{} characters: {}", e.len(), &e[..200]);
     // A long object name in the field label and a long unknown material reference.
     let objects = format!("[[objects]]\nname = \"{long}\"\nmaterial = \"{long}\"\nsphere = {{ center = [0, 0, 0], radius = 1 }}");
-    let e = refused(&scene_text("type = \"lambertian\"", &objects, ENV), &["unknown material"]);
+    let e = refused(&scene_text("type = \"lambertian\"\nalbedo = 0.5", &objects, ENV), &["unknown material"]);
     assert!(e.len() < 600, "{} characters", e.len());
-    let e = refused(&scene_text("type = \"lambertian\"", BALL, "[[lights]]\ntype = \"sun\\tlamp\"\nradiance = 1"), &["`sun\\tlamp`"]);
+    let e = refused(&scene_text("type = \"lambertian\"\nalbedo = 0.5", BALL, "[[lights]]\ntype = \"sun\\tlamp\"\nradiance = 1"), &["`sun\\tlamp`"]);
     assert!(!e.contains('\t'), "{e}");
 }
 
