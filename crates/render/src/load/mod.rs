@@ -164,8 +164,12 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let powers: Vec<f32> = lights.iter().map(|l| l.power_w(scene_radius).max(0.0)).collect();
     let total: f32 = powers.iter().sum();
     if !total.is_finite() {
-        let k = powers.iter().position(|p| !p.is_finite()).unwrap_or(0);
-        return Err(anyhow!("{}: lights[{k}]: its emitted power overflows f32 at this scene's size ({scene_radius:e} m radius): lower its scale", cx.file));
+        // Light selection divides by the total: an overflow would select no light (a black image).
+        let which = match powers.iter().position(|p| !p.is_finite()) {
+            Some(k) => format!("lights[{k}]: its emitted power"),
+            None => "the lights' total power".to_string(),
+        };
+        return Err(anyhow!("{}: {which} overflows f32 at this scene's size ({scene_radius:.3e} m radius): lower the scale", cx.file));
     }
     let light_pmf: Vec<f32> = if total > 0.0 {
         powers.iter().map(|p| p / total).collect()

@@ -189,6 +189,9 @@ fn lights_beyond_the_emission_limit_are_refused_and_bright_ones_render_in_propor
     refused(&scene_text(lamb, BALL, &point_light("power_w = 1e308")), &["lights[0] (point).power_w"]);
     refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1e36"), &["lights[0] (environment): ", "1.000e36"]);
     refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1\nscale = 1e36"), &["lights[0] (environment).scale"]);
+    // Within the limit per nm, but the power over a scene of radius 1e17 m overflows f32.
+    let huge = "[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 0], radius = 1e17 }";
+    refused(&scene_text(lamb, huge, "[[lights]]\ntype = \"environment\"\nradiance = 1e29"), &["lights[0]: its emitted power overflows f32"]);
     // Inside the limit, the image scales with the light: same seed, same paths, ×1e25 radiance.
     let one = mean_y(&parse_in(&scene_text(lamb, BALL, &point_light("")), Path::new(".")).unwrap());
     let bright = mean_y(&parse_in(&scene_text(lamb, BALL, &point_light("scale = 1e25")), Path::new(".")).unwrap());
