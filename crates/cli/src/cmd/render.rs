@@ -303,10 +303,9 @@ pub fn run(args: Args) -> Result<()> {
         max_depth: max_depth_arg.unwrap_or(base.max_depth),
         rr_depth: rr_depth_arg.unwrap_or(base.rr_depth),
     };
-    if !args.quiet {
-        for w in ignored_by(&scene, settings.kind) {
-            eprintln!("lucent: warning: {w}");
-        }
+    // Said even with --quiet: the image would otherwise look plausible and be wrong.
+    for w in ignored_by(&scene, settings.kind) {
+        eprintln!("lucent: warning: {w}");
     }
     let mut identity = RenderIdentity::of_scene(&scene, &settings);
     identity.scene_name = scene_name.clone();
