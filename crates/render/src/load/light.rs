@@ -6,7 +6,7 @@
 
 use crate::load::desc::SceneDesc;
 use crate::load::error::{quote, short, Cx};
-use crate::load::object::{finite3, v3};
+use crate::load::object::{finite3, v3, MAX_COORDINATE_M};
 use crate::load::spectrum::{SpectrumCx, SpectrumUse};
 use crate::light::{Emitter, Light};
 use crate::scene::ObjectInfo;
@@ -71,6 +71,9 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
             let p = v.ok_or_else(|| cx.err(&span, &format!("{field}.{key}"), "missing"))?;
             if !finite3(&p) {
                 return Err(cx.err(&span, &format!("{field}.{key}"), "must be finite"));
+            }
+            if key != "direction" && p.iter().any(|x| !((x * unit_m).abs() <= MAX_COORDINATE_M as f64)) {
+                return Err(cx.err(&span, &format!("{field}.{key}"), format!("{p:?} lies beyond ±{MAX_COORDINATE_M:e} m")));
             }
             Ok(v3(p))
         };

@@ -189,6 +189,8 @@ fn lights_beyond_the_emission_limit_are_refused_and_bright_ones_render_in_propor
     refused(&scene_text(lamb, BALL, &point_light("power_w = 1e308")), &["lights[0] (point).power_w"]);
     refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1e36"), &["lights[0] (environment): ", "1.000e36"]);
     refused(&scene_text(lamb, BALL, "[[lights]]\ntype = \"environment\"\nradiance = 1\nscale = 1e36"), &["lights[0] (environment).scale"]);
+    let far = "[[lights]]\ntype = \"point\"\nposition = [0, 0, -1e30]\nintensity = 1";
+    refused(&scene_text(lamb, BALL, far), &["lights[0] (point).position", "beyond"]);
     // Within the limit per nm, but the power over a scene of radius 1e17 m overflows f32.
     let huge = "[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 0], radius = 1e17 }";
     refused(&scene_text(lamb, huge, "[[lights]]\ntype = \"environment\"\nradiance = 1e29"), &["lights[0]: its emitted power overflows f32"]);
