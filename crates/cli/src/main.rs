@@ -42,11 +42,14 @@ fn main() {
             if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
                 e.exit();
             }
-            // One line, as for every other error: clap's first line without its own prefix.
+            // One line, as for every other error: clap's first line without its own prefix, and
+            // its tips ("a similar subcommand exists: 'render'") joined on.
             let text = e.to_string();
             let first = text.lines().next().unwrap_or("invalid arguments");
             let first = first.strip_prefix("error: ").unwrap_or(first);
-            eprintln!("lucent: error: {first} (see `lucent --help`)");
+            let tips: Vec<&str> = text.lines().filter_map(|l| l.trim_start().strip_prefix("tip: ")).collect();
+            let tips: String = tips.iter().map(|t| format!("; {t}")).collect();
+            eprintln!("lucent: error: {first}{tips} (see `lucent --help`)");
             std::process::exit(2);
         }
     };

@@ -363,6 +363,11 @@ impl Merger {
                 self.merged = Some((path.to_path_buf(), first));
             }
             Some((_, merged)) => {
+                let spp = merged.film.samples_per_pixel().checked_add(part.film.samples_per_pixel());
+                let rejected = merged.film.rejected_samples().checked_add(part.film.rejected_samples());
+                if spp.is_none() || rejected.is_none() {
+                    bail!("{}: merged sample counts would overflow 64 bits", path.display());
+                }
                 merged.film.add_film(&part.film)?;
                 merged.runs.extend_from_slice(&part.runs);
             }

@@ -211,6 +211,9 @@ fn write_exr(tmp: &Path, image: &Image) -> Result<()> {
         (p[0], p[1], p[2])
     });
     let mut exr_image = exr::prelude::Image::from_channels((w, image.height as usize), channels);
+    // Blocks in increasing order: the encoder compresses them in parallel, and with an
+    // unspecified order writes them as they finish, so the same image gave different bytes.
+    exr_image.layer_data.encoding.line_order = exr::meta::attribute::LineOrder::Increasing;
     exr_image.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
         red: Vec2(0.64, 0.33),
         green: Vec2(0.30, 0.60),

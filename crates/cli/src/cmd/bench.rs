@@ -9,6 +9,8 @@
 //! rays also as packets of 4×4 pixels traversing the tree together (`Accel::intersect_packet`,
 //! the same hits). The JSON keys `camera_mrays_per_s` / `incoherent_mrays_per_s` give the fastest
 //! way and `*_single_mrays_per_s` / `*_batched_mrays_per_s` / `camera_packet_mrays_per_s` each one.
+//! The `*_per_cpu_s` rates need at least 0.1 s of CPU time (the process clock ticks in 10 ms):
+//! below that the text says "n/a" and the JSON holds `null`.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
 
@@ -161,6 +163,23 @@ fn trace_all_batched(accel: &Accel, rays: &[Ray]) -> u64 {
         .sum()
 }
 
+/// Shortest CPU time (s) a per-CPU-second rate is computed from: the clock of /proc/self/stat
+/// ticks in 10 ms, so 0.1 s keeps its resolution error within 10 %. Shorter runs report no rate.
+const MIN_CPU_S: f64 = 0.1;
+
+/// Millions of `work` items per CPU second, or `None` when `cpu_s` is too short to measure.
+fn per_cpu_second(work: f64, cpu_s: f64) -> Option<f64> {
+    (cpu_s >= MIN_CPU_S).then(|| work / cpu_s / 1e6)
+}
+
+/// A rate with `digits` decimals, or "n/a" when it was not measured.
+fn fmt_rate(rate: Option<f64>, digits: usize) -> String {
+    match rate {
+        Some(r) if r.is_finite() => format!("{r:.digits$}"),
+        _ => "n/a".to_string(),
+    }
+}
+
 fn bench_in_pool(args: &Args) -> Result<()> {
     let path = match &args.mesh {
         Some(p) => p.clone(),
@@ -194,7 +213,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
         camera_best = camera_best.max(mr);
     }
 
-    let camera_cpu = (size as f64 * size as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
+    let camera_cpu = per_cpu_second(size as f64 * size as f64 * args.reps as f64, cpu_seconds() - cpu0);
     let mut camera_batched = 0.0f64;
     let cpu0 = cpu_seconds();
     for _ in 0..args.reps {
@@ -205,7 +224,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             bail!("internal error: batched traversal found {h} hits, single-ray {camera_hits}");
         }
     }
-    let camera_batched_cpu = (size as f64 * size as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
+    let camera_batched_cpu = per_cpu_second(size as f64 * size as f64 * args.reps as f64, cpu_seconds() - cpu0);
     let mut camera_packet = 0.0f64;
     let cpu0 = cpu_seconds();
     for _ in 0..args.reps {
@@ -216,7 +235,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             bail!("internal error: packet traversal found {h} hits, single-ray {camera_hits}");
         }
     }
-    let camera_packet_cpu = (size as f64 * size as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
+    let camera_packet_cpu = per_cpu_second(size as f64 * size as f64 * args.reps as f64, cpu_seconds() - cpu0);
     let n = (args.mrays * 1e6) as usize;
     let rays = incoherent_rays(&accel, n.max(1), 0x5EED);
     trace_all(&accel, &rays[..rays.len().min(65536)]); // warm-up
@@ -230,7 +249,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
         incoherent_best = incoherent_best.max(mr);
     }
 
-    let incoherent_cpu = (rays.len() as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
+    let incoherent_cpu = per_cpu_second(rays.len() as f64 * args.reps as f64, cpu_seconds() - cpu0);
     let mut batched_best = 0.0f64;
     let cpu0 = cpu_seconds();
     for _ in 0..args.reps {
@@ -242,10 +261,11 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             bail!("internal error: batched traversal found {h} hits, single-ray {incoherent_hits}");
         }
     }
-    let batched_cpu = (rays.len() as f64 * args.reps as f64) / (cpu_seconds() - cpu0) / 1e6;
-    let cornell_run = |seconds: f64| -> Option<(f64, f64)> {
+    let batched_cpu = per_cpu_second(rays.len() as f64 * args.reps as f64, cpu_seconds() - cpu0);
+    let cornell_run = |seconds: f64| -> Option<(f64, Option<f64>)> {
         match render::bench::benchmark_cornell_clocked(256, 256, seconds, cpu_seconds) {
-            Ok(v) => Some(v),
+            // A per-CPU-second rate over too short a CPU time is not a measurement (NaN from the library).
+            Ok((wall, cpu)) => Some((wall, cpu.is_finite().then_some(cpu))),
             Err(e) => {
                 if !args.json {
                     eprintln!("lucent: note: Cornell box benchmark unavailable: {e:#}");
@@ -277,7 +297,7 @@ fn bench_in_pool(args: &Args) -> Result<()> {
             "camera_single_mrays_per_s": camera_best,
             "incoherent_single_mrays_per_s": incoherent_best,
             "cornell_msamples_per_s": cornell.map(|c| c.0),
-            "cornell_msamples_per_cpu_s": cornell.map(|c| c.1),
+            "cornell_msamples_per_cpu_s": cornell.and_then(|c| c.1),
             "cornell_msamples_per_s_1_thread": cornell_1.map(|c| c.0),
             "cornell_thread_speedup": speedup,
             "threads": threads,
@@ -315,10 +335,16 @@ fn bench_in_pool(args: &Args) -> Result<()> {
         );
         println!("camera rays     {camera_batched:.2} Mrays/s batched (Accel::intersect_batch, 8 rays interleaved)");
         println!("incoherent rays {batched_best:.2} Mrays/s batched (Accel::intersect_batch, 8 rays interleaved)");
-        println!("camera rays     {camera_packet:.2} Mrays/s in 4×4 packets (Accel::intersect_packet), {camera_packet_cpu:.2} per CPU second");
-        println!("per CPU second  camera {camera_cpu:.2}, incoherent {incoherent_cpu:.2} Mrays/s single; {camera_batched_cpu:.2}, {batched_cpu:.2} batched (mean, /proc/self/stat)");
+        println!("camera rays     {camera_packet:.2} Mrays/s in 4×4 packets (Accel::intersect_packet), {} per CPU second", fmt_rate(camera_packet_cpu, 2));
+        println!(
+            "per CPU second  camera {}, incoherent {} Mrays/s single; {}, {} batched (mean, /proc/self/stat)",
+            fmt_rate(camera_cpu, 2),
+            fmt_rate(incoherent_cpu, 2),
+            fmt_rate(camera_batched_cpu, 2),
+            fmt_rate(batched_cpu, 2)
+        );
         match cornell {
-            Some((v, c)) => println!("Cornell box     {v:.3} Msamples/s (path, 256×256), {c:.3} per CPU second"),
+            Some((v, c)) => println!("Cornell box     {v:.3} Msamples/s (path, 256×256), {} per CPU second", fmt_rate(c, 3)),
             None => println!("Cornell box     n/a"),
         }
         if let (Some((one, _)), Some(x)) = (cornell_1, speedup) {

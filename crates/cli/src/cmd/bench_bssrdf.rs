@@ -40,7 +40,7 @@ pub struct Args {
     /// Region x0,y0,x1,y1 as fractions of the frame (default: the marble bunny's body).
     #[arg(long, default_value = "0.3,0.2,0.7,0.85", value_delimiter = ',', allow_negative_numbers = true)]
     pub region: Vec<f32>,
-    /// Longest volpath path, bounces.
+    /// Longest volpath path, in path segments (1 = emitters only).
     #[arg(long, default_value_t = 100_000)]
     pub volpath_max_depth: u32,
     /// Worker threads (default: all cores).

@@ -57,8 +57,8 @@ pub struct Args {
     /// Seed of the random sequence, the same for every evaluation [default: 0].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub seed: Option<String>,
-    /// Light-transport estimator: path, volpath, direct or ao [default: the scene's].
-    #[arg(long, value_name = "NAME")]
+    /// Light-transport estimator [default: the scene's].
+    #[arg(long, value_name = super::render::INTEGRATOR_VALUES.as_str())]
     pub integrator: Option<String>,
     /// Stop when the standard deviation of the simplex's errors falls below this (relative to the initial error) [default: 1e-6].
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]

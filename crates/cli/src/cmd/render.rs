@@ -17,8 +17,12 @@ use render::integrator::{IntegratorKind, IntegratorSettings};
 use render::progressive::{default_spp, CheckpointPolicy, Event, Job, Stop};
 use render::scene::Scene;
 
-/// Image written when no `--out` is given.
+/// Image written when no `--out` is given for the built-in scene; a scene file's render is written
+/// to its name with `.png` in the current folder (`scenes/bunny.toml` → `bunny.png`).
 pub const DEFAULT_OUT: &str = "lucent.png";
+
+/// The integrator names as `--integrator` shows them: `path|volpath|direct|ao`.
+pub(crate) static INTEGRATOR_VALUES: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| IntegratorKind::names("|"));
 /// Exit status after Ctrl-C (128 + SIGINT), once the checkpoint and images are written.
 pub const EXIT_INTERRUPTED: i32 = 130;
 
@@ -33,7 +37,7 @@ pub struct Args {
     /// Render for this many seconds of wall-clock time instead of a sample count.
     #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
     pub time: Option<String>,
-    /// Output image; .png (sRGB, for looking), .exr or .pfm (linear, for measuring). Repeatable [default: lucent.png].
+    /// Output image; .png (sRGB, for looking), .exr or .pfm (linear, for measuring). Repeatable [default: the scene file's name with .png, in the current folder; lucent.png for the built-in scene].
     #[arg(long, value_name = "FILE")]
     pub out: Vec<PathBuf>,
     /// Image width in pixels (the scene's when omitted; height follows the aspect ratio if only one is given).
@@ -48,13 +52,13 @@ pub struct Args {
     /// Seed of the random sequence; independent runs to merge need different seeds [default: 0].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub seed: Option<String>,
-    /// Light-transport estimator: path, direct or ao [default: the scene's `[integrator]`, else path].
-    #[arg(long, value_name = "path|direct|ao")]
+    /// Light-transport estimator [default: the scene's `[integrator]`, else path].
+    #[arg(long, value_name = INTEGRATOR_VALUES.as_str())]
     pub integrator: Option<String>,
-    /// Longest path in bounces [default: the scene's, else 8].
+    /// Longest path in path segments (1 = emitters only, 2 = direct lighting) [default: the scene's, else 8].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub max_depth: Option<String>,
-    /// Russian roulette starts at this bounce [default: the scene's, else 5].
+    /// Russian roulette starts at this path segment [default: the scene's, else 5].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub rr_depth: Option<String>,
     /// Write the accumulator here every few seconds, at the end and on Ctrl-C (atomically).
@@ -128,6 +132,59 @@ pub(crate) fn integrator_kind(text: &str) -> Result<IntegratorKind> {
     }
 }
 
+/// The image a render writes without `--out`: the scene file's name with `.png` in the current
+/// folder, [`DEFAULT_OUT`] for the built-in scene.
+pub(crate) fn default_out(scene: Option<&Path>) -> PathBuf {
+    match scene.and_then(|p| p.file_stem()) {
+        Some(stem) if !stem.is_empty() => {
+            let mut name = stem.to_os_string();
+            name.push(".png");
+            PathBuf::from(name)
+        }
+        _ => PathBuf::from(DEFAULT_OUT),
+    }
+}
+
+/// What the integrator `kind` leaves out of `scene`, one sentence each: media outside `volpath`,
+/// subsurface scattering outside `path` (where `volpath` sees a translucent object with an
+/// interior medium, it renders that medium instead).
+pub(crate) fn ignored_by(scene: &Scene, kind: IntegratorKind) -> Vec<String> {
+    let name = kind.name();
+    let translucent = |o: &render::scene::ObjectInfo| scene.materials[o.material as usize].as_translucent().is_some();
+    let list = |names: Vec<&str>| {
+        let shown: Vec<&str> = names.iter().take(4).copied().collect();
+        if names.len() > shown.len() { format!("{} and {} more", shown.join(", "), names.len() - shown.len()) } else { shown.join(", ") }
+    };
+    let mut out = Vec::new();
+    let (media, subsurface): (Vec<&str>, Vec<&str>) = match kind {
+        IntegratorKind::Volpath => {
+            (Vec::new(), scene.objects.iter().filter(|o| translucent(o) && o.interior_medium.is_none()).map(|o| o.name.as_str()).collect())
+        }
+        IntegratorKind::Path => (scene.objects.iter().filter(|o| o.interior_medium.is_some() && !translucent(o)).map(|o| o.name.as_str()).collect(), Vec::new()),
+        IntegratorKind::Direct | IntegratorKind::Ao => (
+            scene.objects.iter().filter(|o| o.interior_medium.is_some() && !translucent(o)).map(|o| o.name.as_str()).collect(),
+            scene.objects.iter().filter(|o| translucent(o)).map(|o| o.name.as_str()).collect(),
+        ),
+    };
+    let global = scene.global_medium.is_some() && kind != IntegratorKind::Volpath;
+    if global || !media.is_empty() {
+        let what = match (global, media.is_empty()) {
+            (true, true) => "the scene's medium".to_string(),
+            (true, false) => format!("the scene's medium and the media of {}", list(media)),
+            _ => format!("the media of {}", list(media)),
+        };
+        out.push(format!("the {name} integrator ignores {what} (they render as empty): use --integrator volpath"));
+    }
+    if !subsurface.is_empty() {
+        let fix = if kind == IntegratorKind::Volpath { "give them a medium, or use --integrator path" } else { "use --integrator path" };
+        out.push(format!(
+            "the {name} integrator ignores the subsurface scattering of {} (rendered as their clear boundary): {fix}",
+            list(subsurface)
+        ));
+    }
+    out
+}
+
 /// Check before any rendering that every output can be written: known extension, existing folder.
 pub(crate) fn check_outputs(outs: &[PathBuf]) -> Result<()> {
     for out in outs {
@@ -186,7 +243,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let seed_arg = args.seed.as_deref().map(|s| any_u64("--seed", s)).transpose()?;
     let kind_arg = args.integrator.as_deref().map(integrator_kind).transpose()?;
-    let max_depth_arg = args.max_depth.as_deref().map(|d| any_u32("--max-depth", d)).transpose()?;
+    let max_depth_arg = args.max_depth.as_deref().map(|d| positive_u32("--max-depth", d)).transpose()?;
     let rr_depth_arg = args.rr_depth.as_deref().map(|d| any_u32("--rr-depth", d)).transpose()?;
     let exposure = match args.exposure.as_deref() {
         Some(e) => {
@@ -208,7 +265,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         None => Duration::from_secs(5),
     };
-    let outs = if args.out.is_empty() { vec![PathBuf::from(DEFAULT_OUT)] } else { args.out.clone() };
+    let outs = if args.out.is_empty() { vec![default_out(args.scene.as_deref())] } else { args.out.clone() };
     check_outputs(&outs)?;
     let checkpoint_path = args.checkpoint.clone().or_else(|| args.resume.clone());
     if let Some(c) = &checkpoint_path {
@@ -261,6 +318,10 @@ pub fn run(args: Args) -> Result<()> {
         max_depth: max_depth_arg.unwrap_or(base.max_depth),
         rr_depth: rr_depth_arg.unwrap_or(base.rr_depth),
     };
+    // Said even with --quiet: the image would otherwise look plausible and be wrong.
+    for w in ignored_by(&scene, settings.kind) {
+        eprintln!("lucent: warning: {w}");
+    }
     let mut identity = RenderIdentity::of_scene(&scene, &settings);
     identity.scene_name = scene_name.clone();
 

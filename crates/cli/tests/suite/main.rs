@@ -6,3 +6,4 @@ mod fit_roundtrip;
 mod fit_scene;
 mod render_cli;
 mod robustness_optics;
+mod robustness_render;

@@ -588,6 +588,14 @@ fn far_first<T: Copy>(c: &mut [T], key: impl Fn(&T) -> f32) {
 /// 1 + 2γ₃: makes the far slab distance conservative against rounding (pbrt-v4).
 const ROUND_UP: f32 = 1.000_000_4;
 
+/// A ray the traversals can follow: finite origin and direction. Box tests of a ray with a NaN
+/// coordinate compare as "hit" in the SIMD min/max (which return the other operand), so such a
+/// ray would enter empty child slots; it hits nothing instead.
+#[inline(always)]
+fn traceable(ray: &Ray) -> bool {
+    ray.o.is_finite() && ray.d.is_finite()
+}
+
 impl Accel {
     /// Build the hierarchy over every triangle and sphere of `shapes`. Triangles with an
     /// out-of-range index are left out (meshes from [`crate::shape::mesh::TriangleMesh::load`] are validated already).
@@ -664,7 +672,7 @@ impl Accel {
     /// A machine-independent measure of the tree's quality.
     pub fn intersect_counting(&self, ray: &Ray) -> (Option<Hit>, [u32; 2]) {
         let mut count = [0u32; 2];
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !traceable(ray) {
             return (None, count);
         }
         let hit = self.closest::<true>(ray, &mut vec![(0u32, 0f32); self.stack_needed.max(STACK)], &mut count);
@@ -689,7 +697,7 @@ impl Accel {
 
     /// Closest hit with t in (ray.t_min, ray.t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !traceable(ray) {
             return None;
         }
         if self.stack_needed <= SMALL_STACK {
@@ -817,7 +825,7 @@ impl Accel {
         }
         let pres: [[Pre; 4]; G] = std::array::from_fn(|g| std::array::from_fn(|l| Pre::new(&rays[4 * g + l])));
         let side = pres[0][0].near_side;
-        let coherent = pres.iter().flatten().all(|p| !p.parallel && p.near_side == side);
+        let coherent = pres.iter().flatten().all(|p| !p.parallel && p.near_side == side) && rays.iter().all(traceable);
         if !coherent || self.stack_needed > STACK {
             for (r, h) in rays.iter().zip(hits.iter_mut()) {
                 *h = self.intersect(r);
@@ -972,7 +980,7 @@ impl Accel {
     /// at a time when the tree does not fit in cache.
     pub fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "intersect_batch: rays and hits differ in length");
-        if self.nodes.is_empty() || self.stack_needed > STACK {
+        if self.nodes.is_empty() || self.stack_needed > STACK || !rays.iter().all(traceable) {
             for (r, h) in rays.iter().zip(hits.iter_mut()) {
                 *h = self.intersect(r);
             }
@@ -1112,7 +1120,7 @@ impl Accel {
 
     /// True when anything is hit with t in (ray.t_min, ray.t_max) (shadow rays).
     pub fn occluded(&self, ray: &Ray) -> bool {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !traceable(ray) {
             return false;
         }
         if self.stack_needed <= SMALL_STACK {

@@ -5,7 +5,7 @@
 
 use crate::integrator::settings::{IntegratorKind, IntegratorSettings};
 use crate::load::desc::SceneDesc;
-use crate::load::error::Cx;
+use crate::load::error::{quote, Cx};
 use anyhow::Result;
 
 /// The integrator settings and the ambient-occlusion distance in metres (infinite by default).
@@ -19,7 +19,7 @@ pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(Inte
         if let Some(k) = &i.kind {
             integrator.kind = match IntegratorKind::from_name(k) {
                 Some(kind) => kind,
-                None => return Err(cx.err(&span, "integrator.type", format!("unknown integrator `{k}` ({})", IntegratorKind::names(", ")))),
+                None => return Err(cx.err(&span, "integrator.type", format!("unknown integrator {} ({})", quote(k), IntegratorKind::names(", ")))),
             };
         }
         if let Some(d) = i.max_depth {

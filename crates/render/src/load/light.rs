@@ -5,8 +5,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
 use crate::load::desc::SceneDesc;
-use crate::load::error::Cx;
-use crate::load::object::{finite3, transform_matrix, v3};
+use crate::load::error::{quote, short, Cx};
+use crate::load::object::{finite3, transform_matrix, v3, MAX_COORDINATE_M};
 use crate::load::spectrum::{SpectrumCx, SpectrumUse};
 use crate::light::{Emitter, Light};
 use crate::scene::ObjectInfo;
@@ -16,6 +16,12 @@ use glam::Vec3;
 use optics::spectrum::DenseSpectrum;
 use toml::Spanned;
 
+/// Largest value of a light's scaled emission spectrum (per nm, in the light's unit: W·sr⁻¹·nm⁻¹,
+/// W·m⁻²·nm⁻¹ or W·m⁻²·sr⁻¹·nm⁻¹). Radiance estimates are f32 (largest value 3.4·10³⁸); this bound
+/// leaves eight orders of magnitude for the estimators' weights (1/pdf, 1/r²) and the film's
+/// colour sums. Brighter lights are refused at load rather than rendered black.
+pub const MAX_EMISSION: f64 = 1e30;
+
 /// The lights, linked to their objects (`objects[i].light`), and the index of the environment.
 pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, shapes: &[Shape], objects: &mut [ObjectInfo]) -> Result<(Vec<Light>, Option<u32>)> {
     let mut lights = Vec::new();
@@ -23,7 +29,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
     for (k, l) in desc.lights.iter().enumerate() {
         let span = l.span();
         let l = l.get_ref();
-        let field = format!("lights[{k}] ({})", l.kind);
+        let field = format!("lights[{k}] ({})", short(&l.kind));
         let check_keys = |allowed: &[&str]| -> Result<()> {
             let present = [
                 ("object", l.object.is_some()),
@@ -71,6 +77,9 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
             if !finite3(&p) {
                 return Err(cx.err(&span, &format!("{field}.{key}"), "must be finite"));
             }
+            if key != "direction" && p.iter().any(|x| !((x * unit_m).abs() <= MAX_COORDINATE_M as f64)) {
+                return Err(cx.err(&span, &format!("{field}.{key}"), format!("{p:?} lies beyond ±{MAX_COORDINATE_M:e} m")));
+            }
             Ok(v3(p))
         };
         // Scale the spectrum: by `scale`, or so that the light emits `power_w` watts (360–830 nm).
@@ -84,6 +93,15 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
             } else {
                 l.scale.unwrap_or(1.0)
             };
+            let peak = (0..=470).map(|i| s.eval(360.0 + i as f32) as f64 * k).fold(0.0, f64::max);
+            if !(peak <= MAX_EMISSION) {
+                let at = match (l.power_w, l.scale) {
+                    (Some(_), _) => format!("{field}.power_w"),
+                    (None, Some(_)) => format!("{field}.scale"),
+                    (None, None) => field.clone(),
+                };
+                return Err(cx.err(&span, &at, format!("the scaled spectrum peaks at {peak:.3e} per nm, above the {MAX_EMISSION:e} the renderer carries")));
+            }
             Ok(DenseSpectrum::from_fn(|x| s.eval(x as f32) as f64 * k))
         };
         let light = match l.kind.as_str() {
@@ -156,21 +174,21 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 check_keys(&["object", "radiance", "two_sided"])?;
                 let oname = l.object.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.object"), "missing (name of the emitting object)"))?;
                 let oi = objects.iter().position(|o| &o.name == oname).ok_or_else(|| {
-                    cx.err(&span, &format!("{field}.object"), format!("unknown object `{oname}`"))
+                    cx.err(&span, &format!("{field}.object"), format!("unknown object {}", quote(oname)))
                 })?;
                 if objects[oi].light.is_some() {
-                    return Err(cx.err(&span, &format!("{field}.object"), format!("object `{oname}` already has a light")));
+                    return Err(cx.err(&span, &format!("{field}.object"), format!("object {} already has a light", quote(oname))));
                 }
                 let emitter = match &shapes[oi] {
                     Shape::Mesh(m) => Emitter::triangles(
                         m.indices.iter().map(|t| [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]]).collect(),
                     )
-                    .map_err(|e| cx.err(&span, &format!("{field}.object"), format!("`{oname}`: {e}")))?,
+                    .map_err(|e| cx.err(&span, &format!("{field}.object"), format!("{}: {e}", quote(oname))))?,
                     Shape::Sphere(s) => Emitter::Sphere { center: s.center, radius: s.radius },
                 };
                 let area_m2 = emitter.area_m2();
                 if !(area_m2 > 0.0) {
-                    return Err(cx.err(&span, &format!("{field}.object"), format!("`{oname}` has zero area")));
+                    return Err(cx.err(&span, &format!("{field}.object"), format!("{} has zero area", quote(oname))));
                 }
                 let two_sided = l.two_sided.unwrap_or(false);
                 let geometric = std::f64::consts::PI * area_m2 as f64 * if two_sided { 2.0 } else { 1.0 };
@@ -182,7 +200,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 projector(cx, sp, unit_m, l, &span, &field, &scaled, need(&l.intensity, "intensity")?)?
             }
             other => {
-                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type `{other}` (known: point, spot, directional, area, environment, envmap, projector)")))
+                return Err(cx.err(&span, &format!("{field}.type"), format!("unknown light type {} (known: point, spot, directional, area, environment, envmap, projector)", quote(other))))
             }
         };
         lights.push(light);

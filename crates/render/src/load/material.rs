@@ -4,7 +4,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
 use crate::load::desc::{MaterialDesc, SceneDesc};
-use crate::load::error::Cx;
+use crate::load::error::{quote, short, Cx};
 use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
 use crate::material::Material;
 use anyhow::Result;
@@ -19,7 +19,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
     for (name, m) in &desc.materials {
         let span = m.span();
         let m = m.get_ref();
-        let field = format!("materials.{name}");
+        let field = format!("materials.{}", short(name));
         if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null") {
             for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
                 if present {
@@ -28,7 +28,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
             }
         }
         if m.subsurface.is_some() && m.kind != "translucent" {
-            return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", m.kind)));
+            return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", quote(&m.kind))));
         }
         let mat = match m.kind.as_str() {
             "lambertian" | "diffuse" => {
@@ -69,7 +69,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type `{other}` (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic, translucent)"),
+                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic, translucent)", quote(other)),
                 ))
             }
         };

@@ -4,7 +4,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
-use crate::load::error::Cx;
+use crate::load::error::{quote, Cx};
 use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
 use anyhow::Result;
 use toml::Spanned;
@@ -44,7 +44,7 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
     let t = v.get_ref().as_table().ok_or_else(|| cx.err(&span, field, "expected a table such as { sigma_a_per_mm = 0.01, sigma_s_per_mm = 1, g = 0 } or { milk = { ... } }"))?;
     for k in t.keys() {
         if !MEDIUM_KEYS.contains(&k.as_str()) {
-            return Err(cx.err(&span, field, format!("unknown key `{k}`, expected one of {MEDIUM_KEYS:?}")));
+            return Err(cx.err(&span, field, format!("unknown key {}, expected one of {MEDIUM_KEYS:?}", quote(k))));
         }
     }
     let f = |k: &str| format!("{field}.{k}");
@@ -102,13 +102,26 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
             let m = t["milk"].as_table().ok_or_else(|| cx.err(&span, &f("milk"), "expected { fat_percent = …, protein_percent = …, pressure_mpa = … }"))?;
             for k in m.keys() {
                 if !["fat_percent", "protein_percent", "pressure_mpa"].contains(&k.as_str()) {
-                    return Err(cx.err(&span, &f("milk"), format!("unknown key `{k}` (fat_percent, protein_percent, pressure_mpa)")));
+                    return Err(cx.err(&span, &f("milk"), format!("unknown key {} (fat_percent, protein_percent, pressure_mpa)", quote(k))));
                 }
             }
             let path = f("milk");
             let fat = num(m, "fat_percent", &path)?;
             let protein = if m.contains_key("protein_percent") { num(m, "protein_percent", &path)? } else { 3.4 };
             let pressure = if m.contains_key("pressure_mpa") { num(m, "pressure_mpa", &path)? } else { 20.0 };
+            // The ranges of optics::milk::validate, checked here so that errors name the scene's keys.
+            if !(fat > 0.0 && fat <= 100.0) {
+                return Err(cx.err(&span, &format!("{path}.fat_percent"), format!("must lie in (0, 100], got {fat}")));
+            }
+            if !(0.0..=100.0).contains(&protein) {
+                return Err(cx.err(&span, &format!("{path}.protein_percent"), format!("must lie in [0, 100], got {protein}")));
+            }
+            if fat + protein > 100.0 {
+                return Err(cx.err(&span, &path, format!("fat_percent + protein_percent = {} exceeds 100 %", fat + protein)));
+            }
+            if !(pressure >= 0.0) {
+                return Err(cx.err(&span, &format!("{path}.pressure_mpa"), format!("must be ≥ 0 (0 = unhomogenized), got {pressure}")));
+            }
             milk(fat, protein, pressure, &path)
         }
         "preset" => {
@@ -120,7 +133,7 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
             let Some(mm) = optics::bssrdf::find_medium(name) else {
                 let known: Vec<&str> = MILK_PRESETS.iter().map(|p| p.0).collect();
                 return Err(cx.err(&span, &f("preset"), format!(
-                    "unknown preset `{name}` (known: {known:?}, or a measured medium of Jensen et al. 2001 / Narasimhan et al. 2006 such as \"Regular Milk\", \"Ketchup\")")));
+                    "unknown preset {} (known: {known:?}, or a measured medium of Jensen et al. 2001 / Narasimhan et al. 2006 such as \"Regular Milk\", \"Ketchup\")", quote(name))));
             };
             let uplift = |rgb: [f64; 3]| -> optics::spectrum::DenseSpectrum {
                 let m = rgb.iter().cloned().fold(0.0f64, f64::max);

@@ -131,7 +131,7 @@ impl Scene {
     fn from_toml(text: &str, file: &str, files: &dyn SceneFiles) -> Result<Scene> {
         let cx = Cx { file, text };
         let desc: SceneDesc = toml::from_str(text).map_err(|e| {
-            let msg = e.message().trim().replace('\n', " ");
+            let msg = error::one_line(e.message().trim());
             match e.span() {
                 Some(s) => anyhow!("{}: {}", cx.pos(s.start), msg),
                 None => anyhow!("{file}: {msg}"),
@@ -158,7 +158,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let unit_m = match &desc.unit {
         None => 1.0,
         Some(u) => object::unit_in_metres(u.get_ref()).ok_or_else(|| {
-            cx.err(&u.span(), "unit", format!("unknown length unit `{}` (use m, dm, cm, mm, um, km, in or ft)", u.get_ref()))
+            cx.err(&u.span(), "unit", format!("unknown length unit {} (use m, dm, cm, mm, um, km, in or ft)", error::quote(u.get_ref())))
         })?,
     };
     let sp = SpectrumCx { cx, named: &desc.spectra, files, hash: std::cell::RefCell::new(Fnv1a64::new()) };
@@ -183,6 +183,14 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     // Light selection proportional to power.
     let powers: Vec<f32> = lights.iter().map(|l| l.power_w(scene_radius).max(0.0)).collect();
     let total: f32 = powers.iter().sum();
+    if !total.is_finite() {
+        // Light selection divides by the total: an overflow would select no light (a black image).
+        let which = match powers.iter().position(|p| !p.is_finite()) {
+            Some(k) => format!("lights[{k}]: its emitted power"),
+            None => "the lights' total power".to_string(),
+        };
+        return Err(anyhow!("{}: {which} overflows f32 at this scene's size ({scene_radius:.3e} m radius): lower the scale", cx.file));
+    }
     let light_pmf: Vec<f32> = if total > 0.0 {
         powers.iter().map(|p| p / total).collect()
     } else {

@@ -5,7 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
 use crate::load::desc::{SceneDesc, TransformDesc};
-use crate::load::error::Cx;
+use crate::load::error::{quote, quote_list, short, Cx};
 use crate::load::medium::medium_desc;
 use crate::load::spectrum::{as_f64, as_f64_array};
 use crate::load::Build;
@@ -32,6 +32,25 @@ pub(crate) fn unit_in_metres(u: &str) -> Option<f64> {
     })
 }
 
+/// Largest coordinate (m) of the scene's geometry after its unit and transform: squared distances
+/// between points of the scene (up to 3·(2·10¹⁸ m)² ≈ 1.2·10³⁷ m²) then stay finite in f32, whose
+/// largest value is 3.4·10³⁸. Geometry beyond it is refused at load.
+pub const MAX_COORDINATE_M: f32 = 1e18;
+
+/// Why a shape (in metres) lies outside ±[`MAX_COORDINATE_M`], if it does (NaN counts as outside).
+pub(crate) fn out_of_range(shape: &Shape) -> Option<String> {
+    let inside = |x: f32| x.abs() <= MAX_COORDINATE_M;
+    match shape {
+        Shape::Sphere(s) => {
+            let reach = s.center.abs().max_element() + s.radius;
+            (!(inside(reach) && s.radius.is_finite())).then(|| format!("the sphere reaches beyond ±{MAX_COORDINATE_M:e} m"))
+        }
+        Shape::Mesh(m) => m.positions.iter().position(|p| !p.to_array().into_iter().all(inside)).map(|i| {
+            format!("vertex {i} at {:?} m lies beyond ±{MAX_COORDINATE_M:e} m", m.positions[i].to_array())
+        }),
+    }
+}
+
 pub(crate) fn v3(a: [f64; 3]) -> Vec3 {
     Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
 }
@@ -47,6 +66,9 @@ pub(crate) fn transform_matrix(cx: &Cx, span: &Range<usize>, field: &str, t: &Tr
         }
         if m.iter().flatten().any(|x| !x.is_finite()) {
             return Err(cx.err(span, &format!("{field}.matrix"), "entries must be finite"));
+        }
+        if m[3] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(cx.err(span, &format!("{field}.matrix"), format!("last row must be [0, 0, 0, 1] (an affine transform), got {:?}", m[3])));
         }
         // Rows as written (row-major), acting on column vectors.
         let rows: Vec<[f32; 4]> = m.iter().map(|r| [r[0] as f32, r[1] as f32, r[2] as f32, r[3] as f32]).collect();
@@ -126,12 +148,12 @@ pub(crate) fn objects(
         let span = o.span();
         let o = o.get_ref();
         let name = o.name.clone().unwrap_or_else(|| format!("object{k}"));
-        let field = format!("objects[{k}] ({name})");
+        let field = format!("objects[{k}] ({})", short(&name));
         if objects.iter().any(|x| x.name == name) {
             return Err(cx.err(&span, &format!("{field}.name"), "duplicate object name"));
         }
         let material = material_names.iter().position(|n| *n == o.material).ok_or_else(|| {
-            cx.err(&span, &format!("{field}.material"), format!("unknown material `{}` (defined: {material_names:?})", o.material))
+            cx.err(&span, &format!("{field}.material"), format!("unknown material {} (defined: {})", quote(&o.material), quote_list(material_names)))
         })? as u32;
         let given = [o.mesh.is_some(), o.quad.is_some(), o.quads.is_some(), o.sphere.is_some()].iter().filter(|b| **b).count();
         if given != 1 {
@@ -182,7 +204,7 @@ pub(crate) fn objects(
                         let names: Vec<String> = list.iter().map(|(n, _)| n.clone()).collect();
                         let found: Vec<TriangleMesh> = list.into_iter().filter(|(n, _)| n == g).map(|(_, m)| m).collect();
                         if found.is_empty() {
-                            return Err(cx.err(&span, &format!("{field}.group"), format!("{rel} has no group `{g}` (groups: {names:?})")));
+                            return Err(cx.err(&span, &format!("{field}.group"), format!("{} has no group {} (groups: {})", short(rel), quote(g), quote_list(&names))));
                         }
                         merge_meshes(found)
                     }
@@ -212,6 +234,13 @@ pub(crate) fn objects(
             }
             Shape::Mesh(mesh)
         };
+        if let Some(why) = out_of_range(&shape) {
+            let written = match &o.sphere {
+                Some(s) => format!(" (center {:?}, radius {} as written)", s.center, s.radius),
+                None => String::new(),
+            };
+            return Err(cx.err(&span, &field, format!("{why}{written} after the unit and transform")));
+        }
         if matches!(&materials[material as usize], Material::Translucent(t) if t.from_medium) && o.medium.is_none() {
             return Err(cx.err(&span, &format!("{field}.medium"), "missing (its translucent material takes the coefficients from the object's medium)"));
         }

@@ -4,7 +4,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
-use crate::load::error::Cx;
+use crate::load::error::{quote, quote_list, short, Cx};
 use crate::load::SceneFiles;
 use crate::math::hash::Fnv1a64;
 use anyhow::Result;
@@ -52,7 +52,7 @@ impl SpectrumCx<'_> {
         if let toml::Value::String(name) = value {
             let Some(def) = self.named.get(name) else {
                 let known: Vec<&str> = self.named.keys().map(|s| s.as_str()).collect();
-                return Err(self.cx.err(&span, field, format!("unknown spectrum `{name}` (defined: {known:?})")));
+                return Err(self.cx.err(&span, field, format!("unknown spectrum {} (defined: {})", quote(name), quote_list(&known))));
             };
             if def.get_ref().is_str() {
                 return Err(self.cx.err(&def.span(), &format!("spectra.{name}"), "a named spectrum cannot refer to another name"));
@@ -88,7 +88,7 @@ impl SpectrumCx<'_> {
         };
         for k in t.keys() {
             if !SPECTRUM_KEYS.contains(&k.as_str()) {
-                return Err(self.cx.err(span, field, format!("unknown key `{k}`, expected one of {SPECTRUM_KEYS:?}")));
+                return Err(self.cx.err(span, field, format!("unknown key {}, expected one of {SPECTRUM_KEYS:?}", quote(k))));
             }
         }
         let scale = match t.get("scale") {
@@ -167,7 +167,7 @@ impl SpectrumCx<'_> {
                             format!("{rel} has several value columns {:?}: name one", &names[1..])))
                     }
                     Some(toml::Value::String(c)) => names.iter().position(|n| n == c).filter(|i| *i > 0).ok_or_else(|| {
-                        self.cx.err(span, &format!("{field}.column"), format!("{rel} has no column `{c}` (columns: {:?})", &names[1..]))
+                        self.cx.err(span, &format!("{field}.column"), format!("{} has no column {} (columns: {})", short(rel), quote(c), quote_list(&names[1..])))
                     })?,
                     Some(_) => return Err(self.cx.err(span, &format!("{field}.column"), "must be a column name")),
                 };

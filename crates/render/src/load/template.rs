@@ -11,6 +11,7 @@
 //! with [`Scene::from_toml_str`] resolving relative files against the original scene's folder.
 //!
 
+use crate::load::error::{quote, short};
 use crate::scene::Scene;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
@@ -31,20 +32,20 @@ impl ParamSpec {
     pub fn parse(text: &str) -> Result<ParamSpec> {
         let (path, range) = text
             .split_once('=')
-            .with_context(|| format!("--param `{text}`: expected PATH=MIN:MAX"))?;
+            .with_context(|| format!("--param {}: expected PATH=MIN:MAX", quote(text)))?;
         let (lo, hi) = range
             .split_once(':')
-            .with_context(|| format!("--param `{text}`: expected PATH=MIN:MAX"))?;
+            .with_context(|| format!("--param {}: expected PATH=MIN:MAX", quote(text)))?;
         let num = |s: &str| -> Result<f64> {
             match s.trim().parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(v),
-                _ => bail!("--param `{text}`: bound `{s}` is not a finite number"),
+                _ => bail!("--param {}: bound {} is not a finite number", quote(text), quote(s)),
             }
         };
         let (min, max) = (num(lo)?, num(hi)?);
         let path = path.trim().to_string();
         if path.is_empty() || path.split('.').any(|s| s.is_empty()) {
-            bail!("--param `{text}`: empty path or path segment");
+            bail!("--param {}: empty path or path segment", quote(text));
         }
         if !(min < max) {
             bail!("--param {path}: MIN {min} must be below MAX {max}");
@@ -109,7 +110,7 @@ fn resolve<'a>(doc: &'a mut toml::Value, path: &str, insert: bool) -> Result<Opt
         let prefix = segs[..=k].join(".");
         cur = match child(cur, seg) {
             Some(c) => c,
-            None => bail!("parameter path {path} does not exist in the scene (no `{prefix}`)"),
+            None => bail!("parameter path {} does not exist in the scene (no {})", short(path), quote(&prefix)),
         };
     }
     Ok(Some(cur))

@@ -50,7 +50,7 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
     })?;
     for k in t.keys() {
         if !KEYS.contains(&k.as_str()) {
-            bail!("subsurface: unknown key `{k}` (expected one of {KEYS:?})");
+            bail!("subsurface: unknown key {} (expected one of {KEYS:?})", crate::load::error::quote(k));
         }
     }
     let num = |v: &toml::Value| -> Option<f64> {
@@ -92,7 +92,7 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
             let name = t["preset"]
                 .as_str()
                 .ok_or_else(|| anyhow!("subsurface.preset: expected a name such as \"marble\""))?;
-            let m = optics::bssrdf::find_medium(name).ok_or_else(|| anyhow!("subsurface.preset: unknown medium `{name}` (see optics::bssrdf presets of Jensen 2001 / Narasimhan 2006)"))?;
+            let m = optics::bssrdf::find_medium(name).ok_or_else(|| anyhow!("subsurface.preset: unknown medium {} (see optics::bssrdf presets of Jensen 2001 / Narasimhan 2006)", crate::load::error::quote(name)))?;
             Translucent::new(
                 eta_of(m.eta)?,
                 model,

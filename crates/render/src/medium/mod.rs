@@ -467,8 +467,13 @@ impl FreeFlightGrid {
         let ext = region.max - region.min;
         let h = (ext.max_element() / cells.max(1) as f32).max(1e-9);
         let min = region.min - Vec3::splat(2.0 * h);
-        let n = [0, 1, 2].map(|a| (((ext[a] + 4.0 * h) / h).ceil() as usize).max(1));
+        // At most cells + 5 cells an axis; the clamp only matters when the region's size is not
+        // finite in f32 (then the grid below is the one that guarantees nothing).
+        let n = [0, 1, 2].map(|a| (((ext[a] + 4.0 * h) / h).ceil() as usize).clamp(1, cells.max(1) + 5));
         let max = min + Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * h;
+        if !(min.is_finite() && max.is_finite() && h.is_finite()) {
+            return FreeFlightGrid { min: Vec3::ZERO, max: Vec3::ZERO, cell_m: 1.0, n: [1, 1, 1], bound_m: vec![0.0] };
+        }
         let idx = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
         let mut marked = vec![false; n[0] * n[1] * n[2]];
         let cell_range = |lo: Vec3, hi: Vec3| -> Option<[std::ops::Range<usize>; 3]> {

@@ -17,6 +17,7 @@ mod light;
 mod mesh;
 mod pinned_physics;
 mod projector;
+mod robustness;
 mod scene;
 mod subsurface;
 mod volpath;
