@@ -4,6 +4,7 @@
 //! (every function and field names its unit, e.g. `lambda_nm`, `radius_m`).
 
 pub mod spectrum;
+pub mod uplift;
 pub mod color;
 pub mod fresnel;
 pub mod phase;

@@ -48,6 +48,8 @@ pub(crate) trait SceneFiles {
     fn read_text(&self, rel: &str) -> Result<String>;
     /// Meshes in a file named in the scene, with the file's bytes for hashing.
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)>;
+    /// Path of an image named in the scene, with the file's bytes for hashing.
+    fn image_path(&self, rel: &str) -> Result<(PathBuf, Vec<u8>)>;
 }
 
 struct DiskFiles {
@@ -64,6 +66,11 @@ impl SceneFiles for DiskFiles {
         let bytes = std::fs::read(&p).with_context(|| format!("cannot read mesh {}", p.display()))?;
         let meshes = TriangleMesh::load(&p).with_context(|| format!("cannot load mesh {}", p.display()))?;
         Ok((meshes, bytes))
+    }
+    fn image_path(&self, rel: &str) -> Result<(PathBuf, Vec<u8>)> {
+        let p = self.base.join(rel);
+        let bytes = std::fs::read(&p).with_context(|| format!("cannot read image {}", p.display()))?;
+        Ok((p, bytes))
     }
 }
 
@@ -85,6 +92,9 @@ impl SceneFiles for EmbeddedFiles {
     }
     fn load_mesh(&self, rel: &str) -> Result<(Vec<(String, TriangleMesh)>, Vec<u8>)> {
         bail!("mesh {rel} is not embedded in the binary")
+    }
+    fn image_path(&self, rel: &str) -> Result<(PathBuf, Vec<u8>)> {
+        bail!("image {rel} is not embedded in the binary")
     }
 }
 

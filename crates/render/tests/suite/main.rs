@@ -15,4 +15,5 @@ mod mesh;
 mod pinned_physics;
 mod scene;
 mod subsurface;
+mod texture;
 mod volpath;
