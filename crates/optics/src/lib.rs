@@ -5,6 +5,7 @@
 
 pub mod csv;
 pub mod spectrum;
+pub mod uplift;
 pub mod color;
 pub mod fresnel;
 pub mod phase;

@@ -1,6 +1,6 @@
 //! Spectra: tabulated (piecewise linear, zero outside their range), constant, blackbody
 //! (Planck's law), RGB albedos uplifted to reflectance spectra that never exceed 1, and RGB
-//! illuminants (uplift × CIE D65). Wavelengths of spectra are in nanometres.
+//! illuminants (2·max(rgb) × uplift of rgb/(2·max) × CIE D65). Wavelengths of spectra are in nanometres.
 //!
 //! The RGB uplift follows the idea of Jakob & Hanika, "A Low-Dimensional Function Space for
 //! Efficient Spectral Upsampling", Computer Graphics Forum 38(2), 2019: a reflectance is the
@@ -275,7 +275,10 @@ impl RgbAlbedo {
 }
 
 /// An emission spectrum from linear sRGB: `scale · ρ(λ) · D65(λ)/Y(D65)`, where ρ is the uplift of
-/// rgb / scale, scale = max(r, g, b). RGB (1, 1, 1) is exactly D65 with luminance Y = 1.
+/// rgb / scale, scale = 2·max(r, g, b), as pbrt-v4's `RGBIlluminantSpectrum` and Mitsuba 3's
+/// emitter spectra do it (Jakob & Hanika 2019): the shape's largest component is ½, far from the
+/// saturated reflectances whose spectra are nearly boxes. RGB (1, 1, 1) is exactly D65 with
+/// luminance Y = 1.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RgbIlluminant {
     shape: RgbAlbedo,
@@ -286,7 +289,7 @@ impl RgbIlluminant {
     /// Emission with linear-sRGB colour `rgb` (components ≥ 0; negatives and NaN become 0).
     pub fn new(rgb: [f64; 3]) -> Self {
         let c = rgb.map(|v| if v.is_nan() || v < 0.0 { 0.0 } else { v });
-        let scale = c[0].max(c[1]).max(c[2]);
+        let scale = 2.0 * c[0].max(c[1]).max(c[2]);
         if !(scale > 0.0) || !scale.is_finite() {
             return RgbIlluminant {
                 shape: RgbAlbedo::new([0.0; 3]),
@@ -358,36 +361,92 @@ fn rgb_weights() -> &'static [[f64; 3]] {
     })
 }
 
+/// Normalised wavelengths t of the 1-nm grid 360…830 nm.
+fn t_grid() -> &'static [f64] {
+    static T: OnceLock<Vec<f64>> = OnceLock::new();
+    T.get_or_init(|| (0..N_DENSE).map(|i| t_of(LAMBDA_MIN_NM + i as f64)).collect())
+}
+
+/// Residual rgb(c) − target of the sigmoid polynomial with coefficients `c` under D65, and its
+/// Jacobian ∂rgb/∂c.
+fn sigmoid_residual(c: [f64; 3], tgt: [f64; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let w = rgb_weights();
+    let mut f = [0.0; 3];
+    let mut j = [[0.0; 3]; 3];
+    for (wi, &t) in w.iter().zip(t_grid()) {
+        let x = (c[0] * t + c[1]) * t + c[2];
+        let q = 1.0 + x * x;
+        let s = 0.5 + x / (2.0 * q.sqrt());
+        let ds = 0.5 / (q * q.sqrt()); // ds/dx
+        let basis = [t * t, t, 1.0];
+        for k in 0..3 {
+            f[k] += wi[k] * s;
+            for m in 0..3 {
+                j[k][m] += wi[k] * ds * basis[m];
+            }
+        }
+    }
+    for k in 0..3 {
+        f[k] -= tgt[k];
+    }
+    (f, j)
+}
+
+/// Levenberg–Marquardt iterations from `c` towards `tgt` until the squared residual is below
+/// `tol` or `iters` steps are done; returns the coefficients and their squared residual.
+fn sigmoid_lm(mut c: [f64; 3], tgt: [f64; 3], iters: usize, tol: f64) -> ([f64; 3], f64) {
+    let mut lambda = 1e-3;
+    let (mut f, mut j) = sigmoid_residual(c, tgt);
+    let mut err = f.iter().map(|v| v * v).sum::<f64>();
+    for _ in 0..iters {
+        if err < tol {
+            break;
+        }
+        // Levenberg–Marquardt step: (JᵀJ + λ diag) δ = −Jᵀf.
+        let mut jtj = [[0.0; 3]; 3];
+        let mut jtf = [0.0; 3];
+        for m in 0..3 {
+            for n in 0..3 {
+                jtj[m][n] = (0..3).map(|k| j[k][m] * j[k][n]).sum();
+            }
+            jtf[m] = (0..3).map(|k| j[k][m] * f[k]).sum();
+        }
+        let mut accepted = false;
+        for _ in 0..12 {
+            let mut a_m = jtj;
+            for m in 0..3 {
+                a_m[m][m] *= 1.0 + lambda;
+                a_m[m][m] += 1e-12;
+            }
+            let Some(delta) = solve3(a_m, jtf.map(|v| -v)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let cn = [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2]];
+            let (fnew, jnew) = sigmoid_residual(cn, tgt);
+            let en = fnew.iter().map(|v| v * v).sum::<f64>();
+            if en.is_finite() && en < err {
+                c = cn;
+                f = fnew;
+                j = jnew;
+                err = en;
+                lambda = (lambda * 0.3).max(1e-9);
+                accepted = true;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    (c, err)
+}
+
 /// Damped Gauss–Newton fit of sigmoid-polynomial coefficients so the reflectance's linear sRGB
 /// under D65 equals `target`. Starts from a grey of the mean and continues towards the target
 /// in steps (homotopy), which keeps each solve in its basin of convergence.
-fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
-    let w = rgb_weights();
-    let ts: Vec<f64> = (0..N_DENSE)
-        .map(|i| t_of(LAMBDA_MIN_NM + i as f64))
-        .collect();
-    // Residual and Jacobian of rgb(c) − target.
-    let eval = |c: [f64; 3], tgt: [f64; 3]| -> ([f64; 3], [[f64; 3]; 3]) {
-        let mut f = [0.0; 3];
-        let mut j = [[0.0; 3]; 3];
-        for (wi, &t) in w.iter().zip(&ts) {
-            let x = (c[0] * t + c[1]) * t + c[2];
-            let q = 1.0 + x * x;
-            let s = 0.5 + x / (2.0 * q.sqrt());
-            let ds = 0.5 / (q * q.sqrt()); // ds/dx
-            let basis = [t * t, t, 1.0];
-            for k in 0..3 {
-                f[k] += wi[k] * s;
-                for m in 0..3 {
-                    j[k][m] += wi[k] * ds * basis[m];
-                }
-            }
-        }
-        for k in 0..3 {
-            f[k] -= tgt[k];
-        }
-        (f, j)
-    };
+pub(crate) fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
     let mean = (target[0] + target[1] + target[2]) / 3.0;
     let mean = mean.clamp(1e-4, 1.0 - 1e-4);
     // Grey start: sigmoid(c2) = mean ⇒ c2 = (2m − 1)/(2√(m(1−m))).
@@ -402,53 +461,34 @@ fn fit_sigmoid(target: [f64; 3]) -> [f64; 3] {
         let a = step as f64 / STEPS as f64;
         let tgt = [0, 1, 2].map(|k| grey[k] + a * (target[k] - grey[k]));
         let iters = if step == STEPS { 60 } else { 15 };
-        let mut lambda = 1e-3;
-        let (mut f, mut j) = eval(c, tgt);
-        let mut err = f.iter().map(|v| v * v).sum::<f64>();
-        for _ in 0..iters {
-            if err < if step == STEPS { 1e-24 } else { 1e-10 } {
-                break;
-            }
-            // Levenberg–Marquardt step: (JᵀJ + λ diag) δ = −Jᵀf.
-            let mut jtj = [[0.0; 3]; 3];
-            let mut jtf = [0.0; 3];
-            for m in 0..3 {
-                for n in 0..3 {
-                    jtj[m][n] = (0..3).map(|k| j[k][m] * j[k][n]).sum();
-                }
-                jtf[m] = (0..3).map(|k| j[k][m] * f[k]).sum();
-            }
-            let mut accepted = false;
-            for _ in 0..12 {
-                let mut a_m = jtj;
-                for m in 0..3 {
-                    a_m[m][m] *= 1.0 + lambda;
-                    a_m[m][m] += 1e-12;
-                }
-                let Some(delta) = solve3(a_m, jtf.map(|v| -v)) else {
-                    lambda *= 10.0;
-                    continue;
-                };
-                let cn = [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2]];
-                let (fnew, jnew) = eval(cn, tgt);
-                let en = fnew.iter().map(|v| v * v).sum::<f64>();
-                if en.is_finite() && en < err {
-                    c = cn;
-                    f = fnew;
-                    j = jnew;
-                    err = en;
-                    lambda = (lambda * 0.3).max(1e-9);
-                    accepted = true;
-                    break;
-                }
-                lambda *= 10.0;
-            }
-            if !accepted {
-                break;
-            }
-        }
+        let tol = if step == STEPS { 1e-24 } else { 1e-10 };
+        c = sigmoid_lm(c, tgt, iters, tol).0;
     }
     c
+}
+
+/// Refines coefficients `start` (e.g. from a table) to reproduce `target`; falls back to the
+/// homotopy fit [`fit_sigmoid`] when the refinement does not converge.
+pub(crate) fn refine_sigmoid(start: [f64; 3], target: [f64; 3]) -> [f64; 3] {
+    let (c, err) = sigmoid_lm(start, target, 30, 1e-20);
+    if err < 1e-14 {
+        return c;
+    }
+    let c2 = fit_sigmoid(target);
+    let e2 = sigmoid_residual(c2, target).0.iter().map(|v| v * v).sum::<f64>();
+    if e2 < err {
+        c2
+    } else {
+        c
+    }
+}
+
+/// The sigmoid polynomial of Jakob & Hanika (2019) at `lambda_nm` for coefficients `c` of the
+/// normalised wavelength t = (λ − 360 nm)/(830 nm − 360 nm): s(c₀t² + c₁t + c₂), in [0, 1].
+#[inline]
+pub fn sigmoid_polynomial(c: [f64; 3], lambda_nm: f64) -> f64 {
+    let t = t_of(lambda_nm);
+    sigmoid((c[0] * t + c[1]) * t + c[2])
 }
 
 /// Solves a 3×3 linear system by Cramer's rule; None when singular.

@@ -26,6 +26,8 @@ pub struct Shading {
     /// Geometric normal as stored (for the side an area light emits to, and the side of a
     /// closed object the ray arrives from).
     pub ng_raw: Vec3,
+    /// Texture coordinates ([`crate::accel::SurfacePoint::uv`]).
+    pub uv: glam::Vec2,
 }
 
 impl Shading {
@@ -39,7 +41,7 @@ impl Shading {
         if !(ns.dot(ng) > 0.0) || !ns.is_finite() {
             ns = ng;
         }
-        Shading { p: sp.p, ng, frame: Frame::from_normal(ns), object: sp.object, ng_raw: sp.ng }
+        Shading { p: sp.p, ng, frame: Frame::from_normal(ns), object: sp.object, ng_raw: sp.ng, uv: sp.uv }
     }
 
     /// Ray leaving this point in direction `d` (unit), offset off the surface on the side of `d`.

@@ -30,3 +30,4 @@ pub mod medium;
 pub mod progressive;
 pub mod scene;
 pub mod shape;
+pub mod texture;

@@ -47,6 +47,12 @@ pub struct SurfacePoint {
     pub object: u32,
     /// Primitive index within the shape.
     pub prim: u32,
+    /// Texture coordinates (u left to right, v bottom to top of an image): interpolated vertex
+    /// (u, v) on meshes that have them (0 on meshes without); on spheres u = φ/2π, v = 1 − θ/π
+    /// with θ the polar angle from +y and φ the azimuth about +y from +x towards −z
+    /// (counter-clockwise seen from +y), so an image wrapped round a sphere reads the right way
+    /// round from outside, its top row at the +y pole.
+    pub uv: glam::Vec2,
 }
 
 /// Wide node: the boxes of four children in SoA layout, `b[side][axis][child]` (side 0 = min,
@@ -1191,7 +1197,9 @@ impl Accel {
             Shape::Sphere(s) => {
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
                 let n = if n == Vec3::ZERO { Vec3::Z } else { n };
-                SurfacePoint { p: s.center + n * s.radius.abs(), ng: n, ns: n, object: hit.object, prim: 0 }
+                // The hit's (u, v) is (azimuth from +x towards +z, polar angle from +y) / (2π, π).
+                let uv = glam::Vec2::new(1.0 - hit.u, 1.0 - hit.v);
+                SurfacePoint { p: s.center + n * s.radius.abs(), ng: n, ns: n, object: hit.object, prim: 0, uv }
             }
             Shape::Mesh(m) => {
                 let t = m.indices[hit.prim as usize];
@@ -1215,7 +1223,11 @@ impl Accel {
                     }
                     None => ng,
                 };
-                SurfacePoint { p, ng, ns, object: hit.object, prim: hit.prim }
+                let uv = match &m.uvs {
+                    Some(uv) => w * uv[t[0] as usize] + hit.u * uv[t[1] as usize] + hit.v * uv[t[2] as usize],
+                    None => glam::Vec2::ZERO,
+                };
+                SurfacePoint { p, ng, ns, object: hit.object, prim: hit.prim, uv }
             }
         }
     }

@@ -25,7 +25,7 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
     if let Some(li_idx) = obj.light {
         l += scene.lights[li_idx as usize].le(s.ng_raw, wo, wl);
     }
-    let bsdf = scene.materials[obj.material as usize].bsdf(wl).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
+    let bsdf = scene.materials[obj.material as usize].bsdf(wl, s.uv).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
     if !bsdf.is_delta() && !bsdf.is_black() {
         l += nee::surface_light(scene, &s, wo, &bsdf, wl, rng, false);
     }

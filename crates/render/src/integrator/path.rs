@@ -79,7 +79,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
                 t.boundary_reflection()
             }
             // Back face: η → 1/η; dispersion: hero only.
-            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0),
+            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0, s.uv),
         };
         if bsdf.is_black() {
             break;

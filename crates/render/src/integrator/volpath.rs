@@ -401,7 +401,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         if depth >= settings.max_depth {
             break;
         }
-        let bsdf = material.bsdf_at(wl, front);
+        let bsdf = material.bsdf_at(wl, front, sp.uv);
         if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
             break;
         }

@@ -73,11 +73,11 @@ impl TexelSpectrum {
 }
 
 /// RGB → illuminant uplift of one texel: the same spectrum as an `rgb` emission in a scene file
-/// (`optics::spectrum::RgbIlluminant`: scale = max(r, g, b), shape = the reflectance uplift of
-/// rgb / scale, times normalised D65). Components must be finite and ≥ 0.
+/// (`optics::spectrum::RgbIlluminant`: scale = 2·max(r, g, b) as in pbrt-v4 and Mitsuba 3, shape =
+/// the reflectance uplift of rgb / scale, times normalised D65). Components must be finite and ≥ 0.
 pub fn texel_spectrum(rgb: [f32; 3]) -> TexelSpectrum {
     let c = rgb.map(|v| v.max(0.0) as f64);
-    let scale = c[0].max(c[1]).max(c[2]);
+    let scale = 2.0 * c[0].max(c[1]).max(c[2]);
     if !(scale > 0.0) {
         return TexelSpectrum { shape: RgbAlbedo::new([0.0; 3]), scale: 0.0 };
     }

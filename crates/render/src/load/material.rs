@@ -5,7 +5,7 @@
 
 use crate::load::desc::{MaterialDesc, SceneDesc};
 use crate::load::error::{quote, short, Cx};
-use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
+use crate::load::spectrum::{as_f64, is_texture, SpectrumCx, SpectrumUse};
 use crate::material::Material;
 use anyhow::Result;
 use optics::spectrum::DenseSpectrum;
@@ -33,7 +33,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
         let mat = match m.kind.as_str() {
             "lambertian" | "diffuse" => {
                 let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
-                Material::lambertian(sp.resolve(albedo, &format!("{field}.albedo"), SpectrumUse::Albedo)?)
+                Material::lambertian(sp.resolve_texture(albedo, &format!("{field}.albedo"), SpectrumUse::Albedo)?)
             }
             "interface" | "null" => {
                 if m.albedo.is_some() {
@@ -113,8 +113,20 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
         }
         Ok(x)
     };
+    // A roughness texture (r ∈ [0, 1] per texel); the checks below see its largest value.
+    let mut roughness_texture = None;
+    if let Some(r) = m.roughness.as_ref().filter(|r| is_texture(r.get_ref())) {
+        if kind == "plastic" {
+            return Err(cx.err(&r.span(), &f("roughness"), "a plastic coating's roughness cannot be textured (its albedo table is computed per roughness)"));
+        }
+        roughness_texture = sp.resolve_float_texture(r, &f("roughness"), 0.0, 1.0)?;
+    }
     let distrib = match (&m.roughness, &m.alpha) {
         (Some(_), Some(a)) => return Err(cx.err(&a.span(), &f("alpha"), "give either roughness or alpha, not both")),
+        (Some(_), None) if roughness_texture.is_some() => {
+            let Some(crate::texture::FloatTexture::Image(t)) = &roughness_texture else { unreachable!() };
+            TrowbridgeReitz::isotropic(roughness_to_alpha(t.max_value()))
+        }
         (Some(r), None) => TrowbridgeReitz::isotropic(roughness_to_alpha(number(r, "roughness", 0.0, 1.0)? as f32)),
         (None, Some(a)) => match a.get_ref() {
             toml::Value::Array(xs) if kind != "plastic" => {
@@ -164,7 +176,11 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
             if ior.samples().iter().any(|&x| !(x > 0.0)) {
                 return Err(cx.err(&m.ior.as_ref().unwrap().span(), &f("ior"), "must be positive at every wavelength"));
             }
-            Ok(Material::dielectric(ior, distrib))
+            let mat = Material::dielectric(ior, distrib);
+            Ok(match roughness_texture {
+                Some(t) => mat.with_roughness_texture(t).expect("a dielectric has a roughness"),
+                None => mat,
+            })
         }
         "conductor" | "rough_conductor" => {
             let (eta, k) = match (&m.metal, &m.eta, &m.k) {
@@ -177,12 +193,16 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
                 (Some(_), _, _) => return Err(cx.err(span, &f("metal"), "give either metal or eta and k, not both")),
                 _ => return Err(cx.err(span, &f("metal"), "missing (metal = \"au\" | \"ag\" | \"cu\" | \"al\" | \"cr\", or both eta and k)")),
             };
-            Ok(Material::conductor(eta, k, distrib))
+            let mat = Material::conductor(eta, k, distrib);
+            Ok(match roughness_texture {
+                Some(t) => mat.with_roughness_texture(t).expect("a conductor has a roughness"),
+                None => mat,
+            })
         }
         _ => {
             // plastic
             let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(span, &f("albedo"), "missing (a plastic material needs the albedo of its base)"))?;
-            let albedo = sp.resolve(albedo, &f("albedo"), SpectrumUse::Albedo)?;
+            let albedo = sp.resolve_texture(albedo, &f("albedo"), SpectrumUse::Albedo)?;
             let ior = match &m.ior {
                 Some(v) => number(v, "ior", 1.0001, 4.0)?,
                 None => 1.5,

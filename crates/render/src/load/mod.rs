@@ -53,6 +53,8 @@ pub(crate) trait SceneFiles {
     fn path(&self, rel: &str) -> Result<PathBuf>;
     /// An image file named in the scene (.exr, .pfm, .hdr, .png), with the file's bytes for hashing.
     fn load_image(&self, rel: &str) -> Result<(crate::image_io::Image, Vec<u8>)>;
+    /// Path of an image named in the scene, with the file's bytes for hashing.
+    fn image_path(&self, rel: &str) -> Result<(PathBuf, Vec<u8>)>;
 }
 
 struct DiskFiles {
@@ -79,6 +81,11 @@ impl SceneFiles for DiskFiles {
         let image = crate::image_io::read_image(&p)?;
         Ok((image, bytes))
     }
+    fn image_path(&self, rel: &str) -> Result<(PathBuf, Vec<u8>)> {
+        let p = self.base.join(rel);
+        let bytes = std::fs::read(&p).with_context(|| format!("cannot read image {}", p.display()))?;
+        Ok((p, bytes))
+    }
 }
 
 /// Text of the built-in Cornell box scene (the same file as `scenes/cornell-box.toml`).
@@ -104,6 +111,9 @@ impl SceneFiles for EmbeddedFiles {
         bail!("{rel} is not embedded in the binary")
     }
     fn load_image(&self, rel: &str) -> Result<(crate::image_io::Image, Vec<u8>)> {
+        bail!("image {rel} is not embedded in the binary")
+    }
+    fn image_path(&self, rel: &str) -> Result<(PathBuf, Vec<u8>)> {
         bail!("image {rel} is not embedded in the binary")
     }
 }

@@ -110,12 +110,21 @@ pub(crate) fn transform_matrix(cx: &Cx, span: &Range<usize>, field: &str, t: &Tr
 
 pub(crate) fn merge_meshes(list: Vec<TriangleMesh>) -> TriangleMesh {
     let all_normals = list.iter().all(|m| m.normals.is_some());
-    let mut out = TriangleMesh { positions: Vec::new(), normals: if all_normals { Some(Vec::new()) } else { None }, indices: Vec::new() };
+    let all_uvs = list.iter().all(|m| m.uvs.is_some());
+    let mut out = TriangleMesh {
+        positions: Vec::new(),
+        normals: if all_normals { Some(Vec::new()) } else { None },
+        uvs: if all_uvs { Some(Vec::new()) } else { None },
+        indices: Vec::new(),
+    };
     for m in list {
         let off = out.positions.len() as u32;
         out.indices.extend(m.indices.iter().map(|t| [t[0] + off, t[1] + off, t[2] + off]));
         out.positions.extend_from_slice(&m.positions);
         if let (Some(dst), Some(src)) = (out.normals.as_mut(), m.normals.as_ref()) {
+            dst.extend_from_slice(src);
+        }
+        if let (Some(dst), Some(src)) = (out.uvs.as_mut(), m.uvs.as_ref()) {
             dst.extend_from_slice(src);
         }
     }
@@ -215,6 +224,9 @@ pub(crate) fn objects(
             mesh.validate().map_err(|e| cx.err(&span, &field, format!("{e:#}")))?;
             if mesh.indices.is_empty() {
                 return Err(cx.err(&span, &field, "mesh has no triangles"));
+            }
+            if mesh.uvs.is_none() && materials[material as usize].is_textured() {
+                return Err(cx.err(&span, &format!("{field}.mesh"), format!("material `{}` is textured but the mesh has no texture coordinates (OBJ vt, PLY u/v)", o.material)));
             }
             let translucent = matches!(materials[material as usize], Material::Translucent(_));
             if o.medium.is_some() || translucent {

@@ -196,3 +196,112 @@ pub(crate) fn rgb_albedo(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
 pub(crate) fn rgb_illuminant(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum> {
     Ok(optics::spectrum::Spectrum::RgbIlluminant(optics::spectrum::RgbIlluminant::new(rgb)))
 }
+
+/// Keys of an image texture table (`{ texture = "file.png", … }`).
+pub(crate) const TEXTURE_KEYS: &[&str] = &["texture", "wrap", "scale", "encoding"];
+
+/// Whether a value is a texture table rather than a spectrum.
+pub(crate) fn is_texture(v: &toml::Value) -> bool {
+    v.as_table().is_some_and(|t| t.contains_key("texture") || t.contains_key("checkerboard"))
+}
+
+impl SpectrumCx<'_> {
+    /// A spectrum that may be textured: an image texture (`{ texture = "file", wrap, scale,
+    /// encoding }`), a checkerboard (`{ checkerboard = { squares, even, odd } }`), or any
+    /// spectrum value (constant over the surface).
+    pub(crate) fn resolve_texture(&self, v: &Spanned<toml::Value>, field: &str, usage: SpectrumUse) -> Result<crate::texture::SpectrumTexture> {
+        use crate::texture::{checkerboard::Checkerboard, image::SpectralImage, image::Uplift, SpectrumTexture};
+        let span = v.span();
+        let Some(t) = v.get_ref().as_table().filter(|_| is_texture(v.get_ref())) else {
+            return Ok(SpectrumTexture::Constant(self.resolve(v, field, usage)?));
+        };
+        if let Some(cb) = t.get("checkerboard") {
+            if t.len() != 1 {
+                return Err(self.cx.err(&span, field, "a checkerboard table has only the key `checkerboard`"));
+            }
+            let f = format!("{field}.checkerboard");
+            let Some(cbt) = cb.as_table() else {
+                return Err(self.cx.err(&span, &f, "expected { squares = N, even = SPECTRUM, odd = SPECTRUM }"));
+            };
+            for k in cbt.keys() {
+                if !["squares", "even", "odd"].contains(&k.as_str()) {
+                    return Err(self.cx.err(&span, &f, format!("unknown key `{k}`, expected squares, even, odd")));
+                }
+            }
+            let squares = cbt.get("squares").and_then(|x| x.as_integer()).filter(|n| (1..=1_000_000).contains(n)).ok_or_else(|| {
+                self.cx.err(&span, &format!("{f}.squares"), "must be a positive integer (squares per side)")
+            })?;
+            let side = |name: &str| -> Result<DenseSpectrum> {
+                let val = cbt.get(name).ok_or_else(|| self.cx.err(&span, &format!("{f}.{name}"), "missing (a spectrum)"))?;
+                self.resolve(&Spanned::new(span.clone(), val.clone()), &format!("{f}.{name}"), usage)
+            };
+            let cb = Checkerboard { squares: squares as u32, even: side("even")?, odd: side("odd")? };
+            return Ok(SpectrumTexture::Checkerboard(std::sync::Arc::new(cb)));
+        }
+        let (img, wrap, scale) = self.texture_image(t, &span, field)?;
+        let uplift = match usage {
+            SpectrumUse::Albedo => Uplift::Reflectance,
+            SpectrumUse::Emission => Uplift::Illuminant,
+            SpectrumUse::Coefficient => return Err(self.cx.err(&span, field, "cannot be a texture")),
+        };
+        let s = SpectralImage::new(&img, uplift, wrap, scale).map_err(|e| self.cx.err(&span, &format!("{field}.texture"), format!("{}: {e:#}", t["texture"].as_str().unwrap_or(""))))?;
+        Ok(SpectrumTexture::Image(std::sync::Arc::new(s)))
+    }
+
+    /// A single-channel texture (`{ texture = "file", wrap, scale, encoding }`) with values in
+    /// [lo, hi], or None when `v` is not a texture table.
+    pub(crate) fn resolve_float_texture(&self, v: &Spanned<toml::Value>, field: &str, lo: f32, hi: f32) -> Result<Option<crate::texture::FloatTexture>> {
+        use crate::texture::{image::FloatImage, FloatTexture};
+        let span = v.span();
+        let Some(t) = v.get_ref().as_table().filter(|_| is_texture(v.get_ref())) else {
+            return Ok(None);
+        };
+        if t.contains_key("checkerboard") {
+            return Err(self.cx.err(&span, field, "a checkerboard gives spectra, not a number (use an image texture)"));
+        }
+        let (img, wrap, scale) = self.texture_image(t, &span, field)?;
+        let f = FloatImage::new(&img, wrap, scale);
+        if let Some(i) = img.rgb.iter().position(|p| {
+            let m = (p[0] + p[1] + p[2]) / 3.0;
+            !(m >= lo && m <= hi)
+        }) {
+            let (x, y) = (i % img.width as usize, i / img.width as usize);
+            return Err(self.cx.err(&span, &format!("{field}.texture"), format!("texel ({x}, {y}) is outside [{lo}, {hi}]")));
+        }
+        Ok(Some(FloatTexture::Image(std::sync::Arc::new(f))))
+    }
+
+    /// Reads the image of a texture table and its wrap mode and (u, v) scale.
+    fn texture_image(&self, t: &toml::value::Table, span: &Range<usize>, field: &str) -> Result<(crate::image_io::Image, crate::texture::Wrap, glam::Vec2)> {
+        use crate::texture::{image::Encoding, Wrap};
+        for k in t.keys() {
+            if !TEXTURE_KEYS.contains(&k.as_str()) {
+                return Err(self.cx.err(span, field, format!("unknown key `{k}`, expected one of {TEXTURE_KEYS:?}")));
+            }
+        }
+        let rel = t["texture"].as_str().ok_or_else(|| self.cx.err(span, &format!("{field}.texture"), "must be an image file name"))?;
+        let wrap = match t.get("wrap") {
+            None => Wrap::Repeat,
+            Some(w) => w.as_str().and_then(Wrap::from_name).ok_or_else(|| {
+                self.cx.err(span, &format!("{field}.wrap"), format!("unknown wrap mode {w} (expected \"repeat\" or \"clamp\")"))
+            })?,
+        };
+        let scale = match t.get("scale") {
+            None => glam::Vec2::ONE,
+            Some(s) => {
+                let a = as_f64(s).map(|x| vec![x, x]).or_else(|| as_f64_array(s)).filter(|a| a.len() == 2 && a.iter().all(|x| x.is_finite() && *x != 0.0));
+                let a = a.ok_or_else(|| self.cx.err(span, &format!("{field}.scale"), "must be a non-zero number or [su, sv]"))?;
+                glam::Vec2::new(a[0] as f32, a[1] as f32)
+            }
+        };
+        let encoding = match t.get("encoding").map(|e| e.as_str()) {
+            None | Some(Some("srgb")) => Encoding::Srgb,
+            Some(Some("linear")) => Encoding::Linear,
+            Some(_) => return Err(self.cx.err(span, &format!("{field}.encoding"), "must be \"srgb\" or \"linear\"")),
+        };
+        let (path, bytes) = self.files.image_path(rel).map_err(|e| self.cx.err(span, &format!("{field}.texture"), format!("{e:#}")))?;
+        self.hash.borrow_mut().write(&bytes);
+        let img = crate::texture::image::read_texture_image(&path, encoding).map_err(|e| self.cx.err(span, &format!("{field}.texture"), format!("{e:#}")))?;
+        Ok((img, wrap, scale))
+    }
+}

@@ -19,6 +19,8 @@ use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric};
 use crate::bsdf::Bsdf;
 use crate::bsdf::microfacet::TrowbridgeReitz;
 use crate::math::spectral::SampledWavelengths;
+use crate::texture::{FloatTexture, SpectrumTexture};
+use glam::Vec2;
 use optics::spectrum::DenseSpectrum;
 
 /// A surface material.
@@ -27,8 +29,8 @@ pub enum Material {
     /// Ideal diffuse reflector with spectral albedo ρ(λ) ∈ [0, 1]: f = ρ/π on the side of the
     /// outgoing direction (two-sided).
     Lambertian {
-        /// Albedo (directional-hemispherical reflectance), dimensionless.
-        albedo: DenseSpectrum,
+        /// Albedo (directional-hemispherical reflectance), dimensionless; constant or textured.
+        albedo: SpectrumTexture,
     },
     /// Absorbs everything (an emitter with no reflectance, or a light trap).
     Black,
@@ -40,6 +42,8 @@ pub enum Material {
         dispersive: bool,
         /// Microfacet roughness (α = 0: smooth).
         distrib: TrowbridgeReitz,
+        /// Roughness r ∈ [0, 1] over the surface (α = r², isotropic), replacing `distrib` where given.
+        roughness: Option<FloatTexture>,
     },
     /// Conductor with complex index η + i k per wavelength; smooth or GGX-rough.
     Conductor {
@@ -49,11 +53,13 @@ pub enum Material {
         k: DenseSpectrum,
         /// Microfacet roughness (α = 0: smooth).
         distrib: TrowbridgeReitz,
+        /// Roughness r ∈ [0, 1] over the surface (α = r², isotropic), replacing `distrib` where given.
+        roughness: Option<FloatTexture>,
     },
     /// Dielectric coating (index `ior`, roughness α) over a Lambertian base ("plastic").
     Plastic {
-        /// Base albedo.
-        albedo: DenseSpectrum,
+        /// Base albedo; constant or textured.
+        albedo: SpectrumTexture,
         /// Coating index relative to the outside (non-dispersive).
         ior: f32,
         /// Coating roughness α (isotropic; 0 = smooth).
@@ -77,8 +83,8 @@ impl Material {
     }
 
     /// Lambertian material with albedo given as a function of wavelength in nm.
-    pub fn lambertian(albedo: DenseSpectrum) -> Material {
-        Material::Lambertian { albedo }
+    pub fn lambertian(albedo: impl Into<SpectrumTexture>) -> Material {
+        Material::Lambertian { albedo: albedo.into() }
     }
 
     /// Dielectric with relative index `ior(λ)` (dispersive when it varies over 360–830 nm) and
@@ -86,17 +92,36 @@ impl Material {
     pub fn dielectric(ior: DenseSpectrum, distrib: TrowbridgeReitz) -> Material {
         let s = ior.samples();
         let dispersive = s.iter().any(|&x| (x - s[0]).abs() > 1e-6 * s[0].abs());
-        Material::Dielectric { ior, dispersive, distrib }
+        Material::Dielectric { ior, dispersive, distrib, roughness: None }
     }
 
     /// Conductor with complex index η + i k (relative to the outside) and roughness `distrib`.
     pub fn conductor(eta: DenseSpectrum, k: DenseSpectrum, distrib: TrowbridgeReitz) -> Material {
-        Material::Conductor { eta, k, distrib }
+        Material::Conductor { eta, k, distrib, roughness: None }
     }
 
     /// Plastic: a coating of index `ior` and roughness `alpha` over a Lambertian base `albedo`.
-    pub fn plastic(albedo: DenseSpectrum, ior: f32, alpha: f32) -> Material {
-        Material::Plastic { albedo, ior, alpha, table: CoatingTable::get(alpha, ior) }
+    pub fn plastic(albedo: impl Into<SpectrumTexture>, ior: f32, alpha: f32) -> Material {
+        Material::Plastic { albedo: albedo.into(), ior, alpha, table: CoatingTable::get(alpha, ior) }
+    }
+
+    /// This material with its roughness given by `roughness` (r ∈ [0, 1] over the surface,
+    /// α = r²); only dielectrics and conductors have one (None for the others).
+    pub fn with_roughness_texture(self, roughness: FloatTexture) -> Option<Material> {
+        match self {
+            Material::Dielectric { ior, dispersive, distrib, .. } => Some(Material::Dielectric { ior, dispersive, distrib, roughness: Some(roughness) }),
+            Material::Conductor { eta, k, distrib, .. } => Some(Material::Conductor { eta, k, distrib, roughness: Some(roughness) }),
+            Material::Lambertian { .. } | Material::Black | Material::Plastic { .. } | Material::Translucent(_) => None,
+        }
+    }
+
+    /// Whether the material varies over the surface (the surface then needs texture coordinates).
+    pub fn is_textured(&self) -> bool {
+        match self {
+            Material::Lambertian { albedo } | Material::Plastic { albedo, .. } => albedo.is_textured(),
+            Material::Dielectric { roughness, .. } | Material::Conductor { roughness, .. } => roughness.is_some(),
+            Material::Black | Material::Translucent(_) => false,
+        }
     }
 
     /// The BSDF for a hit on the front (`front_face`, the side the geometric normal points to) or
@@ -106,8 +131,8 @@ impl Material {
     /// by [`Bsdf::from_inside`] for back faces and `wl.terminate_secondary()` when
     /// [`Bsdf::terminates_secondary`].
     #[inline]
-    pub fn bsdf_at(&self, wl: &mut SampledWavelengths, front_face: bool) -> Bsdf {
-        let b = self.bsdf(wl);
+    pub fn bsdf_at(&self, wl: &mut SampledWavelengths, front_face: bool, uv: Vec2) -> Bsdf {
+        let b = self.bsdf(wl, uv);
         if b.terminates_secondary() {
             wl.terminate_secondary();
         }
@@ -118,14 +143,16 @@ impl Material {
         }
     }
 
-    /// The BSDF of this material at the wavelengths `wl`, for a hit on the FRONT (outside) face;
-    /// for a hit from inside use [`Bsdf::from_inside`] on the result.
+    /// The BSDF of this material at the wavelengths `wl` and texture coordinates `uv` (which
+    /// only textured materials read), for a hit on the FRONT (outside) face; for a hit from
+    /// inside use [`Bsdf::from_inside`] on the result.
     #[inline]
-    pub fn bsdf(&self, wl: &SampledWavelengths) -> Bsdf {
+    pub fn bsdf(&self, wl: &SampledWavelengths, uv: Vec2) -> Bsdf {
         match self {
-            Material::Lambertian { albedo } => Bsdf::Diffuse { r: wl.eval(albedo) },
+            Material::Lambertian { albedo } => Bsdf::Diffuse { r: albedo.eval(wl, uv) },
             Material::Black => Bsdf::Black,
-            Material::Dielectric { ior, dispersive, distrib } => {
+            Material::Dielectric { ior, dispersive, distrib, roughness } => {
+                let distrib = &textured_distrib(distrib, roughness, uv);
                 // One real η per lobe: the hero wavelength's (pbrt-v4's convention for dispersion).
                 let eta = ior.eval(wl.lambda_nm[0]);
                 let dispersive = *dispersive && !wl.secondary_terminated();
@@ -136,7 +163,8 @@ impl Material {
                     Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: *distrib, eta }, dispersive }
                 }
             }
-            Material::Conductor { eta, k, distrib } => {
+            Material::Conductor { eta, k, distrib, roughness } => {
+                let distrib = &textured_distrib(distrib, roughness, uv);
                 let (eta, k) = (wl.eval(eta), wl.eval(k));
                 if distrib.effectively_smooth() {
                     Bsdf::SmoothConductor(SmoothConductor { eta, k })
@@ -145,12 +173,21 @@ impl Material {
                 }
             }
             Material::Plastic { albedo, ior, alpha, table } => Bsdf::Coated(CoatedDiffuse {
-                albedo: wl.eval(albedo),
+                albedo: albedo.eval(wl, uv),
                 eta: *ior,
                 distrib: TrowbridgeReitz::isotropic(*alpha),
                 table,
             }),
             Material::Translucent(t) => t.boundary_dielectric(),
         }
+    }
+}
+
+/// The microfacet distribution at `uv`: `distrib` itself when the roughness is not textured.
+#[inline]
+fn textured_distrib(distrib: &TrowbridgeReitz, roughness: &Option<FloatTexture>, uv: Vec2) -> TrowbridgeReitz {
+    match roughness {
+        None => *distrib,
+        Some(r) => TrowbridgeReitz::isotropic(crate::bsdf::microfacet::roughness_to_alpha(r.eval(uv).clamp(0.0, 1.0))),
     }
 }

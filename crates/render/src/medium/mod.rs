@@ -683,7 +683,7 @@ mod tests {
             [c(0., 0., 0.), c(0., 0., 1.), c(0., 1., 1.), c(0., 1., 0.)],
             [c(1., 0., 0.), c(1., 1., 0.), c(1., 1., 1.), c(1., 0., 1.)],
         ];
-        let mut m = TriangleMesh { positions: vec![], normals: None, indices: vec![] };
+        let mut m = TriangleMesh { positions: vec![], normals: None, uvs: None, indices: vec![] };
         for f in &faces {
             let q = TriangleMesh::quad(*f);
             let off = m.positions.len() as u32;

@@ -3,11 +3,16 @@
 //!
 //! Positions are in the file's length unit; the scene applies its unit and transform with
 //! [`TriangleMesh::transform`].
+//!
+//! Texture coordinates (u, v) follow the OBJ / pbrt-v4 / Mitsuba 3 convention: u runs left to
+//! right across an image and v bottom to top (v = 0 is the image's bottom row). OBJ gives them
+//! as `vt u v`, PLY as the vertex properties `u, v`, `s, t`, `texture_u, texture_v` or
+//! `texture_s, texture_t`; a quad's corners 0, 1, 2, 3 get (0, 0), (1, 0), (1, 1), (0, 1).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
 
 use anyhow::{bail, Context, Result};
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::io::Read;
 use std::path::Path;
 
@@ -18,6 +23,9 @@ pub struct TriangleMesh {
     pub positions: Vec<Vec3>,
     /// Per-vertex shading normals (same length as `positions`), if the file has them.
     pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates (same length as `positions`; u left to right, v bottom
+    /// to top of an image), if the file has them.
+    pub uvs: Option<Vec<Vec2>>,
     /// Triangles as indices into `positions`, counter-clockwise seen from the front.
     pub indices: Vec<[u32; 3]>,
 }
@@ -69,6 +77,16 @@ impl TriangleMesh {
                 }
             }
         }
+        if let Some(uv) = &self.uvs {
+            if uv.len() != self.positions.len() {
+                bail!("{} texture coordinates for {} vertices", uv.len(), self.positions.len());
+            }
+            for (i, t) in uv.iter().enumerate() {
+                if !t.is_finite() {
+                    bail!("vertex {i} has non-finite texture coordinates ({}, {})", t.x, t.y);
+                }
+            }
+        }
         let nv = self.positions.len() as u64;
         for (f, t) in self.indices.iter().enumerate() {
             for &i in t {
@@ -80,9 +98,11 @@ impl TriangleMesh {
         Ok(())
     }
 
-    /// Two triangles (c0, c1, c2) and (c0, c2, c3) for a planar quad given counter-clockwise.
+    /// Two triangles (c0, c1, c2) and (c0, c2, c3) for a planar quad given counter-clockwise,
+    /// with texture coordinates (0, 0), (1, 0), (1, 1), (0, 1) at c0, c1, c2, c3.
     pub fn quad(corners: [Vec3; 4]) -> TriangleMesh {
-        TriangleMesh { positions: corners.to_vec(), normals: None, indices: vec![[0, 1, 2], [0, 2, 3]] }
+        let uvs = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+        TriangleMesh { positions: corners.to_vec(), normals: None, uvs: Some(uvs), indices: vec![[0, 1, 2], [0, 2, 3]] }
     }
 
     /// Total surface area.
@@ -143,13 +163,19 @@ pub fn parse_obj(bytes: &[u8], default_name: &str) -> Result<Vec<(String, Triang
         } else {
             None
         };
+        // With a single index per vertex, tobj gives one (u, v) per vertex when the faces name texture coordinates.
+        let uvs = if !mesh.texcoords.is_empty() && mesh.texcoords.len() / 2 == positions.len() {
+            Some(mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect())
+        } else {
+            None
+        };
         let indices = mesh.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let name = if m.name.is_empty() || m.name == "unnamed_object" {
             if k == 0 { default_name.to_string() } else { format!("{default_name}_{k}") }
         } else {
             m.name
         };
-        let tm = TriangleMesh { positions, normals, indices };
+        let tm = TriangleMesh { positions, normals, uvs, indices };
         tm.validate().with_context(|| format!("OBJ group '{name}'"))?;
         out.push((name, tm));
     }
@@ -192,7 +218,18 @@ fn check_obj(bytes: &[u8]) -> Result<()> {
                 }
                 counts[0] += 1;
             }
-            Some("vt") => counts[1] += 1,
+            Some("vt") => {
+                // vt u [v [w]]: u required, v and w default to 0.
+                let what = format!("texture coordinate {}", counts[1] + 1);
+                let tok: Vec<&str> = w.collect();
+                if tok.is_empty() || tok.len() > 3 {
+                    bail!("OBJ line {ln}: {what} needs 1 to 3 numbers, got {}", tok.len());
+                }
+                for t in tok {
+                    finite(Some(t), &what)?;
+                }
+                counts[1] += 1;
+            }
             Some("vn") => {
                 let what = format!("normal {}", counts[2] + 1);
                 for _ in 0..3 {
@@ -541,6 +578,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
     let mut body = Body { bytes, pos, format, line: line_no, tokens: None };
     let mut mesh = TriangleMesh::default();
     let mut normals = Vec::new();
+    let mut uvs = Vec::new();
     let mut have_vertex = false;
     for el in &elements {
         let idx = |n: &str| el.props.iter().position(|p| p.name == n && p.list.is_none());
@@ -555,9 +593,16 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
                 (Some(a), Some(b), Some(c)) => Some((a, b, c)),
                 _ => None,
             };
+            // Texture coordinates under any of their common names (the first pair present).
+            let tidx = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
+                .iter()
+                .find_map(|(a, b)| Some((idx(a)?, idx(b)?)));
             mesh.positions.reserve(body.max_instances(el));
             if nidx.is_some() {
                 normals.reserve(body.max_instances(el));
+            }
+            if tidx.is_some() {
+                uvs.reserve(body.max_instances(el));
             }
             let mut vals = vec![0.0f64; nprops];
             for v in 0..el.count {
@@ -585,6 +630,13 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
                         bail!("{}: non-finite normal ({}, {}, {})", c(&body), vals[a], vals[b], vals[cz]);
                     }
                     normals.push(n);
+                }
+                if let Some((a, b)) = tidx {
+                    let t = Vec2::new(vals[a] as f32, vals[b] as f32);
+                    if !t.is_finite() {
+                        bail!("{}: non-finite texture coordinates ({}, {})", c(&body), vals[a], vals[b]);
+                    }
+                    uvs.push(t);
                 }
             }
         } else if el.name == "face" {
@@ -654,6 +706,9 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
     }
     if !normals.is_empty() {
         mesh.normals = Some(normals);
+    }
+    if !uvs.is_empty() {
+        mesh.uvs = Some(uvs);
     }
     let nv = mesh.positions.len() as u64;
     for (f, t) in mesh.indices.iter().enumerate() {

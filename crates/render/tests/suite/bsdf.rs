@@ -692,7 +692,7 @@ fn smooth_dielectric_total_internal_reflection_and_index_matching() {
         TrowbridgeReitz::isotropic(0.0),
     );
     let wl = SampledWavelengths::fixed([500.0, 550.0, 600.0, 650.0]);
-    let front = glass.bsdf(&wl);
+    let front = glass.bsdf(&wl, glam::Vec2::ZERO);
     let back = front.from_inside();
     let wo = Vec3::new(0.5, 0.0, (0.75f32).sqrt());
     let sf = front.sample(wo, 0.999, Vec2::ZERO).unwrap();
@@ -711,7 +711,7 @@ fn dispersive_glass_terminates_secondary_wavelengths() {
         TrowbridgeReitz::isotropic(0.0),
     );
     let wl = SampledWavelengths::fixed([450.0, 550.0, 650.0, 750.0]);
-    let b = glass.bsdf(&wl);
+    let b = glass.bsdf(&wl, glam::Vec2::ZERO);
     assert!(b.terminates_secondary());
     // The lobe uses the hero wavelength's index: n(450 nm) of N-BK7 = 1.5253 (Sellmeier).
     let wo = Vec3::new(0.6, 0.0, 0.8);
@@ -731,7 +731,7 @@ fn dispersive_glass_terminates_secondary_wavelengths() {
     );
     assert!(
         !plain
-            .bsdf(&wl)
+            .bsdf(&wl, glam::Vec2::ZERO)
             .sample(wo, 0.999, Vec2::new(0.3, 0.3))
             .unwrap()
             .terminate_secondary
@@ -739,7 +739,7 @@ fn dispersive_glass_terminates_secondary_wavelengths() {
     // After termination the material no longer asks for it.
     let mut wl2 = wl;
     wl2.terminate_secondary();
-    assert!(!glass.bsdf(&wl2).terminates_secondary());
+    assert!(!glass.bsdf(&wl2, glam::Vec2::ZERO).terminates_secondary());
 }
 
 #[test]
@@ -750,7 +750,7 @@ fn gold_normal_incidence_reflectance() {
     let k = optics::spectrum::DenseSpectrum::from_fn(|l| au.eta_k(l).1);
     let m = Material::conductor(eta, k, TrowbridgeReitz::isotropic(0.0));
     let l = [450.0f32, 550.0, 650.0, 750.0];
-    let b = m.bsdf(&SampledWavelengths::fixed(l));
+    let b = m.bsdf(&SampledWavelengths::fixed(l), glam::Vec2::ZERO);
     let s = b.sample(Vec3::Z, 0.5, Vec2::new(0.5, 0.5)).unwrap();
     assert!(s.delta && s.pdf == 1.0);
     let r = s.f * s.wi.z / s.pdf;
@@ -802,7 +802,7 @@ fn trace_sphere(material: &Material, mut o: Vec3, mut d: Vec3, rng: &mut Pcg32) 
         let front = d.dot(ng) < 0.0;
         let n = if front { ng } else { -ng };
         let frame = render::math::sampling::Frame::from_normal(n);
-        let bsdf = material.bsdf_at(&mut wl, front);
+        let bsdf = material.bsdf_at(&mut wl, front, glam::Vec2::ZERO);
         let wo = frame.to_local(-d);
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
             return (Vec4::ZERO, wl);

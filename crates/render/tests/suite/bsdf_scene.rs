@@ -54,31 +54,31 @@ fn fails_with(spec: &str, needles: &[&str]) {
 #[test]
 fn materials_parse_to_the_right_bsdfs() {
     let wl = SampledWavelengths::fixed([450.0, 550.0, 650.0, 750.0]);
-    match material("type = \"dielectric\"\nior = 1.5").bsdf(&wl) {
+    match material("type = \"dielectric\"\nior = 1.5").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::SmoothDielectric { lobe, dispersive } => assert!((lobe.eta - 1.5).abs() < 1e-6 && !dispersive),
         b => panic!("{b:?}"),
     }
     // Glass by name: N-BK7 Sellmeier, dispersive; η at the hero wavelength 450 nm ≈ 1.5253.
-    match material("type = \"dielectric\"\nior = \"bk7\"").bsdf(&wl) {
+    match material("type = \"dielectric\"\nior = \"bk7\"").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::SmoothDielectric { lobe, dispersive } => {
             assert!((lobe.eta - 1.5253).abs() < 1e-3 && dispersive, "{lobe:?}")
         }
         b => panic!("{b:?}"),
     }
     // roughness r → α = r².
-    match material("type = \"rough_dielectric\"\nior = 1.33\nroughness = 0.5").bsdf(&wl) {
+    match material("type = \"rough_dielectric\"\nior = 1.33\nroughness = 0.5").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::RoughDielectric { lobe, .. } => {
             assert!((lobe.distrib.alpha_x - 0.25).abs() < 1e-6 && (lobe.eta - 1.33).abs() < 1e-6)
         }
         b => panic!("{b:?}"),
     }
-    match material("type = \"dielectric\"\nior = 1.5\nalpha = [0.1, 0.3]").bsdf(&wl) {
+    match material("type = \"dielectric\"\nior = 1.5\nalpha = [0.1, 0.3]").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::RoughDielectric { lobe, .. } => assert!(lobe.distrib.alpha_x == 0.1 && lobe.distrib.alpha_y == 0.3),
         b => panic!("{b:?}"),
     }
     // Gold from the bundled table: η at 550 nm between the 548.6 and 563.6 nm rows.
     let au = optics::ior::metal("au").unwrap();
-    match material("type = \"conductor\"\nmetal = \"au\"").bsdf(&wl) {
+    match material("type = \"conductor\"\nmetal = \"au\"").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::SmoothConductor(c) => {
             for i in 0..4 {
                 let (e, k) = au.eta_k(wl.lambda_nm[i] as f64);
@@ -96,18 +96,18 @@ fn materials_parse_to_the_right_bsdfs() {
         scene_with("type = \"dielectric\"\nior = \"water\"", 1.0)
     ))
     .unwrap_or_else(|e| panic!("{e:#}"));
-    match named.materials[0].bsdf(&wl) {
+    match named.materials[0].bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::SmoothDielectric { lobe, dispersive } => assert!(
             (lobe.eta - (1.343 - 0.012 * 50.0 / 300.0)).abs() < 1e-4 && dispersive,
             "{lobe:?}"
         ),
         b => panic!("{b:?}"),
     }
-    match material("type = \"rough_conductor\"\neta = 0.2\nk = 3.0\nalpha = 0.3").bsdf(&wl) {
+    match material("type = \"rough_conductor\"\neta = 0.2\nk = 3.0\nalpha = 0.3").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::RoughConductor(c) => assert!(c.eta.x == 0.2 && c.k.x == 3.0 && c.distrib.alpha_x == 0.3),
         b => panic!("{b:?}"),
     }
-    match material("type = \"plastic\"\nalbedo = { rgb = [0.8, 0.1, 0.1] }\nroughness = 0.3").bsdf(&wl) {
+    match material("type = \"plastic\"\nalbedo = { rgb = [0.8, 0.1, 0.1] }\nroughness = 0.3").bsdf(&wl, glam::Vec2::ZERO) {
         Bsdf::Coated(c) => {
             assert!((c.eta - 1.5).abs() < 1e-6 && (c.distrib.alpha_x - 0.09).abs() < 1e-6 && c.albedo.x < c.albedo.z)
         }

@@ -299,7 +299,7 @@ fn empty_scene_and_degenerate_input() {
     assert!((accel.intersect_brute_force(&r).unwrap().t - 1.0).abs() < 1e-6);
     check_against_brute_force(&accel, 2000, 5);
     // An out-of-range index (a mesh built by hand, not validated) is left out, not a panic.
-    let bad = TriangleMesh { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![[0, 1, 2], [0, 1, 7]] };
+    let bad = TriangleMesh { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, uvs: None, indices: vec![[0, 1, 2], [0, 1, 7]] };
     assert!(bad.validate().is_err());
     let accel = Accel::build(vec![Shape::Mesh(bad)]);
     let h = accel.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z)).unwrap();

@@ -20,4 +20,5 @@ mod projector;
 mod robustness;
 mod scene;
 mod subsurface;
+mod texture;
 mod volpath;

@@ -237,7 +237,7 @@ fn bad_input_errors_name_file_and_place() {
     let e = load_err("nan.obj", b"v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
     assert!(e.contains("nan.obj") && e.contains("line 2") && e.contains("vertex 2"), "{e}");
     // validate() on a hand-built mesh.
-    let m = TriangleMesh { positions: vec![Vec3::ZERO; 3], normals: None, indices: vec![[0, 1, 3]] };
+    let m = TriangleMesh { positions: vec![Vec3::ZERO; 3], normals: None, uvs: None, indices: vec![[0, 1, 3]] };
     assert!(format!("{:#}", m.validate().unwrap_err()).contains("face 0"));
 }
 

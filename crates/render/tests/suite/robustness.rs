@@ -139,7 +139,7 @@ fn the_accelerator_and_the_free_flight_grid_survive_non_finite_geometry_and_rays
         Shape::Sphere(Sphere { center: Vec3::new(0.0, inf, 0.0), radius: 1.0 }),
         Shape::Sphere(Sphere { center: Vec3::new(f32::NAN, 0.0, 0.0), radius: 1.0 }),
         Shape::Sphere(Sphere { center: Vec3::ZERO, radius: 0.5 }),
-        Shape::Mesh(TriangleMesh { positions: vec![Vec3::new(3.4e38, 0.0, 0.0), Vec3::new(-3.4e38, 1.0, 0.0), Vec3::new(0.0, f32::NAN, 2.0)], normals: None, indices: vec![[0, 1, 2]] }),
+        Shape::Mesh(TriangleMesh { positions: vec![Vec3::new(3.4e38, 0.0, 0.0), Vec3::new(-3.4e38, 1.0, 0.0), Vec3::new(0.0, f32::NAN, 2.0)], normals: None, uvs: None, indices: vec![[0, 1, 2]] }),
     ];
     let accel = Accel::build(shapes.clone());
     let finite = Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::Z);

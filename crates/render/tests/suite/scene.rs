@@ -161,7 +161,7 @@ fn rgb_albedo_never_exceeds_one_and_blackbody_peaks_at_scale() {
     let t = MINIMAL.replace("albedo = 0.5", "albedo = { rgb = [0.9, 0.1, 0.05] }").replace("radiance = 1", "radiance = { blackbody = 5000, scale = 2 }");
     let s = parse(&t).unwrap();
     let render::material::Material::Lambertian { albedo } = &s.materials[0] else { panic!() };
-    assert!(albedo.samples().iter().all(|v| (0.0..=1.0).contains(v)));
+    assert!(albedo.as_constant().unwrap().samples().iter().all(|v| (0.0..=1.0).contains(v)));
     let Light::Area { radiance, .. } = &s.lights[0] else { panic!() };
     // Wien: the 5000 K peak is at 579.6 nm.
     assert!((radiance.max_value() - 2.0).abs() < 1e-3);

@@ -1,0 +1,309 @@
+//! Textures: RGB uplift through the film's colour pipeline, texture coordinates of every shape
+//! (an asymmetric image comes out the right way round), a textured Lambertian quad under a
+//! uniform environment against the bilinearly filtered texels, and one-line errors.
+
+#[allow(unused_imports)]
+use crate::common::*;
+
+use glam::{Vec2, Vec3};
+use optics::uplift::{CoefficientTable, SigmoidSpectrum, TABLE_RES};
+use render::bsdf::Bsdf;
+use render::image_io::{write_image, Image};
+use render::integrator::{render_pass, IntegratorKind};
+use render::interaction::Shading;
+use render::math::spectral::SampledWavelengths;
+use render::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// Deterministic xorshift in [0, 1).
+fn rng(seed: &mut u64) -> f64 {
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    (*seed >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Linear sRGB of spectral radiance `f` as the film computes it (XYZ from the renderer's CIE
+/// tables, then the sRGB matrix).
+fn film_srgb(f: impl Fn(f64) -> f64) -> [f64; 3] {
+    let xyz = render::math::spectral::xyz_of(|l| f(l as f64) as f32);
+    optics::color::xyz_to_linear_srgb(xyz)
+}
+
+fn d65(l: f64) -> f64 {
+    optics::spectrum::d65_normalized(l)
+}
+
+#[test]
+fn uplifted_reflectances_and_illuminants_reproduce_their_rgb_through_the_film() {
+    let mut seed = 0x1234_5678_9abc_def1u64;
+    let (mut worst_r, mut worst_e) = (0.0f64, 0.0f64);
+    for k in 0..400 {
+        let mut rgb = [rng(&mut seed), rng(&mut seed), rng(&mut seed)];
+        if k < 8 {
+            // The cube's corners.
+            rgb = [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64];
+        }
+        let r = SigmoidSpectrum::reflectance(rgb);
+        for i in 0..=470 {
+            let v = r.eval(360.0 + i as f64);
+            assert!((0.0..=1.0).contains(&v), "{rgb:?} at {} nm: {v}", 360 + i);
+        }
+        let back = film_srgb(|l| r.eval(l) * d65(l));
+        worst_r = (0..3).map(|c| (back[c] - rgb[c]).abs()).fold(worst_r, f64::max);
+        // Illuminants up to 10 in radiance.
+        let e_rgb = rgb.map(|c| 10.0 * c);
+        let e = SigmoidSpectrum::illuminant(e_rgb);
+        let back = film_srgb(|l| e.eval(l) * d65(l));
+        let m = e_rgb.iter().cloned().fold(1e-12, f64::max);
+        worst_e = (0..3).map(|c| (back[c] - e_rgb[c]).abs() / m).fold(worst_e, f64::max);
+    }
+    eprintln!("uplift through the film: reflectance worst |ΔRGB| {worst_r:.2e}, illuminant worst |ΔRGB|/max {worst_e:.2e}");
+    assert!(worst_r < 1e-3 && worst_e < 1e-3, "{worst_r} {worst_e}");
+    // White emission is D65 exactly, and the scalar scene uplift equals the texel uplift.
+    let w = SigmoidSpectrum::illuminant([1.0, 1.0, 1.0]);
+    assert!((w.eval(560.0) - 1.0).abs() < 1e-12);
+    let scalar = optics::spectrum::RgbIlluminant::new([0.25, 0.3, 0.4]);
+    let texel = SigmoidSpectrum::illuminant([0.25, 0.3, 0.4]);
+    for l in (360..=830).step_by(10) {
+        let l = l as f64;
+        assert!((scalar.eval(l) - texel.eval(l) * d65(l)).abs() < 1e-6, "{l} nm");
+    }
+}
+
+#[test]
+fn coefficient_table_nodes_reproduce_their_colours() {
+    let t = CoefficientTable::srgb();
+    let mut worst = 0.0f64;
+    for (l, zi, yi, xi) in [(0, TABLE_RES - 1, 3, 7), (1, TABLE_RES / 2, 0, TABLE_RES - 2), (2, 4, 11, 2), (0, 9, 9, 1), (1, TABLE_RES - 1, 0, 0)] {
+        let rgb = t.node_rgb(l, zi, yi, xi);
+        let c = t.node_coeffs(l, zi, yi, xi);
+        let back = optics::spectrum::reflectance_to_linear_srgb(|lam| optics::spectrum::sigmoid_polynomial(c, lam));
+        worst = (0..3).map(|k| (back[k] - rgb[k]).abs()).fold(worst, f64::max);
+    }
+    eprintln!("table nodes: worst |ΔRGB| {worst:.2e}");
+    assert!(worst < 1e-3, "{worst}");
+}
+
+/// A temporary folder for the test's files.
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lucent-texture-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A 4 × 2 image (4 columns, 2 rows; row 0 the top) of distinct colours.
+fn asymmetric_image() -> Image {
+    let rgb = vec![
+        [0.9, 0.9, 0.1], [0.1, 0.9, 0.9], [0.9, 0.1, 0.1], [0.1, 0.9, 0.1],
+        [0.5, 0.2, 0.7], [0.2, 0.2, 0.2], [0.1, 0.1, 0.9], [0.8, 0.8, 0.8],
+    ];
+    Image::from_rgb(4, 2, rgb).unwrap()
+}
+
+const CAMERA: &str = "[camera]\neye = [0, 0, 4]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nvfov_deg = 30\nwidth = 64\nheight = 64\n";
+
+fn load(dir: &Path, text: &str) -> Result<Scene, String> {
+    Scene::from_toml_str(text, "test.toml", dir).map_err(|e| format!("{e:#}"))
+}
+
+/// The texel (x, y) of the 4 × 2 image whose spectrum the surface point `p`, seen from the
+/// camera, has (nearest at four wavelengths).
+fn texel_seen(scene: &Scene, p: Vec3, img: &Image) -> (usize, usize) {
+    let eye = Vec3::new(0.0, 0.0, 4.0);
+    let ray = render::math::geometry::Ray { o: eye, d: (p - eye).normalize(), t_min: 0.0, t_max: f32::INFINITY };
+    let hit = scene.accel.intersect(&ray).expect("the ray hits the object");
+    let s = Shading::at(scene, &ray, &hit);
+    assert!((s.p - p).length() < 1e-4, "the camera sees {p} at {}", s.p);
+    let wl = SampledWavelengths::fixed([450.0, 520.0, 600.0, 650.0]);
+    let mat = &scene.materials[scene.objects[s.object as usize].material as usize];
+    let Bsdf::Diffuse { r } = mat.bsdf(&wl, s.uv) else { panic!("a lambertian material") };
+    let mut best = (f32::INFINITY, (0, 0));
+    for y in 0..2 {
+        for x in 0..4 {
+            let sp = SigmoidSpectrum::reflectance(img.get(x, y).map(|c| c as f64));
+            let d: f32 = (0..4).map(|k| (sp.eval(wl.lambda_nm[k] as f64) as f32 - r[k]).abs()).sum();
+            if d < best.0 {
+                best = (d, (x as usize, y as usize));
+            }
+        }
+    }
+    assert!(best.0 < 1e-4, "the albedo seen at {p} is no texel's");
+    best.1
+}
+
+#[test]
+fn an_asymmetric_texture_reads_the_right_way_round_on_quads_obj_ply_and_spheres() {
+    let dir = tmp_dir("orient");
+    let img = asymmetric_image();
+    write_image(&dir.join("tex.pfm"), &img, 0.0).unwrap();
+    let img = render::texture::image::read_texture_image(&dir.join("tex.pfm"), render::texture::image::Encoding::Srgb).unwrap();
+    // A square facing +z, seen straight on from +z: corners (±1, ±1, 0), uv (0, 0) bottom left.
+    std::fs::write(
+        dir.join("sq.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("sq.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty float s\nproperty float t\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n-1 -1 0 0 0\n1 -1 0 1 0\n1 1 0 1 1\n-1 1 0 0 1\n3 0 1 2\n3 0 2 3\n",
+    )
+    .unwrap();
+    let mat = "[materials.tex]\ntype = \"lambertian\"\nalbedo = { texture = \"tex.pfm\", wrap = \"clamp\" }\n";
+    let light = "[[lights]]\ntype = \"environment\"\nradiance = 1\n";
+    let flat_shapes = [
+        "quad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]",
+        "mesh = \"sq.obj\"",
+        "mesh = \"sq.ply\"",
+    ];
+    // Texel (x, y) (row 0 the top) has its centre at u = (x + ½)/4, v = 1 − (y + ½)/2.
+    let centre = |x: usize, y: usize| Vec2::new((x as f32 + 0.5) / 4.0, 1.0 - (y as f32 + 0.5) / 2.0);
+    for shape in flat_shapes {
+        let scene = load(&dir, &format!("{CAMERA}{mat}[[objects]]\nmaterial = \"tex\"\n{shape}\n{light}")).unwrap();
+        for ty in 0..2 {
+            for tx in 0..4 {
+                let uv = centre(tx, ty);
+                let p = Vec3::new(2.0 * uv.x - 1.0, 2.0 * uv.y - 1.0, 0.0);
+                assert_eq!(texel_seen(&scene, p, &img), (tx, ty), "{shape}: point {p}");
+            }
+        }
+    }
+    // Sphere seen from +z: u = 0.75 faces the camera and grows to the right, v = 1 at the top
+    // (+y), so the image's right half (columns 2, 3) appears upright and unmirrored.
+    let scene = load(&dir, &format!("{CAMERA}{mat}[[objects]]\nmaterial = \"tex\"\nsphere = {{ center = [0, 0, 0], radius = 1 }}\n{light}")).unwrap();
+    for (tx, ty, where_) in [(2, 0, "upper left"), (3, 0, "upper right"), (2, 1, "lower left"), (3, 1, "lower right")] {
+        let uv = centre(tx, ty);
+        // Independently of the renderer: polar angle θ = π(1 − v) from +y, and the azimuth
+        // 2πu about +y from +x towards −z.
+        let (theta, phi) = (std::f32::consts::PI * (1.0 - uv.y), 2.0 * std::f32::consts::PI * uv.x);
+        let p = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+        let seen_x = p.x;
+        assert!(p.z > 0.0 && (seen_x < 0.0) == (tx == 2) && (p.y > 0.0) == (ty == 0), "{where_}: {p}");
+        assert_eq!(texel_seen(&scene, p, &img), (tx, ty), "sphere {where_}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Bilinear interpolation of `img` at `uv` with clamp wrap, written independently of the
+/// renderer: texel centres at ((x + ½)/w, 1 − (y + ½)/h).
+fn bilinear_rgb(img: &Image, uv: Vec2) -> [f64; 3] {
+    let (w, h) = (img.width as f64, img.height as f64);
+    let fx = uv.x as f64 * w - 0.5;
+    let fy = (1.0 - uv.y as f64) * h - 0.5;
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (ax, ay) = (fx - x0, fy - y0);
+    let px = |x: f64, y: f64| img.get(x.clamp(0.0, w - 1.0) as u32, y.clamp(0.0, h - 1.0) as u32);
+    let mut out = [0.0; 3];
+    for (dx, wx) in [(0.0, 1.0 - ax), (1.0, ax)] {
+        for (dy, wy) in [(0.0, 1.0 - ay), (1.0, ay)] {
+            let p = px(x0 + dx, y0 + dy);
+            for c in 0..3 {
+                out[c] += wx * wy * p[c] as f64;
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn textured_lambertian_quad_under_a_uniform_environment_shows_its_texels() {
+    let dir = tmp_dir("quad");
+    let img = asymmetric_image();
+    write_image(&dir.join("tex.exr"), &img, 0.0).unwrap();
+    // The quad fills the view exactly: camera constant 2 at distance 2 sees a unit square.
+    let (w, h) = (8u32, 4u32);
+    let text = format!(
+        "[camera]\neye = [0, 0, 2]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\ncamera_constant = 2\nwidth = {w}\nheight = {h}\n\
+         [materials.tex]\ntype = \"lambertian\"\nalbedo = {{ texture = \"tex.exr\", wrap = \"clamp\" }}\n\
+         [[objects]]\nmaterial = \"tex\"\nquad = [[-1, -0.5, 0], [1, -0.5, 0], [1, 0.5, 0], [-1, 0.5, 0]]\n\
+         [[lights]]\ntype = \"environment\"\nradiance = {{ rgb = [1, 1, 1] }}\n[integrator]\ntype = \"path\"\nmax_depth = 2\n"
+    );
+    let scene = load(&dir, &text).unwrap();
+    let settings = settings(IntegratorKind::Path, 2, 5);
+    let n = (w * h) as usize;
+    let passes = 400u64;
+    let (mut sum, mut sum2) = (vec![[0.0f64; 3]; n], vec![[0.0f64; 3]; n]);
+    let mut buf = vec![[0f32; 3]; n];
+    for pass in 0..passes {
+        render_pass(&scene, &settings, 7, pass, &mut buf);
+        for (k, xyz) in buf.iter().enumerate() {
+            let rgb = optics::color::xyz_to_linear_srgb(xyz.map(|v| v as f64));
+            for c in 0..3 {
+                sum[k][c] += rgb[c];
+                sum2[k][c] += rgb[c] * rgb[c];
+            }
+        }
+    }
+    // Expected: the bilinearly filtered texels averaged over each pixel (64 × 64 sub-samples).
+    let mut worst_z = 0.0f64;
+    for j in 0..h {
+        for i in 0..w {
+            let mut e = [0.0; 3];
+            let m = 64;
+            for a in 0..m {
+                for b in 0..m {
+                    let u = (i as f64 + (a as f64 + 0.5) / m as f64) / w as f64;
+                    let v = 1.0 - (j as f64 + (b as f64 + 0.5) / m as f64) / h as f64;
+                    let p = bilinear_rgb(&img, Vec2::new(u as f32, v as f32));
+                    for c in 0..3 {
+                        e[c] += p[c] / (m * m) as f64;
+                    }
+                }
+            }
+            let k = (j * w + i) as usize;
+            for c in 0..3 {
+                let mean = sum[k][c] / passes as f64;
+                let var = (sum2[k][c] / passes as f64 - mean * mean).max(0.0);
+                let se = (var / passes as f64).sqrt().max(1e-4);
+                let z = (mean - e[c]).abs() / se;
+                worst_z = worst_z.max(z);
+                assert!(z < 5.0, "pixel ({i}, {j}) channel {c}: {mean:.4} vs {:.4} (σ {se:.4})", e[c]);
+            }
+        }
+    }
+    eprintln!("textured quad: worst |render − texels| = {worst_z:.2} standard errors over {} pixel channels", 3 * n);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn texture_errors_are_one_line_and_name_the_field() {
+    let dir = tmp_dir("errors");
+    let good = asymmetric_image();
+    write_image(&dir.join("ok.png"), &good, 0.0).unwrap();
+    let mut nan = good.clone();
+    nan.set(1, 0, [f32::NAN, 0.0, 0.0]);
+    write_image(&dir.join("nan.pfm"), &nan, 0.0).unwrap();
+    let mut neg = good.clone();
+    neg.set(2, 1, [0.1, -0.5, 0.0]);
+    write_image(&dir.join("neg.exr"), &neg, 0.0).unwrap();
+    std::fs::write(dir.join("nouv.obj"), "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+    let scene = |albedo: &str, shape: &str| {
+        format!("{CAMERA}[materials.m]\ntype = \"lambertian\"\nalbedo = {albedo}\n[[objects]]\nmaterial = \"m\"\n{shape}\n")
+    };
+    let quad = "quad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]";
+    let cases = [
+        (scene("{ texture = \"missing.png\" }", quad), vec!["materials.m.albedo.texture", "missing.png"]),
+        (scene("{ texture = \"nan.pfm\" }", quad), vec!["materials.m.albedo.texture", "texel (1, 0)"]),
+        (scene("{ texture = \"neg.exr\" }", quad), vec!["materials.m.albedo.texture", "texel (2, 1)"]),
+        (scene("{ texture = \"ok.png\", wrap = \"mirror\" }", quad), vec!["materials.m.albedo.wrap", "mirror"]),
+        (scene("{ texture = \"ok.png\" }", "mesh = \"nouv.obj\""), vec!["mesh", "no texture coordinates"]),
+        (scene("{ texture = \"ok.png\", filter = 1 }", quad), vec!["materials.m.albedo", "filter"]),
+        (scene("{ checkerboard = { squares = 0, even = 0.1, odd = 0.9 } }", quad), vec!["squares"]),
+    ];
+    for (text, needles) in cases {
+        let e = load(&dir, &text).err().unwrap_or_else(|| panic!("expected an error for {needles:?}"));
+        assert!(!e.contains('\n'), "not one line: {e}");
+        for n in &needles {
+            assert!(e.contains(n), "`{e}` does not mention `{n}`");
+        }
+        assert!(e.starts_with("test.toml:"), "{e}");
+    }
+    // A valid checkerboard: squares alternate, the origin's square is `even`.
+    let s = load(&dir, &scene("{ checkerboard = { squares = 4, even = 0.1, odd = 0.9 } }", quad)).unwrap();
+    let render::material::Material::Lambertian { albedo } = &s.materials[0] else { panic!() };
+    let wl = SampledWavelengths::fixed([500.0; 4]);
+    assert!((albedo.eval(&wl, Vec2::new(0.1, 0.1))[0] - 0.1).abs() < 1e-6);
+    assert!((albedo.eval(&wl, Vec2::new(0.3, 0.1))[0] - 0.9).abs() < 1e-6);
+    assert!((albedo.eval(&wl, Vec2::new(0.3, 0.3))[0] - 0.1).abs() < 1e-6);
+    std::fs::remove_dir_all(&dir).ok();
+}
