@@ -36,7 +36,8 @@ use crate::image_io::Image;
 use crate::math::sampling::sample_cdf;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Mat3, Vec2, Vec3, Vec4};
-use optics::spectrum::{DenseSpectrum, RgbAlbedo};
+use optics::spectrum::DenseSpectrum;
+use optics::uplift::SigmoidSpectrum;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::f32::consts::PI;
@@ -47,41 +48,30 @@ pub fn luminance(rgb: [f32; 3]) -> f32 {
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
 }
 
-/// The emission spectrum of one texel without the D65 white: scale · ρ(λ), ρ the bounded
-/// reflectance uplift of rgb / scale. The full spectral radiance is this times D65(λ)/Y(D65).
+/// The emission spectrum of one texel without the D65 white: 2·max(rgb) · ρ(λ), ρ the bounded
+/// reflectance of rgb / (2·max(rgb)) from the sRGB coefficient table (Jakob & Hanika 2019, as
+/// pbrt-v4 and Mitsuba 3). The full spectral radiance is this times D65(λ)/Y(D65).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TexelSpectrum {
-    shape: RgbAlbedo,
-    scale: f32,
+    s: SigmoidSpectrum,
 }
 
 impl TexelSpectrum {
     /// Value at the four wavelengths (without the D65 factor).
     #[inline]
     pub fn eval(&self, wl: &SampledWavelengths) -> Vec4 {
-        if self.scale == 0.0 {
+        if self.s.scale == 0.0 {
             return Vec4::ZERO;
         }
         let l = wl.lambda_nm;
-        Vec4::new(
-            self.shape.eval(l[0] as f64) as f32,
-            self.shape.eval(l[1] as f64) as f32,
-            self.shape.eval(l[2] as f64) as f32,
-            self.shape.eval(l[3] as f64) as f32,
-        ) * self.scale
+        Vec4::new(self.s.eval(l[0] as f64) as f32, self.s.eval(l[1] as f64) as f32, self.s.eval(l[2] as f64) as f32, self.s.eval(l[3] as f64) as f32)
     }
 }
 
-/// RGB → illuminant uplift of one texel: the same spectrum as an `rgb` emission in a scene file
-/// (`optics::spectrum::RgbIlluminant`: scale = 2·max(r, g, b) as in pbrt-v4 and Mitsuba 3, shape =
-/// the reflectance uplift of rgb / scale, times normalised D65). Components must be finite and ≥ 0.
+/// RGB → illuminant uplift of one texel, the one image textures use
+/// (`optics::uplift::SigmoidSpectrum::illuminant`). Components must be finite and ≥ 0.
 pub fn texel_spectrum(rgb: [f32; 3]) -> TexelSpectrum {
-    let c = rgb.map(|v| v.max(0.0) as f64);
-    let scale = 2.0 * c[0].max(c[1]).max(c[2]);
-    if !(scale > 0.0) {
-        return TexelSpectrum { shape: RgbAlbedo::new([0.0; 3]), scale: 0.0 };
-    }
-    TexelSpectrum { shape: RgbAlbedo::new(c.map(|v| v / scale)), scale: scale as f32 }
+    TexelSpectrum { s: SigmoidSpectrum::illuminant(rgb.map(|v| v.max(0.0) as f64)) }
 }
 
 /// An environment map built from an image (see the module documentation for the conventions).
