@@ -63,7 +63,8 @@ use crate::integrator::settings::IntegratorSettings;
 use crate::interaction::{offset_origin, shadow_t_max};
 use crate::material::Material;
 use crate::medium::{HomogeneousMedium, MediumLanes};
-use crate::math::sampling::{power_heuristic, Frame, Pcg32};
+use crate::interaction::Shading;
+use crate::math::sampling::{power_heuristic, Pcg32};
 use crate::scene::Scene;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec3, Vec4};
@@ -359,27 +360,24 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             break;
         };
         ray.t_max = f32::INFINITY;
-        let sp = scene.accel.surface_point(&ray, &hit);
-        let front = sp.ng.dot(ray.d) < 0.0;
-        let ng = if front { sp.ng } else { -sp.ng };
-        let mut ns = if front { sp.ns } else { -sp.ns };
-        if !(ns.dot(ng) > 0.0) || !ns.is_finite() {
-            ns = ng;
-        }
-        let frame = Frame::from_normal(ns);
+        let sp = Shading::at(scene, &ray, &hit);
+        // The side the ray arrives from (the BSDF's and the medium crossing's), and the shading
+        // frame on that side.
+        let front = sp.ng_raw.dot(ray.d) < 0.0;
+        let (ng, frame) = (sp.ng, sp.frame);
         let wo = -ray.d;
         let obj = &scene.objects[sp.object as usize];
         if let Some(li_idx) = obj.light {
             let light = &scene.lights[li_idx as usize];
-            let le = light.le(sp.ng, wo, wl);
+            let le = light.le(sp.ng_raw, wo, wl);
             if le != Vec4::ZERO {
                 let w = if prev_medium_mis {
-                    let lp = scene.light_pmf[li_idx as usize] * light.pdf_li(prev_p, ray.d, sp.p, sp.ng);
+                    let lp = nee::area_light_pdf(scene, li_idx, prev_p, ray.d, sp.p, sp.ng_raw);
                     spectral_balance(r_u, r_l, lp, wl)
                 } else if prev_no_mis {
                     1.0
                 } else {
-                    let lp = scene.light_pmf[li_idx as usize] * light.pdf_li(prev_p, ray.d, sp.p, sp.ng);
+                    let lp = nee::area_light_pdf(scene, li_idx, prev_p, ray.d, sp.p, sp.ng_raw);
                     power_heuristic(1.0, prev_pdf, 1.0, lp)
                 };
                 l += beta * le * w;
