@@ -32,7 +32,7 @@ pub struct Shading {
 
 impl Shading {
     /// The shading point of `hit` along `ray`.
-    #[inline]
+    #[inline(always)]
     pub fn at(scene: &Scene, ray: &Ray, hit: &Hit) -> Shading {
         let sp = scene.accel.surface_point(ray, hit);
         let flip = sp.ng.dot(ray.d) > 0.0;

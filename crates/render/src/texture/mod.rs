@@ -47,7 +47,7 @@ pub enum SpectrumTexture {
 
 impl SpectrumTexture {
     /// The spectrum at texture coordinates `uv`, at the wavelengths `wl`.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wl: &SampledWavelengths, uv: Vec2) -> SampledSpectrum {
         match self {
             SpectrumTexture::Constant(s) => wl.eval(s),
