@@ -1,5 +1,6 @@
 //! The integration tests of the `lucent` command, one test binary (each file a module).
 
+mod common;
 mod distributed_examples;
 mod fit_cli;
 mod fit_roundtrip;

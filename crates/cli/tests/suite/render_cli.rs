@@ -3,43 +3,13 @@
 //! weights by sample count and lowers the error, bad input fails on one line without touching
 //! existing files.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 use render::checkpoint::Checkpoint;
 use render::image_io::{read_image, Image};
 
-fn lucent() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_lucent"))
-}
-
-/// A scratch folder removed at the end of the test.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Scratch {
-        let dir = std::env::temp_dir().join(format!("lucent-cli-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Scratch(dir)
-    }
-    fn path(&self, file: &str) -> PathBuf {
-        self.0.join(file)
-    }
-    fn arg(&self, file: &str) -> String {
-        self.path(file).display().to_string()
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn run(dir: &Path, args: &[&str]) -> Output {
-    lucent().current_dir(dir).args(args).output().expect("cannot start lucent")
-}
+use crate::common::{lucent, run, Scratch};
 
 fn run_ok(dir: &Path, args: &[&str]) -> Output {
     let out = run(dir, args);
