@@ -24,3 +24,13 @@ pub fn settings(kind: IntegratorKind, max_depth: u32, rr_depth: u32) -> Integrat
 pub fn y_of_one() -> f64 {
     render::math::spectral::xyz_of(|_| 1.0)[1]
 }
+
+/// Form factor from a differential area to a parallel rectangle [0, a]×[0, b] at distance c with a
+/// corner straight above it (Howell, A Catalog of Radiation Heat Transfer Configuration Factors,
+/// case B-3). Odd in a and in b, so signed sides give the corner decomposition of any rectangle.
+#[allow(dead_code)]
+pub fn form_factor_corner(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}

@@ -157,14 +157,6 @@ fn truncated_paths_sum_the_neumann_series() {
     }
 }
 
-/// Form factor from a differential area to a parallel rectangle with a corner straight above it,
-/// sides a and b at distance c (Howell's catalogue of configuration factors, case B-3).
-fn form_factor_corner(a: f64, b: f64, c: f64) -> f64 {
-    let (x, y) = (a / c, b / c);
-    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
-    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * PI)
-}
-
 /// A large grey plane at y = 0 under a rectangular light `2a`×`2b` at height `h` centred above the
 /// origin, facing down; camera looking at the origin from the side through a narrow field of view.
 fn plane_under_rect_light(rho: f64, l: f64, a: f64, b: f64, h: f64) -> String {

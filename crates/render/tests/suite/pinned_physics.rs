@@ -10,7 +10,6 @@ use crate::common::*;
 
 use render::integrator::{render_pass, IntegratorKind, IntegratorSettings};
 use render::scene::Scene;
-use std::f64::consts::PI;
 use std::path::Path;
 
 fn scene_in(text: &str, dir: &Path) -> Scene {
@@ -45,15 +44,6 @@ fn assert_close(what: &str, m: f64, se: f64, expect: f64, k: f64) {
     assert!(se.is_finite() && se >= 0.0);
     let tol = k * se + 1e-6 * expect.abs();
     assert!((m - expect).abs() <= tol, "{what}: {m} ± {se} (se) vs expected {expect}; |diff| = {} > {tol}", (m - expect).abs());
-}
-
-/// Form factor from a differential area to a parallel rectangle [0, a]×[0, b] at distance c with a
-/// corner straight above it (Howell, A Catalog of Radiation Heat Transfer Configuration Factors,
-/// case B-3). Odd in a and in b, so signed sides give the corner decomposition of any rectangle.
-fn form_factor_corner(a: f64, b: f64, c: f64) -> f64 {
-    let (x, y) = (a / c, b / c);
-    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
-    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * PI)
 }
 
 /// Form factor from a differential area at the origin (normal +y) to the parallel rectangle
