@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod preview;
 
 #[derive(Parser)]
 #[command(name = "lucent", version, about = "Predict, render and validate material appearance")]

@@ -163,6 +163,16 @@ pub fn decode_image(bytes: &[u8], format: Format) -> Result<Image> {
 }
 
 fn write_png(tmp: &Path, image: &Image, exposure_stops: f32) -> Result<()> {
+    let file = File::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    let mut writer = BufWriter::new(file);
+    encode_png(&mut writer, image, exposure_stops)?;
+    writer.flush()?;
+    Ok(())
+}
+
+/// Encodes `image` as the PNG [`write_image`] writes (exposure 2^`exposure_stops`, clamped,
+/// sRGB curve, 8 bits) into `out`, e.g. a buffer to serve.
+pub fn encode_png(out: &mut impl Write, image: &Image, exposure_stops: f32) -> Result<()> {
     let scale = 2f64.powf(exposure_stops as f64);
     let mut bytes = Vec::with_capacity(image.rgb.len() * 3);
     for px in &image.rgb {
@@ -172,13 +182,9 @@ fn write_png(tmp: &Path, image: &Image, exposure_stops: f32) -> Result<()> {
             bytes.push((srgb_encode(v) * 255.0).round() as u8);
         }
     }
-    let file = File::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
-    let mut writer = BufWriter::new(file);
-    image::codecs::png::PngEncoder::new(&mut writer)
+    image::codecs::png::PngEncoder::new(out)
         .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
-        .map_err(|e| anyhow!("PNG encoder: {e}"))?;
-    writer.flush()?;
-    Ok(())
+        .map_err(|e| anyhow!("PNG encoder: {e}"))
 }
 
 use image::ImageEncoder as _;

@@ -14,8 +14,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use render::checkpoint::{Checkpoint, RenderIdentity};
 use render::film::Film;
 use render::integrator::{IntegratorKind, IntegratorSettings};
-use render::progressive::{default_spp, CheckpointPolicy, Event, Job, Stop};
+use render::progressive::{default_spp, CheckpointPolicy, Event, Job, PassStats, Stop};
 use render::scene::Scene;
+
+use crate::preview::{self, Preview};
 
 /// Image written when no `--out` is given for the built-in scene; a scene file's render is written
 /// to its name with `.png` in the current folder (`scenes/bunny.toml` → `bunny.png`).
@@ -76,6 +78,12 @@ pub struct Args {
     /// No progress bar and no summary line.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Stream the image as it converges to a tev viewer listening on HOST:PORT (tev's default: 127.0.0.1:14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub display_server: Option<String>,
+    /// Serve a preview page (image, spp, samples/s, time left, exposure, Stop) on PORT of 127.0.0.1, or on ADDR:PORT.
+    #[arg(long, value_name = "[ADDR:]PORT")]
+    pub serve: Option<String>,
     /// Calibrated camera replacing the scene's: lucent calibration JSON or OpenCV FileStorage YAML/XML (see docs/scene-format.md).
     #[arg(long, value_name = "CALIB")]
     pub camera: Option<PathBuf>,
@@ -267,6 +275,9 @@ pub fn run(args: Args) -> Result<()> {
     };
     let outs = if args.out.is_empty() { vec![default_out(args.scene.as_deref())] } else { args.out.clone() };
     check_outputs(&outs)?;
+    // Displays: the viewer's address is resolved and the page's port bound before any work.
+    let display_server = args.display_server.as_deref().map(preview::tev::Target::parse).transpose()?;
+    let serve = args.serve.as_deref().map(preview::serve::bind).transpose()?;
     let checkpoint_path = args.checkpoint.clone().or_else(|| args.resume.clone());
     if let Some(c) = &checkpoint_path {
         check_parent_dir(c, "--checkpoint")?;
@@ -348,15 +359,18 @@ pub fn run(args: Args) -> Result<()> {
         (None, None) => Stop::Spp(default_spp(width as u64 * height as u64)),
     };
 
-    // ---- Ctrl-C: finish the pass, save, exit 130. A second Ctrl-C quits at once. ----
+    // ---- Ctrl-C: finish the pass, save, exit 130. A second Ctrl-C quits at once. The preview
+    // page's Stop button sets the same flag. ----
     let interrupted = Arc::new(AtomicBool::new(false));
+    let ctrl_c = Arc::new(AtomicBool::new(false));
     {
-        let flag = interrupted.clone();
+        let (flag, pressed) = (interrupted.clone(), ctrl_c.clone());
         // Failing to install the handler (already installed, e.g. in tests) only loses the nicety.
         let _ = ctrlc::set_handler(move || {
-            if flag.swap(true, Ordering::SeqCst) {
+            if pressed.swap(true, Ordering::SeqCst) {
                 std::process::exit(EXIT_INTERRUPTED);
             }
+            flag.store(true, Ordering::SeqCst);
         });
     }
 
@@ -383,9 +397,26 @@ pub fn run(args: Args) -> Result<()> {
     let start_spp = film.samples_per_pixel();
     let pixels = width as u64 * height as u64;
     let progress = Progress::new(stop, start_spp, args.quiet);
+    let mut preview = match (display_server, serve) {
+        (None, None) => Preview::none(),
+        (tev, page) => {
+            if let Some(p) = &page {
+                // Said even with --quiet: there is no other way to find the page.
+                eprintln!("lucent: preview at {}", p.url());
+            }
+            let bar = progress.bar.clone();
+            let warn: preview::Warn = Arc::new(move |m: &str| bar.suspend(|| eprintln!("lucent: warning: {m}")));
+            let title = format!("{} ({})", outs[0].display(), std::process::id());
+            let ckpt = checkpoint_path.as_ref().map(|c| std::path::absolute(c).unwrap_or_else(|_| c.clone()).display().to_string());
+            Preview::start(tev, page, &title, interrupted.clone(), ckpt, warn)?
+        }
+    };
     let outcome = pool.install(|| {
         job.run(film, &interrupted, |event| match event {
-            Event::Pass { film, .. } => progress.update(film, start, start_spp, pixels),
+            Event::Pass { film, stats } => {
+                progress.update(film, start, start_spp, pixels);
+                preview.on_pass(film, stats);
+            }
             Event::SaveFailed(e) => progress.suspend(|| eprintln!("lucent: warning: {e:#}")),
         })
     });
@@ -397,6 +428,13 @@ pub fn run(args: Args) -> Result<()> {
     // ---- Save: checkpoint first (the work, written by the job), then the images, even if the
     // checkpoint failed. ----
     let written = write_outputs(&film, &outs, exposure);
+    let stopped_by_page = preview.stop_requested() && !ctrl_c.load(Ordering::SeqCst);
+    let end = match (was_interrupted, stopped_by_page) {
+        (false, _) => preview::End::Finished,
+        (true, true) => preview::End::Stopped,
+        (true, false) => preview::End::Interrupted,
+    };
+    preview.finish(&film, PassStats::of(stop, &film, start_spp, outcome.elapsed), end);
     outcome.saved?;
     let written = written?;
     if !args.quiet {
@@ -417,6 +455,13 @@ pub fn run(args: Args) -> Result<()> {
     }
     for w in &written {
         println!("wrote {}", w.display());
+    }
+    if stopped_by_page {
+        eprintln!("lucent: stopped from the preview page; continue with --resume {}", match &checkpoint_path {
+            Some(c) => c.display().to_string(),
+            None => "(no --checkpoint given: progress not saved)".to_string(),
+        });
+        return Ok(());
     }
     if was_interrupted {
         eprintln!("lucent: interrupted; continue with --resume {}", match &checkpoint_path {

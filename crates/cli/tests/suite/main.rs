@@ -5,6 +5,7 @@ mod distributed_examples;
 mod fit_cli;
 mod fit_roundtrip;
 mod fit_scene;
+mod preview;
 mod render_cli;
 mod robustness_optics;
 mod robustness_render;
