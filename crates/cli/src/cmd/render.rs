@@ -449,9 +449,10 @@ pub fn run(args: Args) -> Result<()> {
         if film.rejected_samples() > 0 {
             eprintln!("lucent: warning: {} non-finite samples were counted as zero", film.rejected_samples());
         }
-        if let Some(c) = &checkpoint_path {
-            eprintln!("lucent: checkpoint {}", std::path::absolute(c).unwrap_or_else(|_| c.clone()).display());
-        }
+    }
+    // Every file written, one `wrote PATH` line each on stdout (as `lucent merge` says it).
+    if let Some(c) = &checkpoint_path {
+        println!("wrote {}", std::path::absolute(c).unwrap_or_else(|_| c.clone()).display());
     }
     for w in &written {
         println!("wrote {}", w.display());
