@@ -182,6 +182,7 @@ impl Served {
             .current_dir(dir)
             .args(["render", "--width", "48", "--height", "32", "--spp", "1000000", "--threads", "1", "--quiet"])
             .args(["--serve", "127.0.0.1:0", "--checkpoint", checkpoint, "--out", "x.png"])
+            .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
@@ -355,8 +356,18 @@ impl Cdp {
     }
 }
 
-/// Headless Chromium with a fresh profile; killed when dropped.
+/// Headless Chromium with a fresh profile; killed when dropped (if it has not closed).
 struct Browser(Child);
+
+impl Browser {
+    /// Wait up to `timeout` for the browser to exit by itself.
+    fn wait_exit(&mut self, timeout: Duration) {
+        let until = Instant::now() + timeout;
+        while self.0.try_wait().ok().flatten().is_none() && Instant::now() < until {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
 
 impl Drop for Browser {
     fn drop(&mut self) {
@@ -394,7 +405,7 @@ fn browser_shows_the_render_converging_and_stop_leaves_a_resumable_checkpoint() 
         .spawn()
         .unwrap_or_else(|e| panic!("cannot start {}: {e}", chrome.display()));
     let stderr = child.stderr.take().unwrap();
-    let _browser = Browser(child);
+    let mut browser = Browser(child);
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
@@ -439,6 +450,10 @@ fn browser_shows_the_render_converging_and_stop_leaves_a_resumable_checkpoint() 
     let (exit, stderr) = served.wait();
     assert!(exit.success(), "{exit:?}: {stderr}");
     assert!(stderr.contains("stopped from the preview page"), "{stderr}");
+    // Close the browser the polite way, so that it ends its own helper processes.
+    let close = serde_json::json!({ "id": cdp.next + 1, "method": "Browser.close" });
+    let _ = cdp.ws.send(tungstenite::Message::text(close.to_string()));
+    browser.wait_exit(Duration::from_secs(5));
     check_resumable(&t.0, &t.path("c.ckpt"));
 }
 
