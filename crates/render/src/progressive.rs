@@ -133,8 +133,9 @@ impl Job<'_> {
         }
     }
 
-    /// Render passes into `film` until the stop rule is met or `cancel` is set (checked between
-    /// passes, so a pass is never cut), on the current rayon pool; then save the checkpoint.
+    /// Render passes into `film` until the stop rule is met or `cancel` is set (by a Ctrl-C
+    /// handler, a preview's Stop button; checked between passes, so a pass is never cut), on the
+    /// current rayon pool; then save the checkpoint.
     /// A failed periodic save is reported once through `on_event` and does not end the render.
     pub fn run(&self, mut film: Film, cancel: &AtomicBool, mut on_event: impl FnMut(Event)) -> Outcome {
         let start = Instant::now();
