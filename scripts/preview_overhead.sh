@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # What the live previews cost a render (docs/preview.md, "Cost").
-#   scripts/preview_overhead.sh [WIDTH] [SPP] [THREADS] [REPEATS]
-# 1. Instructions (valgrind --tool=callgrind, all threads counted): the built-in Cornell box
+#   scripts/preview_overhead.sh [CG_WIDTH] [CG_SPP] [WIDTH] [SPP] [THREADS] [REPEATS]
+# 1. Instructions (valgrind --tool=callgrind, one render thread, all threads counted): the built-in Cornell box
 #    without a display, with --display-server to a stub viewer that reads and discards, and
 #    with --serve polled by a client fetching /status and /image.png four times a second.
 #    Under callgrind a pass takes far longer than the 250 ms update interval, so every pass is
@@ -9,7 +9,7 @@
 # 2. Wall time: the same three runs at full speed, alternated REPEATS times, samples/s as
 #    lucent reports it.
 set -euo pipefail
-w=${1:-64}; spp=${2:-16}; threads=${3:-1}; reps=${4:-3}
+cgw=${1:-64}; cgspp=${2:-16}; ww=${3:-256}; wspp=${4:-32}; threads=${5:-2}; reps=${6:-3}
 bin=${LUCENT:-target/release/lucent}
 out=${OUT:-/tmp/preview_overhead}
 mkdir -p "$out"
@@ -29,7 +29,7 @@ trap 'kill $stub 2>/dev/null || true' EXIT
 sleep 0.5
 # A page client: polls status and fetches the image while the render runs (background).
 poll() { # url
-  python3 - "$1" <<'PY' &
+  python3 - "$1" > /dev/null 2>&1 <<'PY' &
 import sys, time, urllib.request
 url = sys.argv[1]
 while True:
@@ -57,6 +57,7 @@ serve_run() { # label prefix-command...
   render "$label" "$@" -- --serve "127.0.0.1:$sport"
   kill "$p" 2>/dev/null || true
 }
+w=$cgw; spp=$cgspp; wthreads=$threads; threads=1
 echo "== instructions (callgrind, ${w}x${w}, $spp spp, $threads thread(s))"
 cg=(valgrind --tool=callgrind --callgrind-out-file=/dev/null)
 for label in none tev serve; do
@@ -67,7 +68,8 @@ for label in none tev serve; do
   esac
   printf '%-6s %s\n' "$label" "$(grep -o 'Collected : [0-9]*' "$out/cg-$label.log" | awk '{print $3}')"
 done
-echo "== wall time (Msamples/s as lucent reports it), $reps rounds"
+w=$ww; spp=$wspp; threads=$wthreads
+echo "== wall time (${w}x${w}, $spp spp, $threads thread(s); Msamples/s as lucent reports it), $reps rounds"
 for r in $(seq "$reps"); do
   for label in none tev serve; do
     case $label in
