@@ -165,26 +165,54 @@ pub fn decode_image(bytes: &[u8], format: Format) -> Result<Image> {
 fn write_png(tmp: &Path, image: &Image, exposure_stops: f32) -> Result<()> {
     let file = File::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
     let mut writer = BufWriter::new(file);
-    encode_png(&mut writer, image, exposure_stops)?;
+    encode_png(&mut writer, image, exposure_stops, PngEffort::Small)?;
     writer.flush()?;
     Ok(())
 }
 
+/// How hard [`encode_png`] works at making the file small.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PngEffort {
+    /// For files: each row gets the best of PNG's five filters.
+    Small,
+    /// For live previews: every row is differenced with its left neighbour (PNG's Sub filter),
+    /// a few times faster, files somewhat larger.
+    Quick,
+}
+
 /// Encodes `image` as the PNG [`write_image`] writes (exposure 2^`exposure_stops`, clamped,
-/// sRGB curve, 8 bits) into `out`, e.g. a buffer to serve.
-pub fn encode_png(out: &mut impl Write, image: &Image, exposure_stops: f32) -> Result<()> {
+/// sRGB curve, 8 bits) into `out`, e.g. a buffer to serve; `effort` changes the compression,
+/// never the pixels.
+pub fn encode_png(out: &mut impl Write, image: &Image, exposure_stops: f32, effort: PngEffort) -> Result<()> {
     let scale = 2f64.powf(exposure_stops as f64);
     let mut bytes = Vec::with_capacity(image.rgb.len() * 3);
     for px in &image.rgb {
         for &c in px {
-            let v = c as f64 * scale;
-            let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-            bytes.push((srgb_encode(v) * 255.0).round() as u8);
+            bytes.push(srgb8(c as f64 * scale));
         }
     }
-    image::codecs::png::PngEncoder::new(out)
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let filter = match effort {
+        PngEffort::Small => FilterType::Adaptive,
+        PngEffort::Quick => FilterType::Sub,
+    };
+    PngEncoder::new_with_quality(out, CompressionType::Fast, filter)
         .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
         .map_err(|e| anyhow!("PNG encoder: {e}"))
+}
+
+/// The linear values halfway between successive 8-bit sRGB codes: code k + ½ decoded, k = 0…254.
+static SRGB8_HALFWAY: std::sync::LazyLock<[f64; 255]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|k| srgb_decode((k as f64 + 0.5) / 255.0)));
+
+/// The 8-bit sRGB code of a linear value, round(255·srgb_encode(v)) with v clamped to [0, 1]
+/// and NaN as 0, found by binary search over [`SRGB8_HALFWAY`] instead of a power per value
+/// (the curve is increasing, so the two agree except within rounding of a halfway value).
+fn srgb8(linear: f64) -> u8 {
+    if linear.is_nan() {
+        return 0;
+    }
+    SRGB8_HALFWAY.partition_point(|&t| t <= linear) as u8
 }
 
 use image::ImageEncoder as _;
@@ -524,6 +552,23 @@ fn write_hdr(tmp: &Path, image: &Image) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn srgb8_by_search_equals_rounding_the_curve() {
+        // Every 8-bit code agrees with round(255·srgb_encode(v)) on a fine grid of [0, 1] (with
+        // values past both ends and NaN), except within 1e-9 of a halfway value, where the two
+        // roundings may legitimately differ.
+        let n = 1_000_000;
+        for i in 0..=n + 10 {
+            let v = i as f64 / n as f64 - 5e-6;
+            let exact = srgb_encode(v) * 255.0;
+            if (exact - exact.floor() - 0.5).abs() < 1e-9 {
+                continue;
+            }
+            assert_eq!(srgb8(v), exact.round() as u8, "v = {v}");
+        }
+        assert_eq!((srgb8(f64::NAN), srgb8(-1.0), srgb8(7.0)), (0, 0, 255));
+    }
 
     #[test]
     fn srgb_curve_inverts_and_is_continuous() {

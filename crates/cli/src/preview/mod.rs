@@ -3,13 +3,16 @@
 //!
 //! The render thread never waits for a display: after a pass it copies the film at most a few
 //! times a second into one latest-only [`Slot`] per display (skipping the copy when the display
-//! is busy reading it), and each display converts, encodes and sends on its own thread. A slow
-//! viewer only sees fewer updates; a vanished one is warned about once and left behind.
+//! is busy reading it), and each display converts, encodes and sends on its own thread. Each
+//! display reports what its last image cost it, and copies are spaced so that no display spends
+//! more than 1/[`COST_FACTOR`] of one core's time: a large image is refreshed less often rather
+//! than slowing the render. A slow viewer only sees fewer updates; a vanished one is warned
+//! about once and left behind.
 
 pub mod serve;
 pub mod tev;
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, TryLockError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -20,6 +23,9 @@ use render::progressive::PassStats;
 /// Shortest time between two copies of the film offered to the displays: at most 4 updates a
 /// second, as pbrt-v4 refreshes tev (every 250 ms).
 pub const UPDATE_INTERVAL: Duration = Duration::from_millis(250);
+/// Copies are at least this many times a display's cost for its last image apart, so that a
+/// display's thread takes at most 2 % of one core.
+pub const COST_FACTOR: u32 = 50;
 
 /// How a render ended, as a display shows it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,6 +65,8 @@ pub struct Frame {
 pub struct Slot {
     state: Mutex<(u64, Option<Arc<Frame>>)>,
     changed: Condvar,
+    /// What the display's last image cost it (wall-clock nanoseconds on its thread).
+    cost_ns: AtomicU64,
 }
 
 impl Slot {
@@ -88,6 +96,16 @@ impl Slot {
     pub fn latest(&self) -> (u64, Option<Arc<Frame>>) {
         let s = self.state.lock().unwrap_or_else(|p| p.into_inner());
         (s.0, s.1.clone())
+    }
+
+    /// Record what showing the last image cost the display.
+    pub fn report_cost(&self, cost: Duration) {
+        self.cost_ns.store(cost.as_nanos().min(u64::MAX as u128) as u64, Ordering::Relaxed);
+    }
+
+    /// The cost last reported.
+    pub fn cost(&self) -> Duration {
+        Duration::from_nanos(self.cost_ns.load(Ordering::Relaxed))
     }
 
     /// Wait for a frame newer than version `seen`.
@@ -146,10 +164,17 @@ impl Preview {
         Ok(p)
     }
 
-    /// After a pass: offer a copy of `film` if the last offer is [`UPDATE_INTERVAL`] old. Never
-    /// waits: a display busy reading its slot misses this frame and gets the next.
+    /// The time between copies: [`UPDATE_INTERVAL`], or [`COST_FACTOR`] times the dearest
+    /// display's last cost if that is longer.
+    pub fn interval(&self) -> Duration {
+        let dearest = self.slots.iter().map(|s| s.cost()).max().unwrap_or_default();
+        UPDATE_INTERVAL.max(dearest * COST_FACTOR)
+    }
+
+    /// After a pass: offer a copy of `film` if the last offer is [`Preview::interval`] old.
+    /// Never waits: a display busy reading its slot misses this frame and gets the next.
     pub fn on_pass(&mut self, film: &Film, stats: PassStats) {
-        if self.slots.is_empty() || self.last_offer.is_some_and(|t| t.elapsed() < UPDATE_INTERVAL) {
+        if self.slots.is_empty() || self.last_offer.is_some_and(|t| t.elapsed() < self.interval()) {
             return;
         }
         let frame = Arc::new(Frame { film: film.clone(), stats, end: None });
@@ -237,6 +262,23 @@ mod tests {
         std::thread::sleep(Duration::from_millis(20));
         slot.put(&frame(5));
         assert_eq!(waiter.join().unwrap(), 5);
+    }
+
+    #[test]
+    fn copies_are_spaced_by_the_dearest_display() {
+        let mut p = Preview::none();
+        assert_eq!(p.interval(), UPDATE_INTERVAL);
+        let (a, b) = (Arc::new(Slot::default()), Arc::new(Slot::default()));
+        p.slots = vec![a.clone(), b.clone()];
+        a.report_cost(Duration::from_millis(2));
+        assert_eq!(p.interval(), UPDATE_INTERVAL, "cheap displays: 4 a second");
+        b.report_cost(Duration::from_millis(20));
+        assert_eq!(p.interval(), Duration::from_millis(20) * COST_FACTOR);
+        // Within the interval the film is not copied again.
+        let f = frame(1);
+        p.on_pass(&f.film, f.stats);
+        p.on_pass(&f.film, f.stats);
+        assert_eq!((a.latest().0, b.latest().0), (1, 1));
     }
 
     #[test]

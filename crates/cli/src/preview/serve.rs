@@ -162,7 +162,12 @@ fn serve(server: tiny_http::Server, shared: &Shared) {
                     Some(frame) => {
                         let png = match &png_cache {
                             Some((v, e, png)) if *v == version && *e == exposure.to_bits() => Some(png.clone()),
-                            _ => encode(&frame, exposure).map(Arc::new),
+                            _ => {
+                                let t = Instant::now();
+                                let png = encode(&frame, exposure).map(Arc::new);
+                                shared.slot.report_cost(t.elapsed());
+                                png
+                            }
                         };
                         match png {
                             Some(png) => {
@@ -216,7 +221,7 @@ fn exposure_of(query: &str) -> f32 {
 
 fn encode(frame: &Frame, exposure_stops: f32) -> Option<Vec<u8>> {
     let mut png = Vec::new();
-    render::image_io::encode_png(&mut png, &frame.film.to_image(), exposure_stops).ok()?;
+    render::image_io::encode_png(&mut png, &frame.film.to_image(), exposure_stops, render::image_io::PngEffort::Quick).ok()?;
     Some(png)
 }
 

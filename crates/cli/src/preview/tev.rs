@@ -271,7 +271,9 @@ pub fn spawn(target: Target, name: String, slot: Arc<Slot>, warn: Warn) -> Resul
                 let (version, frame) = slot.wait_newer(seen);
                 seen = version;
                 // The last frame is worth one more try at a viewer that was away.
+                let t = Instant::now();
                 client.show(&frame.film.to_image(), frame.end.is_some());
+                slot.report_cost(t.elapsed());
                 if frame.end.is_some() {
                     break;
                 }
