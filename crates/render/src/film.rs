@@ -60,18 +60,21 @@ impl FilmLayout {
         SampleExtras { first_hit: self.aovs.iter().any(|a| a.is_first_hit()), spectral: self.bins.is_some() }
     }
 
-    /// One line for messages: `AOVs albedo, normal and 30 bins 400–700 nm`.
+    /// For messages: `AOVs albedo,normal and spectral bins 400:700:10 nm`, or `no AOVs or
+    /// spectral bins`.
     pub fn describe(&self) -> String {
-        let aovs = if self.aovs.is_empty() {
-            "no AOVs".to_string()
+        let mut parts = Vec::new();
+        if !self.aovs.is_empty() {
+            parts.push(format!("AOVs {}", self.aovs.iter().map(|a| a.name()).collect::<Vec<_>>().join(",")));
+        }
+        if let Some(b) = self.bins {
+            parts.push(format!("spectral bins {}:{}:{} nm", b.start_nm, b.end_nm(), b.width_nm));
+        }
+        if parts.is_empty() {
+            "no AOVs or spectral bins".to_string()
         } else {
-            format!("AOVs {}", self.aovs.iter().map(|a| a.name()).collect::<Vec<_>>().join(","))
-        };
-        let bins = match self.bins {
-            None => "no spectral bins".to_string(),
-            Some(b) => format!("spectral bins {}:{}:{} nm", b.start_nm, b.end_nm(), b.width_nm),
-        };
-        format!("{aovs}, {bins}")
+            parts.join(" and ")
+        }
     }
 
     /// The EXR channel names of the extras, in storage order.
