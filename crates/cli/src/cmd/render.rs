@@ -87,7 +87,7 @@ pub struct Args {
     /// Spectral image written into every .exr output: mean spectral radiance per nm in bins START:END:WIDTH nm within 360–830 (e.g. 400:700:10), channels S0.<centre>nm.
     #[arg(long, value_name = "START:END:WIDTH")]
     pub spectral_bins: Option<String>,
-    /// Denoise the image with Intel Open Image Denoise, albedo and normal as guides (needs a build with the `denoise` feature).
+    /// Denoise with Intel Open Image Denoise (cargo feature `denoise`, not available in this version: the flag says so and stops).
     #[arg(long)]
     pub denoise: bool,
     /// Camera-matrix node of a FileStorage calibration [default: camera_matrix].
