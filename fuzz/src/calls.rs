@@ -122,6 +122,8 @@ pub fn checkpoint(data: &[u8]) {
         let path = Path::new("fuzz.ckpt");
         let _ = c.resume_point(path);
         let _ = c.check_matches(path, &c.identity);
+        let _ = c.check_layout(path, c.film.layout());
+        let _ = c.film.extra_channels();
         let mut other = c.clone();
         for run in &mut other.runs {
             run.seed = run.seed.wrapping_add(1);

@@ -1,6 +1,7 @@
 //! Checkpoints: the film's sums and counts with everything needed to resume or merge a render.
 //!
-//! Binary format, version 1, all integers and floats little-endian:
+//! Binary format, all integers and floats little-endian. Version 1 (a film of the image only;
+//! still written for such films, so older builds read them):
 //! ```text
 //! magic      8 bytes  "LUCENTCK"
 //! version    u32      1
@@ -16,6 +17,14 @@
 //! sums       width*height*3 f64, row-major XYZ sums
 //! checksum   u64      FNV-1a 64 of every byte before it
 //! ```
+//! Version 2 (a film with AOVs or spectral bins) is version 1 with, after `runs`:
+//! ```text
+//! aovs       u32 count, then one u8 code per AOV (Aov::code: 0 albedo, 1 normal, 2 depth,
+//!            3 position, 4 object_id, 5 variance), in increasing order
+//! bins       u8 0 (none) or 1, then f32 start_nm, f32 width_nm, u32 count
+//! ```
+//! and, after the XYZ sums, `extras`: width*height*E f64, pixel-major, E = the film's
+//! [`FilmLayout::extra_len`] (the channels of the AOVs in that order, then one per bin).
 //! A single render's checkpoint holds one run (seed, passes 0..n): resuming continues at pass n.
 //! A merged checkpoint holds several runs; runs of the same seed must cover disjoint pass ranges,
 //! because a pass is a deterministic function of (seed, pass): overlapping ranges would count
@@ -25,13 +34,16 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 
-use crate::film::Film;
+use crate::film::{Film, FilmLayout};
+use crate::integrator::aov::Aov;
+use crate::math::spectral::SpectralBins;
 use crate::integrator::settings::{IntegratorKind, IntegratorSettings};
 use crate::scene::Scene;
 
 const MAGIC: &[u8; 8] = b"LUCENTCK";
-/// Version of the checkpoint format written by this build.
-pub const CHECKPOINT_VERSION: u32 = 1;
+/// Newest version of the checkpoint format this build writes (and the oldest it reads is 1):
+/// version 1 for films of the image only, 2 for films with AOVs or spectral bins.
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 pub use crate::math::hash::Fnv1a64;
 
@@ -151,6 +163,9 @@ impl<'a> Reader<'a> {
     fn u64(&mut self, what: &str) -> Result<u64> {
         Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
+    fn f32(&mut self, what: &str) -> Result<f32> {
+        Ok(f32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
 }
 
 impl Checkpoint {
@@ -176,8 +191,8 @@ impl Checkpoint {
         let (body, tail) = bytes.split_at(bytes.len() - 8);
         let mut r = Reader { bytes: body, pos: MAGIC.len() };
         let version = r.u32("version")?;
-        if version != CHECKPOINT_VERSION {
-            bail!("checkpoint format version {version}, this lucent reads version {CHECKPOINT_VERSION}");
+        if !(1..=CHECKPOINT_VERSION).contains(&version) {
+            bail!("checkpoint format version {version}, this lucent reads versions 1 to {CHECKPOINT_VERSION}");
         }
         let mut h = Fnv1a64::new();
         h.write(body);
@@ -219,19 +234,24 @@ impl Checkpoint {
                 None => bail!("the runs' pass counts overflow a 64-bit counter (the film holds {spp} samples per pixel)"),
             }
         }
+        let layout = if version >= 2 { read_layout(&mut r)? } else { FilmLayout::default() };
         let n = width as usize * height as usize;
-        let need = n.checked_mul(24).ok_or_else(|| anyhow::anyhow!("bad resolution {width}×{height}: too many pixels"))?;
+        let per_pixel = 3 + layout.extra_len();
+        let need = n
+            .checked_mul(8 * per_pixel)
+            .ok_or_else(|| anyhow::anyhow!("bad resolution {width}×{height}: too many pixels"))?;
         if body.len() - r.pos != need {
-            bail!("expected {need} bytes of sums for {width}×{height} pixels, found {}", body.len() - r.pos);
+            bail!(
+                "expected {need} bytes of sums for {width}×{height} pixels with {}, found {}",
+                layout.describe(),
+                body.len() - r.pos
+            );
         }
-        let sums: Vec<[f64; 3]> = body[r.pos..]
-            .chunks_exact(24)
-            .map(|c| {
-                let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
-                [f(0), f(1), f(2)]
-            })
-            .collect();
-        let film = Film::from_sums(width, height, sums, spp, rejected)?;
+        let (xyz_bytes, extra_bytes) = body[r.pos..].split_at(24 * n);
+        let f64_at = |c: &[u8], k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
+        let sums: Vec<[f64; 3]> = xyz_bytes.chunks_exact(24).map(|c| [f64_at(c, 0), f64_at(c, 1), f64_at(c, 2)]).collect();
+        let extra: Vec<f64> = extra_bytes.chunks_exact(8).map(|c| f64_at(c, 0)).collect();
+        let film = Film::from_parts(width, height, layout, sums, extra, spp, rejected)?;
         let settings = IntegratorSettings { kind, max_depth, rr_depth };
         Ok(Checkpoint {
             identity: RenderIdentity { scene_hash, scene_name, width, height, settings },
@@ -257,6 +277,16 @@ impl Checkpoint {
     pub fn read(path: &Path) -> Result<Checkpoint> {
         let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read checkpoint", path.display()))?;
         Checkpoint::from_bytes(&bytes).with_context(|| format!("{}: bad checkpoint", path.display()))
+    }
+
+    /// Refuse (with an error naming `path`) a checkpoint whose film accumulates other AOVs or
+    /// spectral bins than `layout`.
+    pub fn check_layout(&self, path: &Path, layout: &FilmLayout) -> Result<()> {
+        let have = self.film.layout();
+        if have != layout {
+            bail!("{}: checkpoint holds {}, this render asks for {}", path.display(), have.describe(), layout.describe());
+        }
+        Ok(())
     }
 
     /// Refuse (with an error naming `path`) a checkpoint of another scene, resolution or integrator.
@@ -336,6 +366,8 @@ impl Merger {
         if let Some((first_path, merged)) = &self.merged {
             part.check_matches(path, &merged.identity)
                 .with_context(|| format!("cannot merge with {}", first_path.display()))?;
+            part.check_layout(path, merged.film.layout())
+                .with_context(|| format!("cannot merge with {}", first_path.display()))?;
         }
         for (i, run) in part.runs.iter().enumerate() {
             let earlier = self.origin.iter().map(|(r, p)| (r, p.as_path()));
@@ -387,9 +419,11 @@ impl Merger {
 /// Serialise to the binary format described in the module documentation.
 fn encode(id: &RenderIdentity, target_spp: Option<u64>, runs: &[Run], film: &Film) -> Vec<u8> {
     let n = film.pixel_count();
-    let mut b = Vec::with_capacity(128 + id.scene_name.len() + 24 * runs.len() + 24 * n);
+    let layout = film.layout();
+    let version: u32 = if layout.is_empty() { 1 } else { 2 };
+    let mut b = Vec::with_capacity(160 + id.scene_name.len() + 24 * runs.len() + 8 * (3 + layout.extra_len()) * n);
     b.extend_from_slice(MAGIC);
-    b.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+    b.extend_from_slice(&version.to_le_bytes());
     b.extend_from_slice(&id.width.to_le_bytes());
     b.extend_from_slice(&id.height.to_le_bytes());
     b.extend_from_slice(&id.scene_hash.to_le_bytes());
@@ -407,15 +441,64 @@ fn encode(id: &RenderIdentity, target_spp: Option<u64>, runs: &[Run], film: &Fil
         b.extend_from_slice(&r.first_pass.to_le_bytes());
         b.extend_from_slice(&r.passes.to_le_bytes());
     }
+    if version >= 2 {
+        b.extend_from_slice(&(layout.aovs.len() as u32).to_le_bytes());
+        b.extend(layout.aovs.iter().map(|a| a.code()));
+        match layout.bins {
+            None => b.push(0),
+            Some(bins) => {
+                b.push(1);
+                b.extend_from_slice(&bins.start_nm.to_le_bytes());
+                b.extend_from_slice(&bins.width_nm.to_le_bytes());
+                b.extend_from_slice(&bins.count.to_le_bytes());
+            }
+        }
+    }
     for s in film.sums() {
         for v in s {
             b.extend_from_slice(&v.to_le_bytes());
         }
     }
+    for v in film.extra_sums() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
     let mut h = Fnv1a64::new();
     h.write(&b);
     b.extend_from_slice(&h.finish().to_le_bytes());
     b
+}
+
+/// The AOVs and bins of a version-2 checkpoint.
+fn read_layout(r: &mut Reader) -> Result<FilmLayout> {
+    let n_aovs = r.u32("aovs")? as usize;
+    if n_aovs > Aov::ALL.len() {
+        bail!("{n_aovs} AOVs listed; there are {} kinds", Aov::ALL.len());
+    }
+    let mut aovs = Vec::with_capacity(n_aovs);
+    for _ in 0..n_aovs {
+        let code = r.u8("aov")?;
+        let aov = Aov::from_code(code).with_context(|| format!("unknown AOV code {code}"))?;
+        if aovs.last().is_some_and(|&last| last >= aov) {
+            bail!("AOVs are not listed in increasing order without repeats");
+        }
+        aovs.push(aov);
+    }
+    let bins = match r.u8("bins")? {
+        0 => None,
+        1 => {
+            let start = r.f32("bins start_nm")?;
+            let width = r.f32("bins width_nm")?;
+            let count = r.u32("bins count")?;
+            let end = start as f64 + width as f64 * count as f64;
+            let bins = SpectralBins::new(start as f64, end, width as f64).map_err(|e| anyhow::anyhow!("bad spectral bins: {e}"))?;
+            if bins.count != count || bins.start_nm != start || bins.width_nm != width {
+                bail!("bad spectral bins: {start} nm + {count} × {width} nm");
+            }
+            Some(bins)
+        }
+        other => bail!("bad spectral-bins flag {other}"),
+    };
+    Ok(FilmLayout::new(aovs, bins))
 }
 
 fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {

@@ -259,6 +259,82 @@ fn write_exr(tmp: &Path, image: &Image) -> Result<()> {
     Ok(())
 }
 
+/// A named channel of a multi-channel EXR: one f32 per pixel, row-major, top row first.
+pub type ExrChannel = (String, Vec<f32>);
+
+/// Writes a single-part OpenEXR of `width`×`height` with the given f32 channels (names such as
+/// `R`, `albedo.R`, `S0.405nm`; the file lists them sorted by name, as OpenEXR requires) and
+/// string attributes, atomically ([`write_atomic`]). sRGB/D65 chromaticities are recorded for
+/// the colour channels.
+pub fn write_exr_channels(path: &Path, width: u32, height: u32, channels: &[ExrChannel], attributes: &[(&str, &str)]) -> Result<()> {
+    use exr::prelude::*;
+    let n = width as usize * height as usize;
+    if let Some((name, v)) = channels.iter().find(|(_, v)| v.len() != n) {
+        bail!("{}: channel {name} has {} values for {width}×{height} pixels", path.display(), v.len());
+    }
+    let mut names: Vec<&str> = channels.iter().map(|(name, _)| name.as_str()).collect();
+    names.sort();
+    if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+        bail!("{}: channel {} is given twice", path.display(), w[0]);
+    }
+    write_atomic(path, |tmp| {
+        let list: SmallVec<[AnyChannel<FlatSamples>; 4]> =
+            channels.iter().map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone()))).collect();
+        let mut attrs = LayerAttributes::default();
+        for (k, v) in attributes {
+            attrs.other.insert(Text::from(*k), exr::meta::attribute::AttributeValue::Text(Text::from(*v)));
+        }
+        let mut encoding = Encoding::FAST_LOSSLESS;
+        // Blocks in increasing order, so the same data always gives the same bytes.
+        encoding.line_order = exr::meta::attribute::LineOrder::Increasing;
+        let layer = Layer::new((width as usize, height as usize), attrs, encoding, AnyChannels::sort(list));
+        let mut image = exr::prelude::Image::from_layer(layer);
+        image.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
+            red: Vec2(0.64, 0.33),
+            green: Vec2(0.30, 0.60),
+            blue: Vec2(0.15, 0.06),
+            white: Vec2(0.3127, 0.3290),
+        });
+        let file = File::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
+        image.write().to_buffered(BufWriter::new(file)).map_err(|e| anyhow!("OpenEXR encoder: {e}"))?;
+        Ok(())
+    })
+    .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Reads every channel of the first layer of an OpenEXR (as f32, row-major) and its string
+/// attributes; the channels come sorted by name.
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Vec<ExrChannel>, Vec<(String, String)>)> {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| anyhow!("{}: OpenEXR decoder: {e}", path.display()))?;
+    let size = image.layer_data.size;
+    let channels = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    let attributes = image
+        .layer_data
+        .attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            exr::meta::attribute::AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    Ok((size.0 as u32, size.1 as u32, channels, attributes))
+}
+
 struct ExrPixels {
     width: usize,
     rgb: Vec<[f32; 3]>,

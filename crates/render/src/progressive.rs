@@ -5,7 +5,6 @@
 
 use crate::checkpoint::{Checkpoint, RenderIdentity};
 use crate::film::Film;
-use crate::integrator::render_pass;
 use crate::integrator::settings::IntegratorSettings;
 use crate::scene::Scene;
 use anyhow::Result;
@@ -139,8 +138,7 @@ impl Job<'_> {
     /// A failed periodic save is reported once through `on_event` and does not end the render.
     pub fn run(&self, mut film: Film, cancel: &AtomicBool, mut on_event: impl FnMut(Event)) -> Outcome {
         let start = Instant::now();
-        let (w, h) = self.scene.resolution();
-        let mut buffer = vec![[0.0f32; 3]; (w as usize) * (h as usize)];
+        let mut buffer = film.pass_buffer();
         let mut last_save = Instant::now();
         let mut save_warned = false;
         let mut pass = self.first_pass;
@@ -153,8 +151,7 @@ impl Job<'_> {
             if done || cancel.load(Ordering::SeqCst) {
                 break;
             }
-            render_pass(self.scene, self.settings, self.seed, pass, &mut buffer);
-            film.add_pass(&buffer);
+            film.render_pass(self.scene, self.settings, self.seed, pass, &mut buffer);
             pass += 1;
             on_event(Event::Pass { film: &film, stats: PassStats::of(self.stop, &film, start_spp, start.elapsed()) });
             if let Some(c) = &self.checkpoint {

@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 
 use render::checkpoint::{Checkpoint, Merger};
 
-use super::render::{check_outputs, check_parent_dir, finite_f64, write_outputs};
+use super::render::{check_layout_outputs, check_outputs, check_parent_dir, finite_f64, report_written, write_outputs};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -47,6 +47,9 @@ pub fn run(args: Args) -> Result<()> {
         merger.add(path, Checkpoint::read(path)?)?;
     }
     let merged = merger.finish()?;
+    if !args.out.is_empty() {
+        check_layout_outputs(merged.film.layout(), &args.out)?;
+    }
     if let Some(c) = &args.checkpoint {
         merged.write(c)?;
     }
@@ -64,8 +67,6 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(c) = &args.checkpoint {
         println!("wrote {}", std::path::absolute(c).unwrap_or_else(|_| c.clone()).display());
     }
-    for w in &written {
-        println!("wrote {}", w.display());
-    }
+    report_written(&written, false);
     Ok(())
 }

@@ -12,7 +12,9 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use render::checkpoint::{Checkpoint, RenderIdentity};
-use render::film::Film;
+use render::film::{Film, FilmLayout};
+use render::integrator::aov::Aov;
+use render::math::spectral::SpectralBins;
 use render::integrator::{IntegratorKind, IntegratorSettings};
 use render::progressive::{default_spp, CheckpointPolicy, Event, Job, PassStats, Stop};
 use render::scene::Scene;
@@ -87,6 +89,15 @@ pub struct Args {
     /// Calibrated camera replacing the scene's: lucent calibration JSON or OpenCV FileStorage YAML/XML (see docs/scene-format.md).
     #[arg(long, value_name = "CALIB")]
     pub camera: Option<PathBuf>,
+    /// AOVs written as extra channels of every .exr output (comma-separated): albedo (albedo.R,G,B), normal (N.X,Y,Z), depth (depth.T, metres along the ray), position (P.X,Y,Z), object_id (object_id.I), variance (variance.R,G,B of the pixel mean).
+    #[arg(long, value_name = "LIST")]
+    pub aov: Option<String>,
+    /// Spectral image written into every .exr output: mean spectral radiance per nm in bins START:END:WIDTH nm within 360–830 (e.g. 400:700:10), channels S0.<centre>nm.
+    #[arg(long, value_name = "START:END:WIDTH")]
+    pub spectral_bins: Option<String>,
+    /// Denoise with Intel Open Image Denoise (cargo feature `denoise`, not available in this version: the flag says so and stops).
+    #[arg(long)]
+    pub denoise: bool,
     /// Camera-matrix node of a FileStorage calibration [default: camera_matrix].
     #[arg(long, value_name = "NAME", requires = "camera")]
     pub camera_matrix_node: Option<String>,
@@ -202,6 +213,47 @@ pub(crate) fn check_outputs(outs: &[PathBuf]) -> Result<()> {
     Ok(())
 }
 
+/// Parse `--aov` and `--spectral-bins` into what the film accumulates (`None` when neither is given).
+pub(crate) fn film_layout(aov: Option<&str>, bins: Option<&str>) -> Result<Option<FilmLayout>> {
+    if aov.is_none() && bins.is_none() {
+        return Ok(None);
+    }
+    let aovs = match aov {
+        Some(text) => Aov::parse_list(text).map_err(|e| anyhow::anyhow!("--aov: {e}"))?,
+        None => Vec::new(),
+    };
+    let bins = match bins {
+        Some(text) => Some(SpectralBins::parse(text).map_err(|e| anyhow::anyhow!("--spectral-bins: {e}"))?),
+        None => None,
+    };
+    Ok(Some(FilmLayout::new(aovs, bins)))
+}
+
+/// AOVs and spectral bins go into the .exr outputs: refuse a layout with none among `outs`.
+pub(crate) fn check_layout_outputs(layout: &FilmLayout, outs: &[PathBuf]) -> Result<()> {
+    let is_exr = |p: &PathBuf| matches!(render::image_io::Format::from_path(p), Ok(render::image_io::Format::Exr));
+    if !layout.is_empty() && !outs.iter().any(is_exr) {
+        let list: Vec<String> = outs.iter().map(|p| p.display().to_string()).collect();
+        bail!("{} are written as channels of an .exr output; give --out FILE.exr (outputs now: {})", layout.describe(), list.join(", "));
+    }
+    Ok(())
+}
+
+// The `denoise` feature is the gate for Intel Open Image Denoise; its binding is not written yet
+// (OIDN is not packaged for the project's machines), so enabling it stops the build with the reason.
+#[cfg(feature = "denoise")]
+compile_error!("the `denoise` feature needs the Intel Open Image Denoise binding, which this version of lucent does not have yet");
+
+/// `--denoise`: the one line saying how to get it when this build has no denoiser.
+pub(crate) fn check_denoise(denoise: bool) -> Result<()> {
+    if denoise {
+        bail!(
+            "--denoise needs a lucent built with the `denoise` cargo feature (Intel Open Image Denoise), which this version does not offer yet; write --aov albedo,normal into an .exr and denoise it with OIDN's own tools"
+        );
+    }
+    Ok(())
+}
+
 /// The folder a file will be written into must exist.
 pub(crate) fn check_parent_dir(path: &Path, option: &str) -> Result<()> {
     let parent = match path.parent() {
@@ -217,15 +269,47 @@ pub(crate) fn check_parent_dir(path: &Path, option: &str) -> Result<()> {
     Ok(())
 }
 
-/// Write the film's image to every output; returns their absolute paths.
-pub(crate) fn write_outputs(film: &Film, outs: &[PathBuf], exposure_stops: f32) -> Result<Vec<PathBuf>> {
+/// Write the film's image to every output; returns their absolute paths and what each holds.
+/// EXR outputs of a film with AOVs or spectral bins get them as extra channels.
+pub(crate) fn write_outputs(film: &Film, outs: &[PathBuf], exposure_stops: f32) -> Result<Vec<(PathBuf, String)>> {
     let image = film.to_image();
     let mut written = Vec::with_capacity(outs.len());
     for out in outs {
-        render::image_io::write_image(out, &image, exposure_stops)?;
-        written.push(std::path::absolute(out).unwrap_or_else(|_| out.clone()));
+        let format = render::image_io::Format::from_path(out)?;
+        let what = if format == render::image_io::Format::Exr && !film.layout().is_empty() {
+            film.write_exr(out)?;
+            format!("channels R, G, B, {}", describe_channels(&film.layout().channel_names()))
+        } else {
+            render::image_io::write_image(out, &image, exposure_stops)?;
+            "RGB image".to_string()
+        };
+        written.push((std::path::absolute(out).unwrap_or_else(|_| out.clone()), what));
     }
     Ok(written)
+}
+
+/// Channel names for a message: AOV channels listed, a run of spectral channels shortened to
+/// its ends (`S0.405nm … S0.695nm (30 bins)`).
+fn describe_channels(names: &[String]) -> String {
+    let (spectral, other): (Vec<&String>, Vec<&String>) = names.iter().partition(|n| n.starts_with("S0."));
+    let mut parts: Vec<String> = other.iter().map(|s| s.to_string()).collect();
+    match spectral.as_slice() {
+        [] => {}
+        [one] => parts.push(one.to_string()),
+        [first, .., last] => parts.push(format!("{first} … {last} ({} bins)", spectral.len())),
+    }
+    parts.join(", ")
+}
+
+/// Print what `write_outputs` wrote: `wrote PATH` on stdout (one per line, for scripts) and what
+/// each file holds on stderr unless `quiet`.
+pub(crate) fn report_written(written: &[(PathBuf, String)], quiet: bool) {
+    for (path, what) in written {
+        if !quiet {
+            eprintln!("lucent: {}: {what}", path.display());
+        }
+        println!("wrote {}", path.display());
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -278,6 +362,11 @@ pub fn run(args: Args) -> Result<()> {
     // Displays: the viewer's address is resolved and the page's port bound before any work.
     let display_server = args.display_server.as_deref().map(preview::tev::Target::parse).transpose()?;
     let serve = args.serve.as_deref().map(preview::serve::bind).transpose()?;
+    let layout_arg = film_layout(args.aov.as_deref(), args.spectral_bins.as_deref())?;
+    if let Some(layout) = &layout_arg {
+        check_layout_outputs(layout, &outs)?;
+    }
+    check_denoise(args.denoise)?;
     let checkpoint_path = args.checkpoint.clone().or_else(|| args.resume.clone());
     if let Some(c) = &checkpoint_path {
         check_parent_dir(c, "--checkpoint")?;
@@ -346,9 +435,14 @@ pub fn run(args: Args) -> Result<()> {
                     bail!("{}: checkpoint was rendered with --seed {seed}, not {s}", path.display());
                 }
             }
+            // The AOVs and bins go on as they began (an exact resume needs all of them).
+            if let Some(layout) = &layout_arg {
+                c.check_layout(path, layout)?;
+            }
+            check_layout_outputs(c.film.layout(), &outs).with_context(|| format!("{}: resuming", path.display()))?;
             (seed, next_pass, c.film, c.target_spp)
         }
-        _ => (seed_arg.unwrap_or(0), 0, Film::new(width, height), None),
+        _ => (seed_arg.unwrap_or(0), 0, Film::with_layout(width, height, layout_arg.clone().unwrap_or_default()), None),
     };
     let stop = match (stop_arg, stored_target) {
         (Some(s), _) => s,
@@ -454,9 +548,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(c) = &checkpoint_path {
         println!("wrote {}", std::path::absolute(c).unwrap_or_else(|_| c.clone()).display());
     }
-    for w in &written {
-        println!("wrote {}", w.display());
-    }
+    report_written(&written, args.quiet);
     if stopped_by_page {
         eprintln!("lucent: stopped from the preview page; continue with --resume {}", match &checkpoint_path {
             Some(c) => c.display().to_string(),

@@ -1,6 +1,7 @@
 //! The integration tests of the `lucent` command, one test binary (each file a module).
 
 mod common;
+mod aov_cli;
 mod distributed_examples;
 mod fit_cli;
 mod fit_roundtrip;

@@ -34,3 +34,10 @@ pub fn equal_energy_white() -> [f32; 3] {
         [(x[0] / x[1]) as f32, 1.0, (x[2] / x[1]) as f32]
     })
 }
+
+/// Spectral radiance, the same at every wavelength, whose XYZ is [`equal_energy_white`] (Y = 1):
+/// what an `ao` sample of visibility 1 carries per wavelength in spectral images.
+pub fn equal_energy_radiance() -> f32 {
+    static R: std::sync::OnceLock<f32> = std::sync::OnceLock::new();
+    *R.get_or_init(|| (1.0 / crate::math::spectral::xyz_of(|_| 1.0)[1]) as f32)
+}

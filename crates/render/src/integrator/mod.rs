@@ -15,6 +15,7 @@
 //! settings table and an arm in [`sample_pixel_sss`].
 
 pub mod ao;
+pub mod aov;
 pub mod direct;
 pub mod nee;
 pub mod path;
@@ -25,7 +26,7 @@ pub mod volpath;
 pub use settings::{IntegratorKind, IntegratorSettings};
 
 use crate::math::sampling::Pcg32;
-use crate::math::spectral::SampledWavelengths;
+use crate::math::spectral::{SampledWavelengths, N_LAMBDA};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use subsurface::{SubsurfaceMode, SubsurfacePass};
@@ -48,6 +49,67 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
     });
 }
 
+/// Everything one sample of a pixel gives beyond its XYZ estimate, for AOV and spectral films.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelSample {
+    /// CIE XYZ estimate, as [`render_pass`] writes it (0 where not finite).
+    pub xyz: [f32; 3],
+    /// What the camera ray hit first (filled only when asked for, else [`aov::FirstHit::MISS`]).
+    pub first_hit: aov::FirstHit,
+    /// The carried wavelengths, nm.
+    pub lambda_nm: [f32; N_LAMBDA],
+    /// Integral weights L(λᵢ)/(p(λᵢ)·4) of the radiance at `lambda_nm`
+    /// ([`SampledWavelengths::integral_weights`]; 0 where the estimate was not finite, and
+    /// all 0 unless asked for).
+    pub spectral_weight: [f32; N_LAMBDA],
+}
+
+impl PixelSample {
+    /// A sample carrying nothing.
+    pub const ZERO: PixelSample =
+        PixelSample { xyz: [0.0; 3], first_hit: aov::FirstHit::MISS, lambda_nm: [0.0; N_LAMBDA], spectral_weight: [0.0; N_LAMBDA] };
+}
+
+/// Which parts of [`PixelSample`] a pass computes besides the XYZ estimate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleExtras {
+    /// Trace the camera ray's first hit again for the geometric AOVs (the radiance estimate is
+    /// unchanged: no random number is drawn for it).
+    pub first_hit: bool,
+    /// Keep the radiance per carried wavelength (spectral images).
+    pub spectral: bool,
+}
+
+/// [`render_pass`] writing whole [`PixelSample`]s (the extras that `extras` asks for) into
+/// `out` (row-major, `width*height` entries). The XYZ estimates are bit for bit those of
+/// [`render_pass`].
+pub fn render_pass_samples(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass: u64, extras: SampleExtras, out: &mut [PixelSample]) {
+    let (w, h) = scene.resolution();
+    let n = (w as usize) * (h as usize);
+    assert!(out.len() >= n, "render_pass_samples: output has {} entries, need {}×{}", out.len(), w, h);
+    let sss = if settings.kind == IntegratorKind::Path { path::subsurface_pass(scene, settings, seed, pass) } else { None };
+    out[..n].par_chunks_mut(w as usize).enumerate().for_each(|(j, row)| {
+        for (i, o) in row.iter_mut().enumerate() {
+            let pixel = (j as u64) * (w as u64) + i as u64;
+            let mut rng = Pcg32::for_pixel(seed, pass, pixel);
+            let (xyz, ray, u_lambda, wl, l) = trace_pixel(scene, settings, i as u32, j as u32, &mut rng, sss.as_ref());
+            let mut sample = PixelSample { xyz, ..PixelSample::ZERO };
+            if extras.first_hit {
+                sample.first_hit = aov::first_hit(scene, &ray, u_lambda);
+            }
+            if extras.spectral {
+                sample.lambda_nm = wl.lambda_nm;
+                // A sample whose XYZ was rejected (not finite) has l = 0: no spectrum either.
+                let weights = wl.integral_weights(l);
+                if weights.iter().all(|v| v.is_finite()) {
+                    sample.spectral_weight = weights;
+                }
+            }
+            *o = sample;
+        }
+    });
+}
+
 /// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
 #[inline]
 pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
@@ -58,6 +120,21 @@ pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32
 /// their dielectric boundary); with it, the path uses the pass's wavelengths.
 #[inline]
 pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32, sss: Option<&SubsurfacePass>) -> [f32; 3] {
+    trace_pixel(scene, settings, i, j, rng, sss).0
+}
+
+/// One sample of pixel (`i`, `j`): its XYZ estimate (0 where not finite), the camera ray, the
+/// wavelength number, the wavelengths as the path left them and the radiance at them (for `ao`,
+/// the visibility at every wavelength).
+#[inline(always)]
+fn trace_pixel(
+    scene: &Scene,
+    settings: &IntegratorSettings,
+    i: u32,
+    j: u32,
+    rng: &mut Pcg32,
+    sss: Option<&SubsurfacePass>,
+) -> ([f32; 3], crate::math::geometry::Ray, f32, SampledWavelengths, crate::math::spectral::SampledSpectrum) {
     let u_lambda = rng.next_f32();
     let u_film = rng.next_2d();
     let ray = scene.camera.sample_ray(i, j, u_film, || rng.next_2d());
@@ -65,32 +142,32 @@ pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j:
         Some(p) => p.wl,
         None => SampledWavelengths::sample(u_lambda),
     };
-    let xyz = match settings.kind {
+    let (xyz, l) = match settings.kind {
         IntegratorKind::Ao => {
             // Visibility is wavelength-independent: report it as equal-energy white with Y = v.
             let v = ao::ao_visibility(scene, ray, rng);
             let w = ao::equal_energy_white();
-            [w[0] * v, w[1] * v, w[2] * v]
+            ([w[0] * v, w[1] * v, w[2] * v], glam::Vec4::splat(v * ao::equal_energy_radiance()))
         }
         IntegratorKind::Path => {
             let l = match sss {
                 Some(p) => path::li_path_mode(scene, settings, ray, &mut wl, rng, SubsurfaceMode::Bssrdf(p), 0.0),
                 None => path::li_path(scene, settings, ray, &mut wl, rng),
             };
-            wl.to_xyz(l)
+            (wl.to_xyz(l), l)
         }
         IntegratorKind::Volpath => {
             let l = volpath::li_volpath(scene, settings, ray, &mut wl, rng);
-            wl.to_xyz(l)
+            (wl.to_xyz(l), l)
         }
         IntegratorKind::Direct => {
             let l = direct::li_direct(scene, ray, &wl, rng);
-            wl.to_xyz(l)
+            (wl.to_xyz(l), l)
         }
     };
     if xyz.iter().all(|c| c.is_finite()) {
-        xyz
+        (xyz, ray, u_lambda, wl, l)
     } else {
-        [0.0; 3]
+        ([0.0; 3], ray, u_lambda, wl, glam::Vec4::ZERO)
     }
 }

@@ -52,6 +52,9 @@ struct Tables {
     cdf: Vec<f32>,
     /// 1/∫ȳ dλ in nm⁻¹.
     inv_y_integral: f32,
+    /// Linear-sRGB contribution per nm of a unit reflectance lit by D65 normalised to Y = 1, at
+    /// 1-nm spacing (471 entries; (r, g, b, 0)).
+    srgb_d65: Vec<Vec4>,
 }
 
 fn tables() -> &'static Tables {
@@ -94,7 +97,15 @@ fn tables() -> &'static Tables {
                 b as u16
             })
             .collect();
-        Tables { cmf, cmf4, guide, pdf, cdf, inv_y_integral: (1.0 / optics::color::CIE_Y_INTEGRAL) as f32 }
+        let srgb_d65 = (0..n)
+            .map(|i| {
+                let l = LAMBDA_MIN_NM as f64 + i as f64;
+                let s = optics::spectrum::d65_normalized(l) / optics::color::CIE_Y_INTEGRAL;
+                let c = optics::color::xyz_to_linear_srgb([cmf[0][i] as f64 * s, cmf[1][i] as f64 * s, cmf[2][i] as f64 * s]);
+                Vec4::new(c[0] as f32, c[1] as f32, c[2] as f32, 0.0)
+            })
+            .collect();
+        Tables { cmf, cmf4, guide, pdf, cdf, inv_y_integral: (1.0 / optics::color::CIE_Y_INTEGRAL) as f32, srgb_d65 }
     })
 }
 
@@ -216,6 +227,124 @@ impl SampledWavelengths {
         }
         let acc = acc * (t.inv_y_integral / N_LAMBDA as f32);
         [acc.x, acc.y, acc.z]
+    }
+}
+
+impl SampledWavelengths {
+    /// Per carried wavelength, the weight L(λᵢ) / (p(λᵢ) · 4) of radiance `l` in a Monte Carlo
+    /// integral over wavelength (0 for terminated secondary wavelengths): Σᵢ wᵢ·g(λᵢ) estimates
+    /// ∫ L(λ) g(λ) dλ for any g, e.g. g = 1 on a wavelength bin or g = x̄/∫ȳ (then the sum is
+    /// [`SampledWavelengths::to_xyz`]).
+    #[inline]
+    pub fn integral_weights(&self, l: SampledSpectrum) -> [f32; N_LAMBDA] {
+        let w = Vec4::select(self.pdf_per_nm.cmpgt(Vec4::ZERO), l / self.pdf_per_nm, Vec4::ZERO);
+        (w / N_LAMBDA as f32).to_array()
+    }
+
+    /// Linear sRGB estimate of a reflectance `rho` (given at these wavelengths) lit by D65 with
+    /// Y = 1, so that ρ = 1 gives (1, 1, 1) in expectation; the mean over many wavelength samples
+    /// converges to `optics::spectrum::reflectance_to_linear_srgb` of the spectrum.
+    #[inline]
+    pub fn reflectance_to_srgb(&self, rho: SampledSpectrum) -> [f32; 3] {
+        let t = tables();
+        let w = self.integral_weights(rho);
+        let f = self.frac.to_array();
+        let mut acc = Vec4::ZERO;
+        for i in 0..N_LAMBDA {
+            if w[i] != 0.0 {
+                let k = self.index[i] as usize;
+                let (a, b) = (t.srgb_d65[k], t.srgb_d65[k + 1]);
+                acc += (a + (b - a) * f[i]) * w[i];
+            }
+        }
+        [acc.x, acc.y, acc.z]
+    }
+}
+
+/// Wavelength bins of a spectral image: `count` bins of `width_nm` from `start_nm`, within the
+/// sampled range 360–830 nm. Each bin's value is the mean spectral radiance over the bin,
+/// (1/Δλ) ∫_bin L(λ) dλ, in the scene's radiance unit per nm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpectralBins {
+    /// Short edge of the first bin, nm.
+    pub start_nm: f32,
+    /// Width of every bin, nm.
+    pub width_nm: f32,
+    /// Number of bins.
+    pub count: u32,
+}
+
+/// Most bins a spectral image may have (1-nm bins over 360–830 nm give 470).
+pub const MAX_SPECTRAL_BINS: u32 = 4700;
+
+impl SpectralBins {
+    /// Bins from `start_nm` to `end_nm` in steps of `width_nm`; the range must lie within
+    /// 360–830 nm and hold a whole number of bins.
+    pub fn new(start_nm: f64, end_nm: f64, width_nm: f64) -> Result<SpectralBins, String> {
+        if !(start_nm.is_finite() && end_nm.is_finite() && width_nm.is_finite()) {
+            return Err(format!("bins {start_nm}:{end_nm}:{width_nm} nm are not finite numbers"));
+        }
+        let (lo, hi) = (LAMBDA_MIN_NM as f64, LAMBDA_MAX_NM as f64);
+        if start_nm < lo || end_nm > hi {
+            return Err(format!("bins {start_nm}–{end_nm} nm reach outside the rendered range {lo}–{hi} nm"));
+        }
+        if !(width_nm > 0.0) {
+            return Err(format!("bin width must be > 0 nm, got {width_nm}"));
+        }
+        if !(end_nm > start_nm) {
+            return Err(format!("bins must end after they start, got {start_nm}–{end_nm} nm"));
+        }
+        let n = (end_nm - start_nm) / width_nm;
+        let count = n.round();
+        if (n - count).abs() > 1e-6 * n.max(1.0) || count < 1.0 {
+            return Err(format!("{start_nm}–{end_nm} nm is not a whole number of {width_nm}-nm bins ({n:.4})"));
+        }
+        if count > MAX_SPECTRAL_BINS as f64 {
+            return Err(format!("{count} bins is more than {MAX_SPECTRAL_BINS}"));
+        }
+        Ok(SpectralBins { start_nm: start_nm as f32, width_nm: width_nm as f32, count: count as u32 })
+    }
+
+    /// Parse `START:END:WIDTH` in nm (e.g. `400:700:10`).
+    pub fn parse(text: &str) -> Result<SpectralBins, String> {
+        let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+        let [a, b, w] = parts.as_slice() else {
+            return Err(format!("expected START:END:WIDTH in nm (e.g. 400:700:10), got `{text}`"));
+        };
+        let num = |s: &str| s.parse::<f64>().map_err(|_| format!("expected START:END:WIDTH in nm (e.g. 400:700:10), got `{text}`"));
+        SpectralBins::new(num(a)?, num(b)?, num(w)?)
+    }
+
+    /// Long edge of the last bin, nm.
+    pub fn end_nm(&self) -> f32 {
+        self.start_nm + self.width_nm * self.count as f32
+    }
+
+    /// Edges (nm) of bin `k`.
+    pub fn edges_nm(&self, k: u32) -> (f32, f32) {
+        (self.start_nm + self.width_nm * k as f32, self.start_nm + self.width_nm * (k + 1) as f32)
+    }
+
+    /// The bin holding `lambda_nm` (bins are closed below, open above), if any.
+    #[inline]
+    pub fn index_of(&self, lambda_nm: f32) -> Option<usize> {
+        let x = (lambda_nm - self.start_nm) / self.width_nm;
+        if x >= 0.0 && x < self.count as f32 {
+            Some((x as usize).min(self.count as usize - 1))
+        } else {
+            None
+        }
+    }
+
+    /// EXR channel name of bin `k`: its centre wavelength in the spectral layout of Fichet,
+    /// Pacanowski & Wilkie 2021 (JCGT 10(3), used by pbrt-v4's spectral film), `S0.` + the
+    /// wavelength with a decimal comma + `nm`, e.g. `S0.405nm`, `S0.402,5nm`.
+    pub fn channel_name(&self, k: u32) -> String {
+        let (a, b) = self.edges_nm(k);
+        let c = 0.5 * (a as f64 + b as f64);
+        let text = format!("{:.3}", c);
+        let text = text.trim_end_matches('0').trim_end_matches('.');
+        format!("S0.{}nm", text.replace('.', ","))
     }
 }
 

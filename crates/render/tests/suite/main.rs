@@ -1,6 +1,7 @@
 //! The integration tests of the renderer, one test binary (each file a module).
 
 mod common;
+mod aov;
 mod bsdf;
 mod bsdf_scene;
 mod bvh;
