@@ -171,6 +171,10 @@ impl Scene {
         let (tx, rx) = mpsc::channel::<(u64, f64)>();
         // Receiver is not Sync; the wait without the GIL needs a shared reference to it.
         let rx = std::sync::Mutex::new(rx);
+        // With a progress callback the worker waits after each pass until the callback has run,
+        // so that what it returns (or raises) takes effect before the next pass.
+        let (ack_tx, ack_rx) = mpsc::channel::<()>();
+        let ack_rx = progress.as_ref().map(|_| std::sync::Mutex::new(ack_rx));
         let mut pending: Option<PyErr> = None;
         let target = stop.target_spp();
         let joined = std::thread::scope(|s| {
@@ -180,6 +184,9 @@ impl Scene {
                     job.run(Film::new(w, h), cancel, |event| {
                         if let Event::Pass { film, elapsed } = event {
                             let _ = tx.send((film.samples_per_pixel(), elapsed.as_secs_f64()));
+                            if let Some(Ok(ack)) = ack_rx.as_ref().map(|a| a.lock()) {
+                                let _ = ack.recv();
+                            }
                         }
                     })
                 };
@@ -193,6 +200,7 @@ impl Scene {
                     Ok(r) => r.recv_timeout(Duration::from_millis(50)),
                     Err(_) => Err(mpsc::RecvTimeoutError::Disconnected),
                 });
+                let got_pass = msg.is_ok();
                 match msg {
                     Ok((done, elapsed)) => {
                         if let (Some(cb), None) = (&progress, &pending) {
@@ -217,6 +225,9 @@ impl Scene {
                         cancel.store(true, Ordering::SeqCst);
                         pending = Some(e);
                     }
+                }
+                if got_pass && progress.is_some() {
+                    let _ = ack_tx.send(());
                 }
             }
             worker.join()

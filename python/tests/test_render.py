@@ -59,7 +59,8 @@ def test_seeds_differ_and_image_is_plausible():
     a = s.render(spp=2, width=32, height=32, seed=0)
     b = s.render(spp=2, width=32, height=32, seed=1)
     assert not np.array_equal(a, b)
-    assert np.all(np.isfinite(a)) and a.min() >= 0 and 0.01 < a.mean() < 10
+    # linear sRGB of spectral colours may dip slightly below 0 (outside the sRGB gamut)
+    assert np.all(np.isfinite(a)) and a.min() > -0.5 and 0.01 < a.mean() < 10
 
 
 def test_progress_is_called_per_pass_and_can_stop():
