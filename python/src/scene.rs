@@ -87,7 +87,21 @@ impl Scene {
         format!("Scene({:?}, {w}×{h}, {} objects, {} lights)", self.inner.source, self.inner.objects.len(), self.inner.lights.len())
     }
 
-    /// Render; see `lucent.Scene.render` in the Python package for the arguments.
+    /// Render the scene and return the image as a float32 array of shape (height, width, 3) in
+    /// linear sRGB primaries with a D65 white (spectral radiance 1 at every wavelength gives
+    /// Y = 1), equal bit for bit to what `lucent render` writes to EXR or PFM with the same
+    /// arguments.
+    ///
+    /// spp: samples per pixel (default 2^24 / pixels as a power of two, 64 at 512×512), or
+    /// time_s: seconds of wall-clock time instead; seed: of the random sequence (default 0);
+    /// integrator: "path", "volpath", "direct" or "ao" (default: the scene's); width, height:
+    /// pixels (default: the scene's; one alone keeps the aspect ratio); max_depth, rr_depth:
+    /// path segments (default: the scene's); threads: worker threads (default: all cores);
+    /// progress: called as progress(spp_done, spp_target or None, elapsed_s) after each pass,
+    /// before the next one starts; returning False stops the render there.
+    ///
+    /// The GIL is released while rendering. Ctrl-C (KeyboardInterrupt) and an exception raised
+    /// by `progress` stop the render at the end of the current pass and propagate.
     #[pyo3(signature = (spp=None, seed=0, integrator=None, width=None, height=None, max_depth=None, rr_depth=None, threads=None, time_s=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(

@@ -37,10 +37,14 @@ def test_milk_with_options_and_phase_table_equals_cli_json():
     r = lucent.milk(1.5, 3.1, 0.0, wavelengths_nm=np.array([450.0, 550.0, 650.0]), phase_angles=19)
     same_as_cli(r, j)
     assert r.phase_per_sr.shape == (3, 19)
-    # each row normalised to 1 over the sphere (trapezoid in cos θ, 19 angles: ~1 %)
+
+
+def test_milk_phase_table_is_normalised_and_has_mean_cosine_g():
+    r = lucent.milk(1.5, wavelengths_nm=[450.0, 650.0], phase_angles=3601)
     mu = np.cos(np.radians(r.theta_deg))
-    for row in r.phase_per_sr:
-        assert abs(2 * np.pi * np.sum(0.5 * (row[1:] + row[:-1]) * (mu[:-1] - mu[1:])) - 1) < 0.05
+    for row, g in zip(r.phase_per_sr, r.g):
+        trap = lambda f: 2 * np.pi * np.sum(0.5 * (f[1:] + f[:-1]) * (mu[:-1] - mu[1:]))
+        assert abs(trap(row) - 1) < 2e-3 and abs(trap(row * mu) - g) < 2e-3
 
 
 def test_milk_scalar_wavelength_and_default_phase_table():

@@ -86,18 +86,19 @@ def write_csv(path, r, v, se=None):
     with open(path, "w") as f:
         f.write("r_mm,reflectance" + (",stderr" if se is not None else "") + "\n")
         for i in range(len(r)):
-            f.write(f"{r[i]!r},{v[i]!r}" + (f",{se[i]!r}" if se is not None else "") + "\n")
+            f.write(f"{float(r[i])!r},{float(v[i])!r}" + (f",{float(se[i])!r}" if se is not None else "") + "\n")
 
 
-def test_fit_reflectance_recovers_the_dipole_and_equals_cli_json(tmp_path):
-    """Round trip with known truth: a standard-dipole profile (η = 1.33, σ_a = 0.01, σ'_s = 1 mm⁻¹)
-    is fitted back to σ_a and σ'_s; the same data through `lucent fit reflectance` give the same JSON."""
+def test_fit_reflectance_of_a_dipole_profile_equals_cli_json(tmp_path):
+    """A smooth diffusion-like profile (the standard dipole's R_d(r), 0.2 % ripple) fitted by the
+    FPW dipole model: the same data through `lucent fit reflectance` give the same JSON, and the
+    estimates lie inside their intervals, near the generating medium (the two dipoles differ by
+    their source terms, so only to ~10 %)."""
     r = np.linspace(1.0, 10.0, 40)
-    truth = lucent.dipole(1.33, 1.0, 0.01, profile_mm=r).profile  # σ_s = σ'_s at g = 0
-    noise = 1 + 0.002 * np.sin(7 * r)
-    data = truth * noise
+    truth = lucent.dipole(1.33, 1.0, 0.01, profile_mm=r).profile
+    data = truth * (1 + 0.002 * np.sin(7 * r))
     f = lucent.fit_reflectance(r, data, 1.33)
-    assert abs(f.sigma_a_per_mm / 0.01 - 1) < 0.05 and abs(f.sigma_s_prime_per_mm - 1) < 0.05
+    assert abs(f.sigma_a_per_mm / 0.01 - 1) < 0.15 and abs(f.sigma_s_prime_per_mm - 1) < 0.15
     lo, hi = f.sigma_a_ci_per_mm
     assert lo < f.sigma_a_per_mm < hi
     csv = tmp_path / "rd.csv"
@@ -107,13 +108,17 @@ def test_fit_reflectance_recovers_the_dipole_and_equals_cli_json(tmp_path):
         assert f[k] == v, k
 
 
-def test_fit_reflectance_montecarlo_of_slab_bins_equals_cli_json(tmp_path):
-    s = lucent.slab([(0.05, 10, 0.0, 1.4, "inf")], photons=30000, seed=2, radial_bins=30, radial_max_mm=3.0)
+def test_fit_reflectance_montecarlo_recovers_slab_truth_and_equals_cli_json(tmp_path):
+    """Round trip with known truth: R(r) of a semi-infinite slab (σ_a = 0.05, σ_s = 5 mm⁻¹, g = 0,
+    n = 1.3) from Monte Carlo, fitted with the bundled Monte Carlo table for η = 1.3."""
+    s = lucent.slab([(0.05, 5.0, 0.0, 1.3, "inf")], photons=200000, seed=2, radial_bins=40, radial_max_mm=4.0)
     rad = s.radial
-    f = lucent.fit_reflectance(rad.r_mm, rad.rd_per_mm2, 1.4, model="montecarlo", stderr=rad.rd_per_mm2_stderr)
+    f = lucent.fit_reflectance(rad.r_mm, rad.rd_per_mm2, 1.3, model="montecarlo", stderr=rad.rd_per_mm2_stderr)
+    assert f.sigma_a_ci_per_mm[0] < 0.05 * 1.15 and f.sigma_a_ci_per_mm[1] > 0.05 * 0.85, f
+    assert abs(f.sigma_s_prime_per_mm / 5.0 - 1) < 0.1, f
     csv = tmp_path / "slab.csv"
     write_csv(csv, rad.r_mm, rad.rd_per_mm2, rad.rd_per_mm2_stderr)
-    j = cli_json("fit", "reflectance", csv, "--eta", 1.4, "--model", "montecarlo", "--json")
+    j = cli_json("fit", "reflectance", csv, "--eta", 1.3, "--model", "montecarlo", "--json")
     for k, v in j.items():
         assert f[k] == v, k
     assert any("bins" in n for n in f.notes)
@@ -122,7 +127,7 @@ def test_fit_reflectance_montecarlo_of_slab_bins_equals_cli_json(tmp_path):
 def test_fit_reflectance_bad_arguments():
     with pytest.raises(ValueError, match="eta must be finite and > 0"):
         lucent.fit_reflectance([1, 2, 3], [3, 2, 1], -1)
-    with pytest.raises(ValueError, match=r"r_mm\[2\]: 2.0 does not increase"):
+    with pytest.raises(ValueError, match=r"r_mm\[2\]: 2 does not increase \(previous 3\)"):
         lucent.fit_reflectance([1, 3, 2], [3, 2, 1], 1.3)
     with pytest.raises(ValueError, match="reflectance: 2 values for 3 distances"):
         lucent.fit_reflectance([1, 2, 3], [3, 2], 1.3)
@@ -133,7 +138,7 @@ def test_fit_reflectance_bad_arguments():
 
 
 def test_fit_particles_recovers_milk_and_equals_cli_json(tmp_path):
-    lam = np.array([450.0, 500.0, 550.0, 600.0, 650.0, 700.0])
+    lam = np.array([450.0, 550.0, 650.0, 750.0])
     m = lucent.milk(2.0, pressure_mpa=10.0, wavelengths_nm=lam, phase_angles=0)
     sp = m.sigma_s_per_mm * (1 - m.g)
     f = lucent.fit_particles(lam, sp)
@@ -142,7 +147,7 @@ def test_fit_particles_recovers_milk_and_equals_cli_json(tmp_path):
     with open(csv, "w") as fh:
         fh.write("wavelength_nm,sigma_s_prime_per_mm\n")
         for a, b in zip(lam, sp):
-            fh.write(f"{a!r},{b!r}\n")
+            fh.write(f"{float(a)!r},{float(b)!r}\n")
     j = cli_json("fit", "particles", csv, "--medium", "milk", "--json")
     for k, v in j.items():
         assert f[k] == v, k
@@ -151,7 +156,7 @@ def test_fit_particles_recovers_milk_and_equals_cli_json(tmp_path):
 def test_fit_particles_bad_arguments():
     with pytest.raises(ValueError, match="at least 3 wavelengths"):
         lucent.fit_particles([500.0, 600.0], [1.0, 0.9])
-    with pytest.raises(ValueError, match=r"wavelength_nm\[1\]: 500.0 does not increase"):
+    with pytest.raises(ValueError, match=r"wavelength_nm\[1\]: 500 does not increase"):
         lucent.fit_particles([500.0, 500.0, 600.0], [1.0, 0.9, 0.8])
     with pytest.raises(ValueError, match="particle=NAME is needed"):
         lucent.fit_particles([450.0, 550.0, 650.0], [1.0, 0.9, 0.8], medium=str(ROOT / "media" / "polystyrene-beads.toml"))
