@@ -100,7 +100,8 @@ def test_render_releases_the_gil():
     finally:
         stop.set()
         t.join()
-    assert during > 50, f"another Python thread ran only {during} times during a 0.5 s render"
+    # a thread blocked by the GIL would not run at all; 10 leaves room for a loaded machine
+    assert during > 10, f"another Python thread ran only {during} times during a 0.5 s render"
 
 
 @pytest.mark.skipif(os.name != "posix", reason="SIGINT delivery")
