@@ -665,6 +665,12 @@ pub fn scattering_sum(a: &[Complex64], b: &[Complex64]) -> f64 {
         .sum()
 }
 
+/// Size parameter in the host, x = 2π r n_med / λ (complex for an absorbing host), for a sphere
+/// of radius `radius_m` at vacuum wavelength `lambda_m`: the x that [`MieWorkspace::sphere`] uses.
+pub fn size_parameter(radius_m: f64, lambda_m: f64, n_medium: Complex64) -> Complex64 {
+    n_medium * (2.0 * PI / lambda_m * radius_m)
+}
+
 /// Convenience: Q's and g for real size parameter `x` and relative index `m` (thread-local workspace).
 pub fn efficiencies(x: f64, m: Complex64) -> Efficiencies {
     WORKSPACE.with(|w| w.borrow_mut().efficiencies(x, m))

@@ -111,6 +111,18 @@ pub struct LineGrid {
     pub max_mm: f64,
 }
 
+/// Default outer radius (or half length) of the resolved tallies in mm: ten transport mean free
+/// paths 1/(σ_a + σ_s(1 − g)) of the top layer, 10 mm when that layer neither absorbs nor scatters.
+pub fn default_tally_max_mm(layers: &[Layer]) -> f64 {
+    let Some(l) = layers.first() else { return 10.0 };
+    let mu_tr = l.mua_per_mm + l.mus_per_mm * (1.0 - l.g);
+    if mu_tr > 0.0 {
+        10.0 / mu_tr
+    } else {
+        10.0
+    }
+}
+
 /// Everything a slab simulation needs.
 #[derive(Clone, Debug)]
 pub struct SlabSettings {

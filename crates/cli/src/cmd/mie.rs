@@ -6,7 +6,6 @@ use super::format::sig;
 use anyhow::{anyhow, bail, Context, Result};
 use optics::mie::{self, Complex64, MieWorkspace};
 use serde_json::{json, Value};
-use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -124,7 +123,7 @@ pub fn run(args: Args) -> Result<()> {
             Some(s) => index("--n-medium", s)?,
             None => Complex64::new(1.0, 0.0),
         };
-        let x = nm * (2.0 * PI * r_um * 1e3 / l_nm);
+        let x = mie::size_parameter(r_um * 1e-6, l_nm * 1e-9, nm);
         mie::check_size(x, np / nm).context("--radius-um, --wavelength-nm, --n-particle, --n-medium")?;
         let alpha = 2.0 * x.im;
         if alpha > mie::MAX_HOST_ATTENUATION {

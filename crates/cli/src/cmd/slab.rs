@@ -107,15 +107,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         layers.push(l);
     }
-    let default_max_mm = {
-        let l = &layers[0];
-        let mu_tr = l.mua_per_mm + l.mus_per_mm * (1.0 - l.g);
-        if mu_tr > 0.0 {
-            10.0 / mu_tr
-        } else {
-            10.0
-        }
-    };
+    let default_max_mm = optics::slab::default_tally_max_mm(&layers);
     let radial = match (args.radial_bins, args.radial_max_mm) {
         (None, None) => None,
         (None, Some(_)) => bail!("--radial-max-mm needs --radial-bins"),

@@ -1,0 +1,80 @@
+# Type stubs of the lucent package (python/lucent/__init__.py; the Scene class is in Rust).
+# Units are in the names: _m metres, _nm nanometres, _mm millimetres, _per_mm mm⁻¹, _percent
+# weight percent, _mpa megapascal, _deg degrees, _s seconds.
+from os import PathLike
+from typing import Any, Callable, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+MILK_PROTEIN_PERCENT: float
+MILK_PRESSURE_MPA: float
+SLAB_MAX_STEPS_PER_PHOTON: int
+
+_Real = Union[float, npt.ArrayLike]
+_Complex = Union[complex, float, npt.ArrayLike]
+_Path = Union[str, PathLike[str]]
+
+class Result(dict[str, Any]):
+    def __getattr__(self, name: str) -> Any: ...
+
+def mie(x: _Real, m: _Complex, angles_deg: Optional[_Real] = None, *, threads: Optional[int] = None) -> Result:
+    """Q_ext, Q_sca, Q_abs, Q_back, g (and S1, S2, phase_per_sr at angles_deg) of spheres of size
+    parameter x and relative index m (Im m ≥ 0 absorbs), broadcast like numpy."""
+
+def mie_sphere(radius_m: _Real, wavelength_m: _Real, n_particle: _Complex, n_medium: _Complex = 1.0,
+               angles_deg: Optional[_Real] = None, *, threads: Optional[int] = None) -> Result:
+    """Cross sections (m²) and efficiencies of spheres in a possibly absorbing host."""
+
+def milk(fat_percent: float, protein_percent: float = 3.4, pressure_mpa: float = 20.0,
+         wavelengths_nm: Optional[_Real] = None, *, phase_angles: int = 181) -> Result:
+    """σ_s, σ_a, σ_t (mm⁻¹), g per wavelength and the tabulated phase function of milk."""
+
+def medium(recipe: Union[_Path, dict[str, Any]], wavelengths_nm: Optional[_Real] = None, *,
+           phase_angles: Optional[int] = None) -> Result:
+    """Bulk optical properties of a medium recipe (file or dict)."""
+
+def dipole(eta: _Real, sigma_s_per_mm: _Real, sigma_a_per_mm: _Real, g: _Real = 0.0, *, model: str = "standard",
+           profile_mm: Optional[_Real] = None, rd: Optional[bool] = None) -> Result:
+    """Dipole BSSRDF: rd, rd_closed_form and the profile R_d(r) in mm⁻²."""
+
+def slab(layers: Sequence[Union[Sequence[Union[float, str]], dict[str, Any]]], *, n_above: float = 1.0, n_below: float = 1.0,
+         photons: int = 1_000_000, seed: int = 1, radial_bins: Optional[int] = None, radial_max_mm: Optional[float] = None,
+         incidence_deg: float = 0.0, line_bins: Optional[int] = None, line_max_mm: Optional[float] = None,
+         max_steps_per_photon: int = 1_000_000, threads: Optional[int] = None) -> Result:
+    """Layered-slab Monte Carlo photon transport (the keys of `lucent slab --json`)."""
+
+def fit_reflectance(r_mm: _Real, reflectance: _Real, eta: float, model: str = "dipole", *, stderr: Optional[_Real] = None,
+                    relative: bool = False, r_min_mm: float = 0.0, r_max_mm: Optional[float] = None, noise: float = 0.01,
+                    table: Optional[_Path] = None) -> Result:
+    """σ_a and σ'_s (mm⁻¹) with 95 % intervals from R(r)."""
+
+def fit_particles(wavelength_nm: _Real, sigma_s_prime_per_mm: _Real, sigma_a_per_mm: Optional[_Real] = None, *,
+                  medium: str = "milk", particle: Optional[str] = None, protein_percent: float = 3.4) -> Result:
+    """Fat content and homogenization pressure of milk (or a recipe particle's size) from σ'_s spectra."""
+
+def compare(a: npt.ArrayLike, b: npt.ArrayLike, mask: Optional[npt.ArrayLike] = None, *,
+            color_correct: Union[None, bool, str] = None, saturation: float = 1.0) -> Result:
+    """RMSE, relMSE, PSNR, SSIM, mean ΔE2000 of two (H, W, 3) linear sRGB images."""
+
+class Scene:
+    """A scene ready to render (docs/scene-format.md)."""
+    @staticmethod
+    def load(path: _Path) -> "Scene": ...
+    @staticmethod
+    def from_toml(text: str, name: str = "<string>", base_dir: Optional[_Path] = None) -> "Scene": ...
+    @staticmethod
+    def cornell_box() -> "Scene": ...
+    @property
+    def resolution(self) -> Tuple[int, int]: ...
+    @property
+    def source(self) -> str: ...
+    @property
+    def integrator(self) -> Tuple[str, int, int]: ...
+    def render(self, spp: Optional[int] = None, seed: int = 0, integrator: Optional[str] = None, width: Optional[int] = None,
+               height: Optional[int] = None, max_depth: Optional[int] = None, rr_depth: Optional[int] = None,
+               threads: Optional[int] = None, time_s: Optional[float] = None,
+               progress: Optional[Callable[[int, Optional[int], float], Optional[bool]]] = None) -> npt.NDArray[np.float32]:
+        """Render to an (H, W, 3) float32 array of linear sRGB; progress(spp_done, spp_target, elapsed_s)
+        is called after each pass (return False to stop); Ctrl-C stops between passes."""

@@ -1,0 +1,37 @@
+//! The `lucent._lucent` extension module: lucent's optics, reflectometry fits, renderer and image
+//! comparison for Python (PyO3). The Python package `lucent` (python/lucent/__init__.py) wraps
+//! these functions: it broadcasts numpy arguments, flattens them for the functions here and
+//! reshapes the results. Each function calls the same library functions with the same defaults
+//! as the `lucent` command, so the numbers equal its `--json` output.
+//!
+//! Errors: bad arguments raise `ValueError`, failures to read or write a file `OSError`, with the
+//! library's one-line message; nothing here panics on user input.
+
+mod compare;
+mod errors;
+mod fit;
+mod media;
+mod mie;
+mod parallel;
+mod scene;
+mod slab;
+mod subsurface;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(mie::mie_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(mie::mie_sphere_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(media::milk, m)?)?;
+    m.add_function(wrap_pyfunction!(media::medium_file, m)?)?;
+    m.add_function(wrap_pyfunction!(media::medium_json, m)?)?;
+    m.add_function(wrap_pyfunction!(subsurface::dipole_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(slab::slab, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit_reflectance, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit_particles, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
+    m.add_class::<scene::Scene>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
