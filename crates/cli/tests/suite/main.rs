@@ -10,3 +10,4 @@ mod preview;
 mod render_cli;
 mod robustness_optics;
 mod robustness_render;
+mod scan_cli;
