@@ -1,1 +1,4 @@
 //! Integration tests of the scan crate.
+
+mod calib;
+mod common;
