@@ -9,3 +9,4 @@
 
 pub mod calib;
 pub mod decode;
+pub mod graycode;

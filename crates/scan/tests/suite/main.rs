@@ -2,3 +2,5 @@
 
 mod calib;
 mod common;
+mod decode;
+mod graycode;
