@@ -162,3 +162,45 @@ pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Resu
             .collect(),
     })
 }
+
+/// Options of [`calibrate_dirs`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CalibrateOptions {
+    /// Decoding thresholds.
+    pub decode: crate::decode::DecodeSettings,
+    /// Local homography window.
+    pub local: procam::LocalHomography,
+}
+
+/// The corners of one capture folder: decode it, find the board in its white frame, and take each
+/// corner's projector position from a local homography. `progress` is called once per frame read.
+pub fn capture_corners(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<CaptureCorners> {
+    capture_corners_sized(dir, rig, opts, progress).map(|c| c.0)
+}
+
+fn capture_corners_sized(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<(CaptureCorners, (u32, u32))> {
+    use anyhow::bail;
+    let name = dir.display().to_string();
+    let patterns = crate::graycode::PatternSet::new(rig.projector.0, rig.projector.1, 1)?;
+    let (map, _) = crate::decode::decode_dir(dir, &patterns, &opts.decode, progress)?;
+    if (map.width as u32, map.height as u32) != rig.camera && rig.camera != (0, 0) {
+        bail!("{name}: camera images are {}x{}, the other captures {}x{}", map.width, map.height, rig.camera.0, rig.camera.1);
+    }
+    let img = chessboard::GrayImage { width: map.width, height: map.height, data: map.white.clone() };
+    let cam = chessboard::find_chessboard_named(&img, rig.cols, rig.rows, &name)?;
+    let proj = procam::projector_corners(&map, &cam, &opts.local, &name)?;
+    Ok((CaptureCorners { name, cam, proj }, (map.width as u32, map.height as u32)))
+}
+
+/// Calibrate from capture folders (each as [`capture_corners`]); the camera size is taken from the
+/// first capture. `progress` is called once per frame read.
+pub fn calibrate_dirs(dirs: &[std::path::PathBuf], rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<(ProcamCalibration, Vec<CaptureCorners>)> {
+    let mut rig = *rig;
+    let mut caps = Vec::new();
+    for d in dirs {
+        let (c, size) = capture_corners_sized(d, &rig, opts, progress)?;
+        rig.camera = size;
+        caps.push(c);
+    }
+    Ok((calibrate_corners(&rig, &caps)?, caps))
+}

@@ -288,13 +288,25 @@ fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashM
                 break;
             }
         }
+        // The board is the cols × rows window (either way round) holding the most nodes; nodes
+        // outside it (isolated X-like features in line with the lattice) are dropped.
         let (imin, imax, jmin, jmax) = extent(at.keys());
-        let (ni, nj) = ((imax - imin + 1) as usize, (jmax - jmin + 1) as usize);
-        let fits = (ni == cols && nj == rows) || (ni == rows && nj == cols);
-        if std::env::var("CB_DEBUG").is_ok() { eprintln!("seed {s} k {k}: {ni}x{nj} n={}", at.len()); }
-        if !fits || at.len() + 3 < cols * rows {
+        let mut best: Option<(usize, i32, i32, usize, usize)> = None;
+        for (wi, wj) in [(cols, rows), (rows, cols)] {
+            for i0 in imin..=(imax - wi as i32 + 1) {
+                for j0 in jmin..=(jmax - wj as i32 + 1) {
+                    let n = at.keys().filter(|k| k.0 >= i0 && k.0 < i0 + wi as i32 && k.1 >= j0 && k.1 < j0 + wj as i32).count();
+                    if best.map_or(true, |b| n > b.0) {
+                        best = Some((n, i0, j0, wi, wj));
+                    }
+                }
+            }
+        }
+        let Some((count, imin, jmin, ni, nj)) = best else { continue };
+        if count + 3 < cols * rows {
             continue;
         }
+        at.retain(|k, _| k.0 >= imin && k.0 < imin + ni as i32 && k.1 >= jmin && k.1 < jmin + nj as i32);
         let mut out: HashMap<(i32, i32), Point2> = at.iter().map(|(&k, &c)| ((k.0 - imin, k.1 - jmin), cands[c].p)).collect();
         for i in 0..ni as i32 {
             for j in 0..nj as i32 {
