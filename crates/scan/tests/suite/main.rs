@@ -1,6 +1,7 @@
 //! Integration tests of the scan crate.
 
 mod calib;
+mod calib_real;
 mod common;
 mod decode;
 mod graycode;
