@@ -8,5 +8,7 @@
 //! the calibration and the reconstruction in chessboard square units.
 
 pub mod calib;
+pub mod cloud;
 pub mod decode;
 pub mod graycode;
+pub mod triangulate;

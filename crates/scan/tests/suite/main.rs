@@ -5,3 +5,4 @@ mod calib_real;
 mod common;
 mod decode;
 mod graycode;
+mod triangulate;
