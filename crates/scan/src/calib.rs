@@ -195,12 +195,20 @@ fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], vi
 }
 
 /// Options of [`calibrate_dirs`].
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct CalibrateOptions {
     /// Decoding thresholds.
     pub decode: crate::decode::DecodeSettings,
     /// Local homography window.
     pub local: procam::LocalHomography,
+    /// Projector pixels per Gray code, as the patterns were made.
+    pub step: u32,
+}
+
+impl Default for CalibrateOptions {
+    fn default() -> Self {
+        CalibrateOptions { decode: Default::default(), local: Default::default(), step: 1 }
+    }
 }
 
 /// The corners of one capture folder: decode it, find the board in its white frame, and take each
@@ -212,7 +220,7 @@ pub fn capture_corners(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptions
 fn capture_corners_sized(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<(CaptureCorners, (u32, u32))> {
     use anyhow::bail;
     let name = dir.display().to_string();
-    let patterns = crate::graycode::PatternSet::new(rig.projector.0, rig.projector.1, 1)?;
+    let patterns = crate::graycode::PatternSet::new(rig.projector.0, rig.projector.1, opts.step)?;
     let (map, _) = crate::decode::decode_dir(dir, &patterns, &opts.decode, progress)?;
     if (map.width as u32, map.height as u32) != rig.camera && rig.camera != (0, 0) {
         bail!("{name}: camera images are {}x{}, the other captures {}x{}", map.width, map.height, rig.camera.0, rig.camera.1);

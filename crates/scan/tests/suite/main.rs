@@ -2,6 +2,7 @@
 
 mod calib;
 mod calib_real;
+mod chessboard;
 mod common;
 mod decode;
 mod graycode;

@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 pub mod decode;
 pub mod patterns;
-// Calibration subcommand module: `pub mod calibrate;` (cmd/scan/calibrate.rs).
+pub mod calibrate;
 
 /// Arguments of `lucent scan`.
 #[derive(clap::Args, Debug)]
@@ -26,7 +26,8 @@ pub enum Command {
     Patterns(patterns::Args),
     /// Decode a capture folder into projector column and row per camera pixel.
     Decode(decode::Args),
-    // ── Calibration subcommand: `Calibrate(calibrate::Args),` goes here (cmd/scan/calibrate.rs). ──
+    /// Calibrate projector and camera from chessboard captures (local homographies, Zhang, LM).
+    Calibrate(calibrate::Args),
 }
 
 /// Runs one `lucent scan` subcommand.
@@ -34,7 +35,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.command {
         Command::Patterns(a) => patterns::run(a),
         Command::Decode(a) => decode::run(a),
-        // ── Calibration subcommand: `Command::Calibrate(a) => calibrate::run(a),` goes here. ──
+        Command::Calibrate(a) => calibrate::run(a),
     }
 }
 
