@@ -1,1 +1,4 @@
 //! Integration tests of the scan crate.
+
+mod eval;
+mod synth;
