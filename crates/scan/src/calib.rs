@@ -1,5 +1,12 @@
 //! Projector–camera calibration: the result type and its JSON form.
 
+pub mod bundle;
+pub mod chessboard;
+pub mod homography;
+pub mod model;
+pub mod procam;
+pub mod zhang;
+
 use serde::{Deserialize, Serialize};
 
 /// One device's intrinsics and distortion (OpenCV's model and pixel convention).
@@ -51,4 +58,107 @@ pub struct ProcamCalibration {
     pub rms_px: f64,
     /// Per-capture board poses.
     pub captures: Vec<CapturePose>,
+}
+
+/// One capture's corners: in the camera image and in the projector image (pixels, OpenCV
+/// convention), both in the board's row-major order.
+#[derive(Clone, Debug)]
+pub struct CaptureCorners {
+    /// The capture's name (its folder).
+    pub name: String,
+    /// Camera corners.
+    pub cam: Vec<homography::Point2>,
+    /// Projector corners.
+    pub proj: Vec<homography::Point2>,
+}
+
+/// Sizes of the board and the devices.
+#[derive(Clone, Copy, Debug)]
+pub struct Rig {
+    /// Inner corners per board row.
+    pub cols: usize,
+    /// Inner corner rows.
+    pub rows: usize,
+    /// Square size (the unit of all lengths in the result).
+    pub square: f64,
+    /// Camera image size (pixels).
+    pub camera: (u32, u32),
+    /// Projector image size (pixels).
+    pub projector: (u32, u32),
+}
+
+/// A reprojection RMS above which the fit counts as not converged (pixels).
+pub const MAX_RMS_PX: f64 = 10.0;
+
+/// Calibrate camera, projector and their relative pose from the corners of ≥ 3 captures:
+/// Zhang's closed form per device (from normalised-DLT homographies), the board poses from
+/// the homographies, Levenberg–Marquardt per device, the stereo pose as the rotation average
+/// (nearest rotation to ΣR_p,iR_c,iᵀ) and mean translation over the captures, then one joint
+/// Levenberg–Marquardt over all reprojection errors of both devices.
+pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Result<ProcamCalibration> {
+    use anyhow::{bail, Context};
+    use bundle::{refine, rms, Free, State, ViewObs};
+    let n = rig.cols * rig.rows;
+    if captures.len() < 3 {
+        bail!("degenerate pose set: calibration needs at least 3 captures, got {}", captures.len());
+    }
+    for c in captures {
+        if c.cam.len() != n || c.proj.len() != n {
+            bail!("capture {}: {} camera and {} projector corners, expected {n}", c.name, c.cam.len(), c.proj.len());
+        }
+    }
+    let obj = zhang::board_points(rig.cols, rig.rows, rig.square);
+    let mono = |pts: &dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, size: (u32, u32), what: &str| -> anyhow::Result<State> {
+        let mut hs = Vec::new();
+        for c in captures {
+            hs.push(homography::fit_homography(&obj, pts(c)).with_context(|| format!("{what}, capture {}: the corners do not determine a homography", c.name))?);
+        }
+        let lens = zhang::intrinsics(&hs, size.0, size.1).with_context(|| what.to_string())?;
+        let mut poses = Vec::new();
+        for (h, c) in hs.iter().zip(captures) {
+            poses.push(zhang::pose_from_homography(h, &lens.k()).with_context(|| format!("{what}, capture {}: no board pose", c.name))?);
+        }
+        let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: pts(c).clone(), proj: vec![] }).collect();
+        let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
+        refine(&obj, &views, &init, Free::default(), MAX_RMS_PX).with_context(|| what.to_string())
+    };
+    let cam = mono(&|c| &c.cam, rig.camera, "camera")?;
+    let proj = mono(&|c| &c.proj, rig.projector, "projector")?;
+    let mut rsum = nalgebra::Matrix3::zeros();
+    let mut tsum = nalgebra::Vector3::zeros();
+    for (pc, pp) in cam.poses.iter().zip(&proj.poses) {
+        let r = pp.r() * pc.r().transpose();
+        rsum += r;
+        tsum += pp.t - r * pc.t;
+    }
+    let r = model::nearest_rotation(&rsum);
+    let t = tsum / captures.len() as f64;
+    let stereo = model::Pose::from_rt(&r, t);
+    let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
+    let init = State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() };
+    let fit = refine(&obj, &views, &init, Free::default(), MAX_RMS_PX).context("stereo")?;
+    let e = rms(&obj, &views, &fit);
+    let device = |l: &model::Lens, size: (u32, u32), rms_px: f64| DeviceCalibration {
+        width: size.0,
+        height: size.1,
+        fx: l.fx,
+        fy: l.fy,
+        cx: l.cx,
+        cy: l.cy,
+        distortion: l.dist.to_vec(),
+        rms_px,
+    };
+    let rm = fit.stereo.r();
+    Ok(ProcamCalibration {
+        camera: device(&fit.cam, rig.camera, e.cam),
+        projector: device(fit.proj.as_ref().unwrap(), rig.projector, e.proj),
+        rotation: [[rm[(0, 0)], rm[(0, 1)], rm[(0, 2)]], [rm[(1, 0)], rm[(1, 1)], rm[(1, 2)]], [rm[(2, 0)], rm[(2, 1)], rm[(2, 2)]]],
+        translation: [fit.stereo.t[0], fit.stereo.t[1], fit.stereo.t[2]],
+        rms_px: e.all,
+        captures: captures
+            .iter()
+            .zip(fit.poses.iter().zip(&e.per_view))
+            .map(|(c, (p, &r))| CapturePose { name: c.name.clone(), rvec: [p.rvec[0], p.rvec[1], p.rvec[2]], tvec: [p.t[0], p.t[1], p.t[2]], rms_px: r })
+            .collect(),
+    })
 }

@@ -1,4 +1,44 @@
 //! Decoding a Gray-code capture into projector coordinates per camera pixel.
+//!
+//! A capture is a folder of camera frames `graycode_NN.png` (or `.jpg`), one per frame of the
+//! [`PatternSet`] in its order. Per camera pixel:
+//!
+//! 1. **Lit**: white − black > the black threshold (8-bit grey levels; default 40), else invalid
+//!    (shadow, or outside the projector's throw).
+//! 2. **Bits**: for each bit, d = pattern − inverse; the bit is 1 where d > 0. A bit is decided
+//!    only where |d| > the white threshold (default 5); one undecided bit makes the pixel invalid.
+//!    The Gray codes of column and row are turned into codes; a code past the last projected one
+//!    (a misread) makes the pixel invalid. A pixel is valid only with both coordinates.
+//! 3. **Integer coordinate**: the centre of the projector pixels carrying the code, in OpenCV's
+//!    convention (integer coordinates at pixel centres): code c with step S covers projector
+//!    pixels cS … cS + S − 1 and sits at cS + (S − 1)/2.
+//! 4. **Sub-pixel refinement from stripe edges** (in the spirit of Trobina, "Error model of a
+//!    coded-light range sensor", ETH TR BIWI-TR-164, 1995, and Salvi et al., Pattern Recognition
+//!    43, 2010, §3.1): between two neighbouring camera pixels (along a camera row or column)
+//!    whose codes differ by exactly one, the projector boundary between those codes lies at
+//!    projector coordinate B = max(c₀, c₁)·S − ½. Exactly one Gray bit flips there; its
+//!    difference signal d = pattern − inverse changes sign between the two pixels, and the
+//!    boundary's camera position is taken where d crosses zero, interpolated linearly:
+//!    s = p₀ + d₀/(d₀ − d₁). A run of pixels with one code c bounded by the two boundaries of c
+//!    (the codes on its two sides are c − 1 and c + 1, in either order) gets the projector
+//!    coordinate interpolated linearly between its two edges (s_l, B_l) and (s_r, B_r). Each
+//!    coordinate is refined along camera rows and along camera columns; the direction whose
+//!    edges are closer (the one crossing the stripes more squarely) is used. Pixels without such
+//!    a bracket (at a border of the valid region, in a run ending at a jump of more than one code
+//!    where projector pixels are smaller than camera pixels, or at a fold) keep the integer
+//!    coordinate. On ideal patterns seen 1:1 every bracketed pixel is exact (the zero crossing
+//!    falls half-way between the pixels), which the test suite checks.
+//!
+//! OpenCV's `GrayCodePattern::getProjPixel` rejects a bit only where |d| < the white threshold
+//! and accepts codes up to and including the projector size; this decoder uses |d| > threshold,
+//! as the shadow mask does for the black threshold, and rejects codes ≥ the code count.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use rayon::prelude::*;
+
+use crate::graycode::{gray_decode, gray_encode, PatternSet};
 
 /// Projector coordinates per camera pixel, row-major over the camera image.
 #[derive(Clone, Debug)]
@@ -23,4 +63,292 @@ impl DecodeMap {
         let i = y * self.width + x;
         self.col[i].is_finite() && self.row[i].is_finite()
     }
+
+    /// Number of camera pixels with a decoded projector coordinate.
+    pub fn valid_pixels(&self) -> usize {
+        self.col.iter().zip(&self.row).filter(|(c, r)| c.is_finite() && r.is_finite()).count()
+    }
+
+    /// Valid pixels over all camera pixels (0…1).
+    pub fn valid_fraction(&self) -> f64 {
+        self.valid_pixels() as f64 / (self.width * self.height).max(1) as f64
+    }
+}
+
+/// Decoding thresholds (8-bit grey levels) and the refinement switch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DecodeSettings {
+    /// A pixel is lit where white − black exceeds this (grey levels).
+    pub black_threshold: i32,
+    /// A bit is decided where |pattern − inverse| exceeds this (grey levels).
+    pub white_threshold: i32,
+    /// Sub-pixel refinement from stripe edges (module documentation, step 4).
+    pub refine: bool,
+}
+
+impl Default for DecodeSettings {
+    fn default() -> Self {
+        DecodeSettings { black_threshold: 40, white_threshold: 5, refine: true }
+    }
+}
+
+/// Counts from one decode.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DecodeStats {
+    /// Valid pixels.
+    pub valid_pixels: usize,
+    /// Valid pixels whose column was refined from stripe edges.
+    pub refined_columns: usize,
+    /// Valid pixels whose row was refined from stripe edges.
+    pub refined_rows: usize,
+}
+
+/// The camera frames of one capture: 8-bit grey, all the same size, in pattern order.
+#[derive(Clone, Debug)]
+pub struct Capture {
+    /// Frame width (camera pixels).
+    pub width: usize,
+    /// Frame height (camera pixels).
+    pub height: usize,
+    /// One row-major grey image per frame of the pattern set.
+    pub frames: Vec<Vec<u8>>,
+}
+
+/// The frame files of a capture folder in pattern order: `graycode_NN.png`, `.jpg` or `.jpeg`
+/// (any number of digits, case-insensitive extension); other files are ignored. An error naming
+/// the file for a missing frame, a frame past the sequence, or two files for one frame.
+pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> {
+    let n = patterns.len();
+    let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
+    let mut slots: Vec<Option<PathBuf>> = vec![None; n];
+    let sequence = || format!("the {}x{} step-{} sequence has {n} frames, graycode_00 … graycode_{:02}", patterns.width, patterns.height, patterns.step, n - 1);
+    for entry in entries {
+        let entry = entry.with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
+        let path = entry.path();
+        let Some(name) = path.file_name().and_then(|s| s.to_str()) else { continue };
+        let Some(rest) = name.strip_prefix("graycode_") else { continue };
+        let Some((digits, ext)) = rest.split_once('.') else { continue };
+        if !matches!(ext.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg") {
+            continue;
+        }
+        if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+            bail!("{}: not a frame name (expected graycode_NN.png)", path.display());
+        }
+        let index: usize = digits.parse().map_err(|_| anyhow!("{}: frame number out of range", path.display()))?;
+        if index >= n {
+            bail!("{}: extra image ({})", path.display(), sequence());
+        }
+        if let Some(other) = &slots[index] {
+            bail!("{}: a second file for frame {index} (also {})", path.display(), other.display());
+        }
+        slots[index] = Some(path);
+    }
+    slots
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| p.ok_or_else(|| anyhow!("{}: missing image ({})", dir.join(format!("graycode_{i:02}.png")).display(), sequence())))
+        .collect()
+}
+
+/// Reads one camera frame as 8-bit grey (colour is converted to luma; 16-bit scaled to 8).
+pub fn read_grey(path: &Path) -> Result<(usize, usize, Vec<u8>)> {
+    let img = image::open(path).with_context(|| format!("{}: cannot read the image", path.display()))?.into_luma8();
+    let (w, h) = img.dimensions();
+    Ok((w as usize, h as usize, img.into_raw()))
+}
+
+/// Reads a capture folder (frames decoded in parallel); `progress` is called once per frame read.
+/// An error naming the file for a bad name set (see [`capture_paths`]), an unreadable image, or
+/// a frame whose size differs from the first.
+pub fn read_capture(dir: &Path, patterns: &PatternSet, progress: &(dyn Fn() + Sync)) -> Result<Capture> {
+    let paths = capture_paths(dir, patterns)?;
+    let frames: Vec<(usize, usize, Vec<u8>)> = paths
+        .par_iter()
+        .map(|p| {
+            let r = read_grey(p);
+            progress();
+            r
+        })
+        .collect::<Result<_>>()?;
+    let (width, height) = (frames[0].0, frames[0].1);
+    for (path, f) in paths.iter().zip(&frames) {
+        if (f.0, f.1) != (width, height) {
+            bail!("{}: {}x{} pixels, but {} is {width}x{height}", path.display(), f.0, f.1, paths[0].display());
+        }
+    }
+    Ok(Capture { width, height, frames: frames.into_iter().map(|f| f.2).collect() })
+}
+
+/// Reads and decodes a capture folder.
+pub fn decode_dir(dir: &Path, patterns: &PatternSet, settings: &DecodeSettings, progress: &(dyn Fn() + Sync)) -> Result<(DecodeMap, DecodeStats)> {
+    let capture = read_capture(dir, patterns, progress)?;
+    decode(&capture, patterns, settings)
+}
+
+/// Decodes a capture (module documentation).
+pub fn decode(capture: &Capture, patterns: &PatternSet, settings: &DecodeSettings) -> Result<(DecodeMap, DecodeStats)> {
+    let (w, h) = (capture.width, capture.height);
+    if capture.frames.len() != patterns.len() {
+        bail!("capture has {} frames, the {}x{} step-{} sequence {}", capture.frames.len(), patterns.width, patterns.height, patterns.step, patterns.len());
+    }
+    if let Some(i) = capture.frames.iter().position(|f| f.len() != w * h) {
+        bail!("capture frame {i} has {} pixels for {w}x{h}", capture.frames[i].len());
+    }
+    let f = &capture.frames;
+    let (nc, nr) = (patterns.column_bits() as usize, patterns.row_bits() as usize);
+    let (white, black) = (&f[2 * (nc + nr)], &f[2 * (nc + nr) + 1]);
+    let (cc, rc) = (patterns.column_codes(), patterns.row_codes());
+    let (bt, wt) = (settings.black_threshold, settings.white_threshold);
+
+    // Integer codes, −1 where invalid.
+    let mut col_code = vec![-1i32; w * h];
+    let mut row_code = vec![-1i32; w * h];
+    let rows_per_chunk = 16;
+    col_code
+        .par_chunks_mut(w * rows_per_chunk)
+        .zip(row_code.par_chunks_mut(w * rows_per_chunk))
+        .enumerate()
+        .for_each(|(chunk, (cols, rows))| {
+            let start = chunk * w * rows_per_chunk;
+            for j in 0..cols.len() {
+                let i = start + j;
+                if white[i] as i32 - black[i] as i32 <= bt {
+                    continue;
+                }
+                let read = |first: usize, bits: usize| -> Option<u32> {
+                    let mut g = 0u32;
+                    for k in 0..bits {
+                        let d = f[first + 2 * k][i] as i32 - f[first + 2 * k + 1][i] as i32;
+                        if d.abs() <= wt {
+                            return None;
+                        }
+                        g = (g << 1) | (d > 0) as u32;
+                    }
+                    Some(gray_decode(g))
+                };
+                let (Some(c), Some(r)) = (read(0, nc), read(2 * nc, nr)) else { continue };
+                if c < cc && r < rc {
+                    cols[j] = c as i32;
+                    rows[j] = r as i32;
+                }
+            }
+        });
+
+    let step = patterns.step;
+    let mut col = vec![f32::NAN; w * h];
+    let mut row = vec![f32::NAN; w * h];
+    let mut stats = DecodeStats::default();
+    let axes = [
+        (&col_code, &mut col, 0usize, patterns.width, &mut stats.refined_columns),
+        (&row_code, &mut row, 2 * nc, patterns.height, &mut stats.refined_rows),
+    ];
+    for (codes, out, first_frame, size, refined) in axes {
+        let n_bits = if first_frame == 0 { nc } else { nr };
+        // Difference pattern − inverse of Gray bit `bit` (0 = least significant) at pixel i.
+        let diff = |i: usize, bit: u32| -> i32 {
+            let k = first_frame + 2 * (n_bits - 1 - bit as usize);
+            f[k][i] as i32 - f[k + 1][i] as i32
+        };
+        let mut best = vec![(f32::NAN, f32::INFINITY); w * h];
+        if settings.refine {
+            // Along camera rows.
+            best.par_chunks_mut(w).enumerate().for_each(|(y, line)| {
+                refine_line(&codes[y * w..(y + 1) * w], |p, bit| diff(y * w + p, bit), step, line);
+            });
+            // Along camera columns.
+            let columns: Vec<Vec<(f32, f32)>> = (0..w)
+                .into_par_iter()
+                .map(|x| {
+                    let line_codes: Vec<i32> = (0..h).map(|y| codes[y * w + x]).collect();
+                    let mut line = vec![(f32::NAN, f32::INFINITY); h];
+                    refine_line(&line_codes, |p, bit| diff(p * w + x, bit), step, &mut line);
+                    line
+                })
+                .collect();
+            for (x, line) in columns.iter().enumerate() {
+                for (y, &(v, len)) in line.iter().enumerate() {
+                    let b = &mut best[y * w + x];
+                    if len < b.1 {
+                        *b = (v, len);
+                    }
+                }
+            }
+        }
+        for i in 0..w * h {
+            if col_code[i] < 0 || row_code[i] < 0 {
+                continue;
+            }
+            let (v, len) = best[i];
+            out[i] = if len.is_finite() {
+                *refined += 1;
+                v
+            } else {
+                crate::graycode::block_centre(codes[i] as u32, step, size) as f32
+            };
+        }
+    }
+    stats.valid_pixels = col.iter().filter(|c| c.is_finite()).count();
+    let to_f32 = |v: &Vec<u8>| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+    let map = DecodeMap { width: w, height: h, col, row, white: to_f32(white), black: to_f32(black) };
+    Ok((map, stats))
+}
+
+/// Refines one line of integer codes (−1 invalid) from its stripe edges (module documentation,
+/// step 4). `diff(p, bit)` is pattern − inverse of Gray bit `bit` at position `p` of the line.
+/// Writes (projector coordinate, edge spacing in camera pixels) into `out` where a bracketed run
+/// gives a spacing shorter than the one already there.
+fn refine_line(codes: &[i32], diff: impl Fn(usize, u32) -> i32, step: u32, out: &mut [(f32, f32)]) {
+    let n = codes.len();
+    if n < 3 {
+        return;
+    }
+    // Edge between p and p + 1: (camera position, projector boundary).
+    let edge = |p: usize| -> Option<(f64, f64)> {
+        let (c0, c1) = (codes[p], codes[p + 1]);
+        if c0 < 0 || c1 < 0 || (c0 - c1).abs() != 1 {
+            return None;
+        }
+        let bit = (gray_encode(c0 as u32) ^ gray_encode(c1 as u32)).trailing_zeros();
+        let (d0, d1) = (diff(p, bit) as f64, diff(p + 1, bit) as f64);
+        // The bit differs between the two pixels and both are decided, so d0 and d1 have opposite
+        // signs and t lies in (0, 1).
+        let t = d0 / (d0 - d1);
+        Some((p as f64 + t, c0.max(c1) as f64 * step as f64 - 0.5))
+    };
+    let mut a = 0;
+    while a < n {
+        let c = codes[a];
+        let mut b = a;
+        while b + 1 < n && codes[b + 1] == c {
+            b += 1;
+        }
+        if c >= 0 && a > 0 && b + 1 < n {
+            if let (Some((sl, bl)), Some((sr, br))) = (edge(a - 1), edge(b)) {
+                if bl != br {
+                    let len = sr - sl;
+                    for (x, o) in out.iter_mut().enumerate().take(b + 1).skip(a) {
+                        if (len as f32) < o.1 {
+                            let v = bl + (x as f64 - sl) * (br - bl) / len;
+                            *o = (v as f32, len as f32);
+                        }
+                    }
+                }
+            }
+        }
+        a = b + 1;
+    }
+}
+
+/// Writes a decode map as a float image (`.exr` or `.pfm`), atomically: R = projector column,
+/// G = projector row (projector pixels, OpenCV convention, NaN where invalid), B = the white
+/// frame's grey level / 255.
+pub fn write_map(path: &Path, map: &DecodeMap) -> Result<()> {
+    use render::image_io::{write_image, Format, Image};
+    match Format::from_path(path)? {
+        Format::Exr | Format::Pfm => {}
+        _ => bail!("{}: a decode map is written as .exr or .pfm (float channels)", path.display()),
+    }
+    let rgb = (0..map.width * map.height).map(|i| [map.col[i], map.row[i], map.white[i] / 255.0]).collect();
+    let image = Image::from_rgb(map.width as u32, map.height as u32, rgb)?;
+    write_image(path, &image, 0.0)
 }

@@ -12,4 +12,5 @@
 pub mod calib;
 pub mod decode;
 pub mod eval;
+pub mod graycode;
 pub mod synth;

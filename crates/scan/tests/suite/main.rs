@@ -1,4 +1,8 @@
 //! Integration tests of the scan crate.
 
+mod calib;
+mod common;
+mod decode;
 mod eval;
+mod graycode;
 mod synth;

@@ -1,0 +1,249 @@
+//! Levenberg–Marquardt refinement of a calibration over all reprojection errors (Zhang 2000,
+//! §3.2, extended to a stereo pair as OpenCV's `stereoCalibrate`): the intrinsics and distortion
+//! of each device, one board pose per view, and — for a pair — the rigid transform from the first
+//! device (the camera) to the second (the projector), X_p = R·X_c + T. The minimiser is the
+//! `levenberg-marquardt` crate (MINPACK's trust-region LM); the Jacobian is by central differences.
+
+use super::homography::Point2;
+use super::model::{Lens, Pose};
+use anyhow::{bail, Result};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
+use nalgebra::{DMatrix, DVector, Dyn, Owned, Vector3};
+
+/// Observations of one board view: the corners in each device (pixels), in object-point order.
+#[derive(Clone, Debug)]
+pub struct ViewObs {
+    /// Corners seen by the first device (the camera).
+    pub cam: Vec<Point2>,
+    /// Corners seen by the second device (the projector); empty for a single-device fit.
+    pub proj: Vec<Point2>,
+}
+
+/// A calibration state: lenses, stereo pose and board poses (board → first device).
+#[derive(Clone, Debug)]
+pub struct State {
+    /// The first device (camera).
+    pub cam: Lens,
+    /// The second device (projector), when the fit is a pair.
+    pub proj: Option<Lens>,
+    /// Camera → projector transform (ignored for a single device).
+    pub stereo: Pose,
+    /// Board → camera pose per view.
+    pub poses: Vec<Pose>,
+}
+
+/// Which parameters the fit may move.
+#[derive(Clone, Copy, Debug)]
+pub struct Free {
+    /// Intrinsics fx, fy, cx, cy and distortion.
+    pub lenses: bool,
+    /// k3 (the sixth-order radial term); OpenCV's `CALIB_FIX_K3` is `false` here.
+    pub k3: bool,
+    /// Tangential p1, p2.
+    pub tangential: bool,
+}
+
+impl Default for Free {
+    fn default() -> Self {
+        Free { lenses: true, k3: true, tangential: true }
+    }
+}
+
+const LENS: usize = 9;
+
+struct Problem<'a> {
+    obj: &'a [Vector3<f64>],
+    views: &'a [ViewObs],
+    stereo: bool,
+    x: DVector<f64>,
+    free: Vec<usize>,
+}
+
+impl Problem<'_> {
+    fn layout_view(&self, v: usize) -> usize {
+        if self.stereo { 2 * LENS + 6 + 6 * v } else { LENS + 6 * v }
+    }
+
+    fn pose_at(x: &DVector<f64>, at: usize) -> Pose {
+        Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) }
+    }
+
+    /// Residuals (predicted − observed, pixels): per view, camera corners (u, v)… then projector corners.
+    fn residuals_of(&self, x: &DVector<f64>) -> DVector<f64> {
+        let cam = Lens::from_slice(&x.as_slice()[0..LENS]);
+        let (proj, stereo) = if self.stereo {
+            let p = Lens::from_slice(&x.as_slice()[LENS..2 * LENS]);
+            let s = Self::pose_at(x, 2 * LENS);
+            (Some(p), Some((s.r(), s.t)))
+        } else {
+            (None, None)
+        };
+        let n = self.obj.len();
+        let per_view = if self.stereo { 4 * n } else { 2 * n };
+        let mut r = DVector::zeros(per_view * self.views.len());
+        for (v, obs) in self.views.iter().enumerate() {
+            let pose = Self::pose_at(x, self.layout_view(v));
+            let rot = pose.r();
+            let base = v * per_view;
+            for (k, xo) in self.obj.iter().enumerate() {
+                let xc = rot * xo + pose.t;
+                let p = cam.project(&xc);
+                r[base + 2 * k] = p[0] - obs.cam[k][0];
+                r[base + 2 * k + 1] = p[1] - obs.cam[k][1];
+                if let (Some(pl), Some((rs, ts))) = (&proj, &stereo) {
+                    let xp = rs * xc + ts;
+                    let q = pl.project(&xp);
+                    r[base + 2 * n + 2 * k] = q[0] - obs.proj[k][0];
+                    r[base + 2 * n + 2 * k + 1] = q[1] - obs.proj[k][1];
+                }
+            }
+        }
+        r
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, p: &DVector<f64>) {
+        for (j, &i) in self.free.iter().enumerate() {
+            self.x[i] = p[j];
+        }
+    }
+
+    fn params(&self) -> DVector<f64> {
+        DVector::from_iterator(self.free.len(), self.free.iter().map(|&i| self.x[i]))
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let r = self.residuals_of(&self.x);
+        r.iter().all(|v| v.is_finite()).then_some(r)
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let m = self.residuals_of(&self.x).len();
+        let mut j = DMatrix::zeros(m, self.free.len());
+        let mut x = self.x.clone();
+        for (c, &i) in self.free.iter().enumerate() {
+            let x0 = x[i];
+            let h = 1e-6 * (x0.abs() + 1e-2);
+            x[i] = x0 + h;
+            let rp = self.residuals_of(&x);
+            x[i] = x0 - h;
+            let rm = self.residuals_of(&x);
+            x[i] = x0;
+            j.set_column(c, &((rp - rm) / (2.0 * h)));
+        }
+        j.iter().all(|v| v.is_finite()).then_some(j)
+    }
+}
+
+/// Reprojection statistics of a state.
+#[derive(Clone, Debug)]
+pub struct Rms {
+    /// RMS over the camera's corners (pixels; over both coordinates, i.e. √(Σ‖e‖²/N)).
+    pub cam: f64,
+    /// RMS over the projector's corners (pixels), NaN for a single device.
+    pub proj: f64,
+    /// RMS over both devices (pixels).
+    pub all: f64,
+    /// RMS per view over its devices (pixels).
+    pub per_view: Vec<f64>,
+}
+
+/// The parameter vector of a state: camera [fx, fy, cx, cy, k1, k2, p1, p2, k3], for a pair the
+/// projector likewise and the stereo (rvec, T), then (rvec, t) per view.
+pub fn pack_state(s: &State) -> DVector<f64> {
+    let mut x: Vec<f64> = s.cam.to_array().to_vec();
+    if let Some(p) = &s.proj {
+        x.extend(p.to_array());
+        x.extend(s.stereo.rvec.iter().chain(s.stereo.t.iter()));
+    }
+    for p in &s.poses {
+        x.extend(p.rvec.iter().chain(p.t.iter()));
+    }
+    DVector::from_vec(x)
+}
+
+fn unpack(x: &DVector<f64>, stereo: bool, nviews: usize) -> State {
+    let cam = Lens::from_slice(&x.as_slice()[0..LENS]);
+    let (proj, st, base) = if stereo {
+        (Some(Lens::from_slice(&x.as_slice()[LENS..2 * LENS])), Problem::pose_at(x, 2 * LENS), 2 * LENS + 6)
+    } else {
+        (None, Pose::identity(), LENS)
+    };
+    let poses = (0..nviews).map(|v| Problem::pose_at(x, base + 6 * v)).collect();
+    State { cam, proj, stereo: st, poses }
+}
+
+/// RMS reprojection errors of `state` against the observations.
+pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
+    let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
+    let stereo = state.proj.is_some();
+    let pr = Problem { obj: &obj3, views, stereo, x: pack_state(state), free: vec![] };
+    let r = pr.residuals_of(&pr.x);
+    let n = obj.len();
+    let per_view = if stereo { 4 * n } else { 2 * n };
+    let (mut sc, mut sp) = (0.0, 0.0);
+    let mut pv = Vec::new();
+    for v in 0..views.len() {
+        let b = v * per_view;
+        let c: f64 = r.rows(b, 2 * n).norm_squared();
+        let p: f64 = if stereo { r.rows(b + 2 * n, 2 * n).norm_squared() } else { 0.0 };
+        sc += c;
+        sp += p;
+        pv.push(((c + p) / ((per_view / 2) as f64)).sqrt());
+    }
+    let nv = (views.len() * n) as f64;
+    Rms {
+        cam: (sc / nv).sqrt(),
+        proj: if stereo { (sp / nv).sqrt() } else { f64::NAN },
+        all: ((sc + sp) / (nv * if stereo { 2.0 } else { 1.0 })).sqrt(),
+        per_view: pv,
+    }
+}
+
+/// Refine `init` by Levenberg–Marquardt over all reprojection errors. A single-device fit when
+/// `init.proj` is None. Errors when the minimiser fails or the result's RMS exceeds `max_rms_px`.
+pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_rms_px: f64) -> Result<State> {
+    let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
+    let stereo = init.proj.is_some();
+    let x = pack_state(init);
+    let mut idx = Vec::new();
+    let ndev = if stereo { 2 } else { 1 };
+    for d in 0..ndev {
+        for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3].iter().enumerate() {
+            if free.lenses && *on {
+                idx.push(d * LENS + i);
+            }
+        }
+    }
+    idx.extend(ndev * LENS..x.len());
+    let problem = Problem { obj: &obj3, views, stereo, x, free: idx };
+    let (solved, report) = LevenbergMarquardt::new().with_ftol(1e-15).with_xtol(1e-15).with_gtol(1e-15).with_patience(200).minimize(problem);
+    let ok = report.termination.was_successful() || matches!(report.termination, TerminationReason::NoImprovementPossible(_));
+    if !ok {
+        bail!("the calibration did not converge (Levenberg–Marquardt: {:?})", report.termination);
+    }
+    let state = unpack(&solved.x, stereo, views.len());
+    let e = rms(obj, views, &state);
+    if !(e.all <= max_rms_px) {
+        bail!("the calibration did not converge: reprojection RMS {:.3} px exceeds {max_rms_px} px", e.all);
+    }
+    Ok(state)
+}
+
+/// Standard deviations of every parameter (in [`pack_state`] order) for independent Gaussian
+/// pixel noise of `sigma_px` on every corner: the square roots of the diagonal of σ²(JᵀJ)⁻¹ at
+/// `state` (the linearised covariance of the least-squares estimate).
+pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64) -> Vec<f64> {
+    let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
+    let x = pack_state(state);
+    let free = (0..x.len()).collect();
+    let pr = Problem { obj: &obj3, views, stereo: state.proj.is_some(), x, free };
+    let j = pr.jacobian().expect("finite Jacobian");
+    let cov = (j.transpose() * &j).try_inverse().expect("JᵀJ invertible");
+    (0..cov.nrows()).map(|i| sigma_px * cov[(i, i)].sqrt()).collect()
+}

@@ -1,0 +1,443 @@
+//! Chessboard inner-corner detection with sub-pixel accuracy.
+//!
+//! 1. **Saddle response.** The image is smoothed by a Gaussian (σ = 2 px) and the negative Hessian
+//!    determinant s = I_xy² − I_xx·I_yy is taken: an X-junction of a chessboard is a saddle of the
+//!    smoothed intensity (s > 0), a straight edge has one zero curvature (s ≈ 0) and a blob has
+//!    s < 0 (the Hessian saddle detector of Chen & Zhang, "Chessboard corner detection by the
+//!    Hessian of the image", and of libcbdetect's corner prior). Local maxima of s in an 11 × 11
+//!    neighbourhood above 2 % of the image's largest response are the candidates.
+//! 2. **Ring test.** Around each candidate the smoothed intensity on a circle of radius 5 px
+//!    (32 samples) must alternate bright/dark/bright/dark (4 transitions about the mid level), the
+//!    two dark arcs must face each other (centres π ± 0.5 rad apart, as two straight lines through
+//!    the corner make them), and the contrast must exceed 10 grey levels. The four transition
+//!    angles are the directions of the four edges leaving the corner.
+//! 3. **Lattice growth.** From a seed (strongest candidates first) its neighbours along two
+//!    adjacent edges and the diagonal one give a 2 × 2 lattice; the lattice grows one ring at a
+//!    time, each missing node predicted by a homography fitted to the assigned nodes within two
+//!    steps of it and taken when a candidate lies within 0.3 of the local step. The board is found
+//!    when the lattice spans exactly cols × rows (either way round) with at most 3 holes (filled by
+//!    the prediction and then refined).
+//! 4. **Ordering.** Row-major with `cols` corners per row, as OpenCV's `findChessboardCorners`.
+//!    A board with an even × even or odd × odd square count looks the same rotated by 180°, so
+//!    the origin is fixed by a rule: of the labelings with `cols` corners per row, the one whose
+//!    corner 0 is nearest the image's top-left (smallest x + y) is taken.
+//! 5. **Refinement** as OpenCV's `cornerSubPix`: in a window around the estimate q every
+//!    gradient g at p is orthogonal to q − p at the true corner, so q solves
+//!    (Σ w g gᵀ) q = Σ w g gᵀ p (Gaussian weights w), iterated with bilinearly interpolated
+//!    central-difference gradients until the step is below 10⁻³ px.
+//!
+//! Pixel convention: OpenCV's (integer coordinates at pixel centres).
+
+use super::homography::{apply, fit_homography, Point2};
+use anyhow::{anyhow, Context, Result};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A greyscale image, row-major, 8-bit grey levels as f32.
+#[derive(Clone, Debug)]
+pub struct GrayImage {
+    /// Width (pixels).
+    pub width: usize,
+    /// Height (pixels).
+    pub height: usize,
+    /// Grey levels, row-major.
+    pub data: Vec<f32>,
+}
+
+impl GrayImage {
+    /// Read a PNG or JPEG as grey levels (colour images are converted to luma).
+    pub fn load(path: &Path) -> Result<GrayImage> {
+        let img = image::open(path).with_context(|| format!("{}: cannot read image", path.display()))?.into_luma8();
+        let (w, h) = img.dimensions();
+        Ok(GrayImage { width: w as usize, height: h as usize, data: img.into_raw().into_iter().map(f32::from).collect() })
+    }
+
+    #[inline]
+    fn px(&self, x: isize, y: isize) -> f32 {
+        let x = x.clamp(0, self.width as isize - 1) as usize;
+        let y = y.clamp(0, self.height as isize - 1) as usize;
+        self.data[y * self.width + x]
+    }
+
+    /// Bilinear interpolation at (x, y) (clamped at the border).
+    pub fn bilinear(&self, x: f64, y: f64) -> f64 {
+        let (fx, fy) = (x.floor(), y.floor());
+        let (ax, ay) = (x - fx, y - fy);
+        let (ix, iy) = (fx as isize, fy as isize);
+        let a = self.px(ix, iy) as f64;
+        let b = self.px(ix + 1, iy) as f64;
+        let c = self.px(ix, iy + 1) as f64;
+        let d = self.px(ix + 1, iy + 1) as f64;
+        (a * (1.0 - ax) + b * ax) * (1.0 - ay) + (c * (1.0 - ax) + d * ax) * ay
+    }
+
+    /// Gaussian blur of standard deviation `sigma` pixels (separable, kernel ±3σ, clamped border).
+    pub fn blur(&self, sigma: f64) -> GrayImage {
+        let r = (3.0 * sigma).ceil() as isize;
+        let k: Vec<f32> = (-r..=r).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+        let sum: f32 = k.iter().sum();
+        let k: Vec<f32> = k.iter().map(|v| v / sum).collect();
+        let (w, h) = (self.width, self.height);
+        let mut tmp = vec![0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = 0.0;
+                for (o, kv) in (-r..=r).zip(&k) {
+                    s += kv * self.px(x as isize + o, y as isize);
+                }
+                tmp[y * w + x] = s;
+            }
+        }
+        let t = GrayImage { width: w, height: h, data: tmp };
+        let mut out = vec![0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = 0.0;
+                for (o, kv) in (-r..=r).zip(&k) {
+                    s += kv * t.px(x as isize, y as isize + o);
+                }
+                out[y * w + x] = s;
+            }
+        }
+        GrayImage { width: w, height: h, data: out }
+    }
+}
+
+/// A corner candidate.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    p: Point2,
+    response: f32,
+    /// Directions of the four edges leaving the corner (radians, increasing).
+    edges: [f64; 4],
+}
+
+/// Saddle-response local maxima that pass the ring test.
+fn candidates(smooth: &GrayImage) -> Vec<Candidate> {
+    let (w, h) = (smooth.width, smooth.height);
+    let mut s = vec![0f32; w * h];
+    let mut smax = 0f32;
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
+            let i = y * w + x;
+            let d = &smooth.data;
+            let c = d[i];
+            let ixx = d[i + 1] - 2.0 * c + d[i - 1];
+            let iyy = d[i + w] - 2.0 * c + d[i - w];
+            let ixy = 0.25 * (d[i + w + 1] - d[i + w - 1] - d[i - w + 1] + d[i - w - 1]);
+            let v = ixy * ixy - ixx * iyy;
+            s[i] = v;
+            smax = smax.max(v);
+        }
+    }
+    let thr = 0.02 * smax;
+    let nms = 5isize;
+    let mut out = Vec::new();
+    for y in 6..h.saturating_sub(6) {
+        'px: for x in 6..w.saturating_sub(6) {
+            let v = s[y * w + x];
+            if !(v > thr) {
+                continue;
+            }
+            for dy in -nms..=nms {
+                for dx in -nms..=nms {
+                    let j = (y as isize + dy) as usize * w + (x as isize + dx) as usize;
+                    if s[j] > v || (s[j] == v && j < y * w + x) {
+                        continue 'px;
+                    }
+                }
+            }
+            if let Some(edges) = ring_test(smooth, x as f64, y as f64) {
+                out.push(Candidate { p: [x as f64, y as f64], response: v, edges });
+            }
+        }
+    }
+    out
+}
+
+/// The X-junction test on a circle of radius 5 px; the four edge directions when it passes.
+fn ring_test(img: &GrayImage, x: f64, y: f64) -> Option<[f64; 4]> {
+    const N: usize = 32;
+    const R: f64 = 5.0;
+    let ang = |k: f64| k * std::f64::consts::TAU / N as f64;
+    let v: Vec<f64> = (0..N).map(|k| img.bilinear(x + R * ang(k as f64).cos(), y + R * ang(k as f64).sin())).collect();
+    let (lo, hi) = v.iter().fold((f64::MAX, f64::MIN), |a, &b| (a.0.min(b), a.1.max(b)));
+    if !(hi - lo > 10.0) {
+        return None;
+    }
+    let mid = 0.5 * (lo + hi);
+    let b: Vec<bool> = v.iter().map(|&t| t > mid).collect();
+    // Transitions k → k+1 and their interpolated angles.
+    let mut tr = Vec::new();
+    for k in 0..N {
+        let k1 = (k + 1) % N;
+        if b[k] != b[k1] {
+            let f = (mid - v[k]) / (v[k1] - v[k]);
+            tr.push((k, ang(k as f64 + f)));
+        }
+    }
+    if tr.len() != 4 {
+        return None;
+    }
+    // Arc lengths (samples) between transitions: each ≥ 3.
+    for i in 0..4 {
+        let a = tr[i].0;
+        let b2 = tr[(i + 1) % 4].0;
+        let len = (b2 + N - a) % N;
+        if len < 3 {
+            return None;
+        }
+    }
+    // Dark arcs face each other: arc centres π apart.
+    let mut centres = Vec::new();
+    for i in 0..4 {
+        let a0 = tr[i].1;
+        let mut a1 = tr[(i + 1) % 4].1;
+        if a1 < a0 {
+            a1 += std::f64::consts::TAU;
+        }
+        let dark = !b[(tr[i].0 + 1) % N];
+        centres.push((dark, 0.5 * (a0 + a1)));
+    }
+    let d: Vec<f64> = centres.iter().filter(|c| c.0).map(|c| c.1).collect();
+    let b2: Vec<f64> = centres.iter().filter(|c| !c.0).map(|c| c.1).collect();
+    for pair in [d, b2] {
+        if pair.len() != 2 {
+            return None;
+        }
+        let diff = (pair[1] - pair[0]).rem_euclid(std::f64::consts::TAU);
+        if (diff - std::f64::consts::PI).abs() > 0.5 {
+            return None;
+        }
+    }
+    Some([tr[0].1, tr[1].1, tr[2].1, tr[3].1])
+}
+
+fn dist(a: Point2, b: Point2) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// The nearest candidate along direction `angle` from `c` (within 0.25 rad), at 4–(max) px.
+fn along(cands: &[Candidate], c: usize, angle: f64) -> Option<usize> {
+    let p = cands[c].p;
+    let mut best: Option<(usize, f64)> = None;
+    for (i, q) in cands.iter().enumerate() {
+        if i == c {
+            continue;
+        }
+        let (dx, dy) = (q.p[0] - p[0], q.p[1] - p[1]);
+        let r = (dx * dx + dy * dy).sqrt();
+        if r < 4.0 {
+            continue;
+        }
+        let da = (dy.atan2(dx) - angle + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        if da.abs() < 0.25 && best.map_or(true, |b| r < b.1) {
+            best = Some((i, r));
+        }
+    }
+    best.map(|b| b.0)
+}
+
+fn nearest(cands: &[Candidate], p: Point2) -> Option<(usize, f64)> {
+    cands.iter().enumerate().map(|(i, c)| (i, dist(c.p, p))).min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Grow a lattice from seed candidate `s`; lattice coordinates → position (candidate or predicted).
+fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashMap<(i32, i32), Point2>> {
+    let e = cands[s].edges;
+    let maxext = cols.max(rows) as i32;
+    for k in 0..4 {
+        let (Some(n1), Some(n2)) = (along(cands, s, e[k]), along(cands, s, e[(k + 1) % 4])) else { continue };
+        let (p0, p1, p2) = (cands[s].p, cands[n1].p, cands[n2].p);
+        let pd = [p1[0] + p2[0] - p0[0], p1[1] + p2[1] - p0[1]];
+        let step = dist(p0, p1).min(dist(p0, p2));
+        let Some((n3, d3)) = nearest(cands, pd) else { continue };
+        if d3 > 0.3 * step {
+            continue;
+        }
+        let mut at: HashMap<(i32, i32), usize> = HashMap::new();
+        let mut used = vec![false; cands.len()];
+        for (ij, c) in [((0, 0), s), ((1, 0), n1), ((0, 1), n2), ((1, 1), n3)] {
+            at.insert(ij, c);
+            used[c] = true;
+        }
+        loop {
+            let (imin, imax, jmin, jmax) = extent(at.keys());
+            let mut frontier: Vec<(i32, i32)> = Vec::new();
+            for &(i, j) in at.keys() {
+                for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                    let q = (i + di, j + dj);
+                    let ni = imax.max(q.0) - imin.min(q.0) + 1;
+                    let nj = jmax.max(q.1) - jmin.min(q.1) + 1;
+                    if !at.contains_key(&q) && ni <= maxext && nj <= maxext && !frontier.contains(&q) {
+                        frontier.push(q);
+                    }
+                }
+            }
+            let mut added = 0;
+            for q in frontier {
+                let Some((pred, step)) = predict(cands, &at, q) else { continue };
+                let Some((c, d)) = nearest(cands, pred) else { continue };
+                if d < 0.3 * step && !used[c] {
+                    at.insert(q, c);
+                    used[c] = true;
+                    added += 1;
+                }
+            }
+            if added == 0 {
+                break;
+            }
+        }
+        let (imin, imax, jmin, jmax) = extent(at.keys());
+        let (ni, nj) = ((imax - imin + 1) as usize, (jmax - jmin + 1) as usize);
+        let fits = (ni == cols && nj == rows) || (ni == rows && nj == cols);
+        if std::env::var("CB_DEBUG").is_ok() { eprintln!("seed {s} k {k}: {ni}x{nj} n={}", at.len()); }
+        if !fits || at.len() + 3 < cols * rows {
+            continue;
+        }
+        let mut out: HashMap<(i32, i32), Point2> = at.iter().map(|(&k, &c)| ((k.0 - imin, k.1 - jmin), cands[c].p)).collect();
+        for i in 0..ni as i32 {
+            for j in 0..nj as i32 {
+                if !out.contains_key(&(i, j)) {
+                    let (p, _) = predict(cands, &at, (i + imin, j + jmin))?;
+                    out.insert((i, j), p);
+                }
+            }
+        }
+        return Some(out);
+    }
+    None
+}
+
+fn extent<'a>(keys: impl Iterator<Item = &'a (i32, i32)>) -> (i32, i32, i32, i32) {
+    keys.fold((i32::MAX, i32::MIN, i32::MAX, i32::MIN), |a, k| (a.0.min(k.0), a.1.max(k.0), a.2.min(k.1), a.3.max(k.1)))
+}
+
+/// Position predicted for lattice node `q` by a homography of the assigned nodes within two
+/// steps (all nodes when fewer than 6 are near), and the local step length (pixels).
+fn predict(cands: &[Candidate], at: &HashMap<(i32, i32), usize>, q: (i32, i32)) -> Option<(Point2, f64)> {
+    let mut near: Vec<(Point2, Point2)> = at.iter().filter(|(k, _)| (k.0 - q.0).abs() <= 2 && (k.1 - q.1).abs() <= 2).map(|(k, &c)| ([k.0 as f64, k.1 as f64], cands[c].p)).collect();
+    if near.len() < 6 {
+        near = at.iter().map(|(k, &c)| ([k.0 as f64, k.1 as f64], cands[c].p)).collect();
+    }
+    let (src, dst): (Vec<Point2>, Vec<Point2>) = near.into_iter().unzip();
+    let h = fit_homography(&src, &dst)?;
+    let qf = [q.0 as f64, q.1 as f64];
+    let p = apply(&h, qf);
+    let px = apply(&h, [qf[0] + 1.0, qf[1]]);
+    let py = apply(&h, [qf[0], qf[1] + 1.0]);
+    let step = dist(p, px).min(dist(p, py));
+    (p[0].is_finite() && p[1].is_finite()).then_some((p, step))
+}
+
+/// Row-major ordering with `cols` per row; corner 0 nearest the image's top-left.
+fn order(grid: &HashMap<(i32, i32), Point2>, cols: usize, rows: usize) -> Vec<Point2> {
+    let (_, imax, _, _) = extent(grid.keys());
+    let ni = (imax + 1) as usize;
+    let mut best: Option<(f64, f64, Vec<Point2>)> = None;
+    for transpose in [false, true] {
+        if (ni == cols) == transpose && cols != rows {
+            continue;
+        }
+        for flip_c in [false, true] {
+            for flip_r in [false, true] {
+                let mut v = Vec::with_capacity(cols * rows);
+                for r in 0..rows {
+                    for c in 0..cols {
+                        let c2 = if flip_c { cols - 1 - c } else { c } as i32;
+                        let r2 = if flip_r { rows - 1 - r } else { r } as i32;
+                        v.push(grid[&if transpose { (r2, c2) } else { (c2, r2) }]);
+                    }
+                }
+                let key = v[0][0] + v[0][1];
+                let tie = v[1][1] - v[1][0];
+                if best.as_ref().map_or(true, |b| key < b.0 - 1e-9 || (key < b.0 + 1e-9 && tie < b.1)) {
+                    best = Some((key, tie, v));
+                }
+            }
+        }
+    }
+    best.unwrap().2
+}
+
+/// Sub-pixel refinement of `corners` (OpenCV `cornerSubPix`): window half-size `half` pixels,
+/// until the step is below `eps` px or after `iterations` steps. A corner that would leave its
+/// window keeps its start position.
+pub fn corner_subpix(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
+    let (w, h) = (img.width, img.height);
+    let mut gx = GrayImage { width: w, height: h, data: vec![0.0; w * h] };
+    let mut gy = gx.clone();
+    for y in 0..h as isize {
+        for x in 0..w as isize {
+            let i = y as usize * w + x as usize;
+            gx.data[i] = 0.5 * (img.px(x + 1, y) - img.px(x - 1, y));
+            gy.data[i] = 0.5 * (img.px(x, y + 1) - img.px(x, y - 1));
+        }
+    }
+    let hw = half as isize;
+    let sig2 = (half as f64 * 0.5).powi(2).max(1.0);
+    for c in corners.iter_mut() {
+        let start = *c;
+        let mut q = *c;
+        for _ in 0..iterations {
+            let (mut a, mut b, mut d, mut bx, mut by) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for dy in -hw..=hw {
+                for dx in -hw..=hw {
+                    let wt = (-((dx * dx + dy * dy) as f64) / (2.0 * sig2)).exp();
+                    let (px, py) = (q[0] + dx as f64, q[1] + dy as f64);
+                    let (u, v) = (gx.bilinear(px, py), gy.bilinear(px, py));
+                    let (guu, guv, gvv) = (wt * u * u, wt * u * v, wt * v * v);
+                    a += guu;
+                    b += guv;
+                    d += gvv;
+                    bx += guu * px + guv * py;
+                    by += guv * px + gvv * py;
+                }
+            }
+            let det = a * d - b * b;
+            if !(det.abs() > 1e-12 * (a * d).abs().max(1e-300)) {
+                break;
+            }
+            let nq = [(d * bx - b * by) / det, (a * by - b * bx) / det];
+            let step = dist(nq, q);
+            q = nq;
+            if step < eps {
+                break;
+            }
+        }
+        if dist(q, start) <= half as f64 && q[0].is_finite() && q[1].is_finite() {
+            *c = q;
+        }
+    }
+}
+
+/// Find the `cols` × `rows` inner corners of a chessboard, row-major, refined to sub-pixel
+/// accuracy; None when no such lattice is found.
+pub fn find_chessboard(img: &GrayImage, cols: usize, rows: usize) -> Option<Vec<Point2>> {
+    let smooth = img.blur(2.0);
+    let mut cands = candidates(&smooth);
+    cands.sort_by(|a, b| b.response.total_cmp(&a.response));
+    let grid = cands.iter().take(40).enumerate().find_map(|(s, _)| grow(&cands, s, cols, rows))?;
+    let mut corners = order(&grid, cols, rows);
+    // Window: at most a third of the smallest corner spacing, 3…11 px.
+    let mut spacing = f64::MAX;
+    for r in 0..rows {
+        for c in 0..cols {
+            let p = corners[r * cols + c];
+            if c + 1 < cols {
+                spacing = spacing.min(dist(p, corners[r * cols + c + 1]));
+            }
+            if r + 1 < rows {
+                spacing = spacing.min(dist(p, corners[(r + 1) * cols + c]));
+            }
+        }
+    }
+    let half = ((spacing / 3.0).floor() as usize).clamp(3, 11);
+    corner_subpix(img, &mut corners, half, 40, 1e-3);
+    Some(corners)
+}
+
+/// [`find_chessboard`] with the error "board not found (capture NAME)".
+pub fn find_chessboard_named(img: &GrayImage, cols: usize, rows: usize, name: &str) -> Result<Vec<Point2>> {
+    find_chessboard(img, cols, rows).ok_or_else(|| anyhow!("board not found (capture {name}): no {cols}×{rows} lattice of chessboard corners in the white frame"))
+}

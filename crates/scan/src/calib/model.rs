@@ -1,0 +1,101 @@
+//! The device model of the calibration: OpenCV's pinhole with distortion k1, k2, p1, p2, k3
+//! (formula in `render::camera::opencv`), and rigid poses as Rodrigues vector + translation.
+
+use super::homography::Point2;
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use render::camera::Distortion;
+
+/// Intrinsics and distortion of one device (a camera, or a projector seen as an inverse camera).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    /// Focal lengths (pixels).
+    pub fx: f64,
+    /// Focal length along y (pixels).
+    pub fy: f64,
+    /// Principal point (pixels, OpenCV convention: integer coordinates at pixel centres).
+    pub cx: f64,
+    /// Principal point y (pixels).
+    pub cy: f64,
+    /// [k1, k2, p1, p2, k3] (dimensionless).
+    pub dist: [f64; 5],
+}
+
+impl Lens {
+    /// A distortion-free lens.
+    pub fn pinhole(fx: f64, fy: f64, cx: f64, cy: f64) -> Lens {
+        Lens { fx, fy, cx, cy, dist: [0.0; 5] }
+    }
+
+    /// The camera matrix K.
+    pub fn k(&self) -> Matrix3<f64> {
+        Matrix3::new(self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0)
+    }
+
+    /// Pixel position of a point in device coordinates (x right, y down, z forward).
+    pub fn project(&self, x: &Vector3<f64>) -> Point2 {
+        let [k1, k2, p1, p2, k3] = self.dist;
+        let d = Distortion { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2] };
+        let (u, v) = d.distort(x[0] / x[2], x[1] / x[2]);
+        [self.fx * u + self.cx, self.fy * v + self.cy]
+    }
+
+    /// The nine parameters in the order fx, fy, cx, cy, k1, k2, p1, p2, k3.
+    pub fn to_array(&self) -> [f64; 9] {
+        let d = self.dist;
+        [self.fx, self.fy, self.cx, self.cy, d[0], d[1], d[2], d[3], d[4]]
+    }
+
+    /// Inverse of [`Lens::to_array`].
+    pub fn from_slice(p: &[f64]) -> Lens {
+        Lens { fx: p[0], fy: p[1], cx: p[2], cy: p[3], dist: [p[4], p[5], p[6], p[7], p[8]] }
+    }
+}
+
+/// A rigid transform X′ = R·X + t, R as a Rodrigues vector (radians).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Rotation vector (axis × angle, radians).
+    pub rvec: Vector3<f64>,
+    /// Translation (board square units).
+    pub t: Vector3<f64>,
+}
+
+impl Pose {
+    /// The identity.
+    pub fn identity() -> Pose {
+        Pose { rvec: Vector3::zeros(), t: Vector3::zeros() }
+    }
+
+    /// From a rotation matrix (orthonormalised first) and a translation.
+    pub fn from_rt(r: &Matrix3<f64>, t: Vector3<f64>) -> Pose {
+        let rot = Rotation3::from_matrix_eps(r, 1e-15, 100, Rotation3::identity());
+        Pose { rvec: rot.scaled_axis(), t }
+    }
+
+    /// The rotation matrix.
+    pub fn r(&self) -> Matrix3<f64> {
+        *Rotation3::new(self.rvec).matrix()
+    }
+
+    /// Apply to a point.
+    pub fn apply(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        self.r() * x + self.t
+    }
+
+    /// The composition `self ∘ first` (first applied first).
+    pub fn after(&self, first: &Pose) -> Pose {
+        let r = self.r();
+        Pose::from_rt(&(r * first.r()), r * first.t + self.t)
+    }
+}
+
+/// The nearest rotation to `m` in the Frobenius norm (polar decomposition by SVD, det +1).
+pub fn nearest_rotation(m: &Matrix3<f64>) -> Matrix3<f64> {
+    let svd = m.svd(true, true);
+    let (u, vt) = (svd.u.unwrap(), svd.v_t.unwrap());
+    let mut d = Matrix3::identity();
+    if (u * vt).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    u * d * vt
+}

@@ -1,0 +1,176 @@
+//! Calibration core against closed forms and known synthetic truth: normalised-DLT homographies,
+//! Zhang's closed form, and the Levenberg–Marquardt refinement of a projector–camera pair.
+
+use crate::common::{board, observe, rig, Pcg};
+use nalgebra::{Matrix3, Vector3};
+use scan::calib::bundle::{rms, State, ViewObs};
+use scan::calib::homography::{apply, fit_homography, fit_homography_robust};
+use scan::calib::model::Lens;
+use scan::calib::zhang::{intrinsics, pose_from_homography};
+use scan::calib::{calibrate_corners, CaptureCorners, ProcamCalibration, Rig};
+
+fn rel(a: f64, b: f64, scale: f64) -> f64 {
+    (a - b).abs() / scale
+}
+
+#[test]
+fn homography_from_exact_correspondences_is_exact() {
+    let h = Matrix3::new(1.7, 0.21, 412.0, -0.13, 1.52, 305.0, 2.1e-4, -1.3e-4, 1.0);
+    let src: Vec<[f64; 2]> = (0..30).map(|k| [(k % 6) as f64 * 75.0 - 10.0, (k / 6) as f64 * 75.0 + 3.0]).collect();
+    let dst: Vec<[f64; 2]> = src.iter().map(|p| apply(&h, *p)).collect();
+    let f = fit_homography(&src, &dst).unwrap();
+    for (a, b) in f.iter().zip(h.iter()) {
+        assert!((a - b).abs() <= 1e-9 * b.abs().max(1e-3), "{f} vs {h}");
+    }
+    // Four points are the minimum; three collinear plus one still determine H, all collinear do not.
+    assert!(fit_homography(&src[..4], &dst[..4]).is_some());
+    let line: Vec<[f64; 2]> = (0..8).map(|k| [k as f64, 2.0 * k as f64]).collect();
+    assert!(fit_homography(&line, &line).is_none());
+}
+
+#[test]
+fn robust_homography_ignores_gross_outliers() {
+    let h = Matrix3::new(0.8, 0.05, 300.0, -0.02, 0.83, 200.0, 1e-5, 2e-5, 1.0);
+    let mut rng = Pcg::new(7);
+    let src: Vec<[f64; 2]> = (0..2000).map(|_| [rng.uniform() * 47.0 + 600.0, rng.uniform() * 47.0 + 500.0]).collect();
+    let mut dst: Vec<[f64; 2]> = src.iter().map(|p| apply(&h, *p)).collect();
+    // 5 % wrong by 30–60 projector pixels (decoding errors at stripe boundaries).
+    for d in dst.iter_mut().step_by(20) {
+        d[0] += 30.0 + 30.0 * rng.uniform();
+    }
+    let (f, inliers) = fit_homography_robust(&src, &dst, 3, 3.0, 0.5).unwrap();
+    assert_eq!(inliers, 1900);
+    let c = [623.4, 521.7];
+    let (a, b) = (apply(&f, c), apply(&h, c));
+    assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
+}
+
+fn homographies(s: &State, views: &[ViewObs], projector: bool) -> Vec<Matrix3<f64>> {
+    let obj = board();
+    let _ = s;
+    views.iter().map(|v| fit_homography(&obj, if projector { &v.proj } else { &v.cam }).unwrap()).collect()
+}
+
+#[test]
+fn zhang_closed_form_is_exact_on_noiseless_corners() {
+    let truth = rig(false);
+    let views = observe(&truth, &board());
+    for (projector, lens, size) in [(false, truth.cam, (1280, 1024)), (true, truth.proj.unwrap(), (1024, 768))] {
+        let hs = homographies(&truth, &views, projector);
+        let k = intrinsics(&hs[..3], size.0, size.1).unwrap();
+        let f = lens.fx;
+        for (a, b) in [(k.fx, lens.fx), (k.fy, lens.fy), (k.cx, lens.cx), (k.cy, lens.cy)] {
+            assert!(rel(a, b, f) < 1e-9, "projector={projector}: {k:?} vs {lens:?}");
+        }
+        // The board poses from H and K.
+        for (v, h) in hs.iter().enumerate() {
+            let pose = pose_from_homography(h, &k.k()).unwrap();
+            let want = if projector { truth.stereo.after(&truth.poses[v]) } else { truth.poses[v] };
+            assert!((pose.r() - want.r()).norm() < 1e-9, "view {v}");
+            assert!((pose.t - want.t).norm() < 1e-9 * want.t.norm(), "view {v}: {} vs {}", pose.t, want.t);
+        }
+    }
+}
+
+#[test]
+fn zhang_refuses_parallel_boards() {
+    let mut s = rig(false);
+    for p in s.poses.iter_mut() {
+        p.rvec = Vector3::zeros();
+    }
+    let views = observe(&s, &board());
+    let e = intrinsics(&homographies(&s, &views, false), 1280, 1024).unwrap_err().to_string();
+    assert!(e.contains("degenerate pose set"), "{e}");
+}
+
+fn corners(views: &[ViewObs]) -> Vec<CaptureCorners> {
+    views.iter().enumerate().map(|(i, v)| CaptureCorners { name: format!("v{i}"), cam: v.cam.clone(), proj: v.proj.clone() }).collect()
+}
+
+const RIG: Rig = Rig { cols: 9, rows: 7, square: 75.0, camera: (1280, 1024), projector: (1024, 768) };
+
+fn lens_of(d: &scan::calib::DeviceCalibration) -> Lens {
+    let k = &d.distortion;
+    Lens { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy, dist: [k[0], k[1], k[2], k[3], k[4]] }
+}
+
+/// Largest deviation of a calibration from the truth: intrinsics relative to fx, distortion
+/// absolute, rotation (Frobenius), translation relative to |T|.
+fn deviation(c: &ProcamCalibration, truth: &State) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (got, want) in [(lens_of(&c.camera), truth.cam), (lens_of(&c.projector), truth.proj.unwrap())] {
+        let (g, w) = (got.to_array(), want.to_array());
+        for i in 0..4 {
+            worst = worst.max(rel(g[i], w[i], want.fx));
+        }
+        for i in 4..9 {
+            worst = worst.max((g[i] - w[i]).abs());
+        }
+    }
+    let r = Matrix3::from_fn(|i, j| c.rotation[i][j]);
+    worst = worst.max((r - truth.stereo.r()).norm());
+    worst = worst.max((Vector3::from(c.translation) - truth.stereo.t).norm() / truth.stereo.t.norm());
+    worst
+}
+
+#[test]
+fn levenberg_marquardt_recovers_noiseless_truth() {
+    let truth = rig(true);
+    let views = observe(&truth, &board());
+    let c = calibrate_corners(&RIG, &corners(&views)).unwrap();
+    let d = deviation(&c, &truth);
+    assert!(d < 1e-9, "deviation {d:e}: {c:?}");
+    assert!(c.rms_px < 1e-9 && c.camera.rms_px < 1e-9 && c.projector.rms_px < 1e-9);
+    for (p, want) in c.captures.iter().zip(&truth.poses) {
+        assert!((Vector3::from(p.tvec) - want.t).norm() < 1e-9 * want.t.norm());
+    }
+}
+
+#[test]
+fn levenberg_marquardt_on_noisy_corners_stays_within_the_expected_spread() {
+    // σ = 0.1 px Gaussian noise on every corner of both devices. The residual RMS of a least-squares
+    // fit is σ·√((m − n)/m) (m residuals, n parameters); the parameter errors are compared with
+    // their standard deviations from the fit's covariance σ²(JᵀJ)⁻¹, each within 4.5 σ.
+    let truth = rig(true);
+    let obj = board();
+    let clean = observe(&truth, &obj);
+    let sigma = 0.1;
+    let mut rng = Pcg::new(2017);
+    let noisy: Vec<ViewObs> = clean
+        .iter()
+        .map(|v| ViewObs {
+            cam: v.cam.iter().map(|p| [p[0] + sigma * rng.normal(), p[1] + sigma * rng.normal()]).collect(),
+            proj: v.proj.iter().map(|p| [p[0] + sigma * rng.normal(), p[1] + sigma * rng.normal()]).collect(),
+        })
+        .collect();
+    let c = calibrate_corners(&RIG, &corners(&noisy)).unwrap();
+    let m = (4 * obj.len() * noisy.len()) as f64;
+    let n = (2 * 9 + 6 + 6 * noisy.len()) as f64;
+    let expect = sigma * ((m - n) / m).sqrt();
+    assert!((c.rms_px - expect).abs() < 0.08 * expect, "RMS {} vs {expect}", c.rms_px);
+    let fit = State {
+        cam: lens_of(&c.camera),
+        proj: Some(lens_of(&c.projector)),
+        stereo: scan::calib::model::Pose::from_rt(&Matrix3::from_fn(|i, j| c.rotation[i][j]), Vector3::from(c.translation)),
+        poses: c.captures.iter().map(|p| scan::calib::model::Pose { rvec: Vector3::from(p.rvec), t: Vector3::from(p.tvec) }).collect(),
+    };
+    let sd = scan::calib::bundle::std_devs(&obj, &noisy, &fit, sigma);
+    let (got, want) = (scan::calib::bundle::pack_state(&fit), scan::calib::bundle::pack_state(&truth));
+    let mut worst: f64 = 0.0;
+    for i in 0..got.len() {
+        worst = worst.max((got[i] - want[i]).abs() / sd[i]);
+    }
+    assert!(worst < 4.5, "worst parameter error {worst:.2} standard deviations");
+    // And the fit is not trivially exact: the noise moves the focal lengths measurably.
+    assert!((c.camera.fx - truth.cam.fx).abs() > 1e-4);
+    let e = rms(&obj, &noisy, &fit);
+    assert!((e.all - c.rms_px).abs() < 1e-12);
+}
+
+#[test]
+fn two_captures_are_refused() {
+    let truth = rig(true);
+    let views = observe(&truth, &board());
+    let e = calibrate_corners(&RIG, &corners(&views[..2])).unwrap_err().to_string();
+    assert!(e.contains("degenerate pose set"), "{e}");
+}

@@ -1,0 +1,211 @@
+//! Decoding: ideal patterns exactly, area-sampled views with sub-pixel accuracy, real captures,
+//! bad capture folders.
+
+use scan::decode::{decode, read_capture, DecodeSettings};
+use scan::graycode::{Frame, PatternSet};
+
+use crate::common::{ideal_capture, sample_capture, scratch, write_capture};
+
+/// Camera = projector image: every pixel decodes to its own projector coordinate, exactly, for
+/// step 1; with a step, pixels inside bracketed blocks are exact and the first and last block
+/// (no edge on one side) sit at the block centre.
+#[test]
+fn ideal_patterns_decode_exactly_for_every_projector_pixel() {
+    for &(w, h, step) in &[(1024u32, 768u32, 1u32), (37, 29, 1), (600, 5, 1), (100, 77, 3), (64, 48, 4), (50, 33, 7)] {
+        let p = PatternSet::new(w, h, step).unwrap();
+        let (map, stats) = decode(&ideal_capture(&p), &p, &DecodeSettings::default()).unwrap();
+        assert_eq!(stats.valid_pixels, (w * h) as usize, "{w}x{h} step {step}");
+        let exact = |x: u32, codes: u32, size: u32, centre: f64| {
+            let c = x / step;
+            if step == 1 || (c > 0 && c + 1 < codes) {
+                x as f64
+            } else {
+                let _ = size;
+                centre
+            }
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                let want_c = exact(x, p.column_codes(), w, p.column_centre(x / step));
+                let want_r = exact(y, p.row_codes(), h, p.row_centre(y / step));
+                assert_eq!(map.col[i] as f64, want_c, "{w}x{h} step {step}: column at ({x}, {y})");
+                assert_eq!(map.row[i] as f64, want_r, "{w}x{h} step {step}: row at ({x}, {y})");
+            }
+        }
+        // Without refinement every pixel sits at its block's centre.
+        let settings = DecodeSettings { refine: false, ..DecodeSettings::default() };
+        let (map, _) = decode(&ideal_capture(&p), &p, &settings).unwrap();
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                assert_eq!(map.col[i] as f64, p.column_centre(x / step));
+                assert_eq!(map.row[i] as f64, p.row_centre(y / step));
+            }
+        }
+    }
+}
+
+/// Fraction of [a, b] (projector coordinate, pixel edges at half-integers) lit in `frame` along
+/// one axis: the exact box-filtered view of a stripe pattern.
+fn lit_fraction(p: &PatternSet, frame: Frame, a: f64, b: f64, column: bool) -> f64 {
+    let mut lit = 0.0;
+    let lo = (a + 0.5).floor() as i64;
+    let hi = (b + 0.5).floor() as i64;
+    for k in lo..=hi {
+        let (pa, pb) = ((k as f64 - 0.5).max(a), (k as f64 + 0.5).min(b));
+        if pb <= pa || k < 0 {
+            continue;
+        }
+        let k = k as u32;
+        let on = if column { p.lit(frame, k, 0) } else { p.lit(frame, 0, k) };
+        if on {
+            lit += pb - pa;
+        }
+    }
+    lit / (b - a)
+}
+
+/// A camera seeing the projector magnified 2.7× with box-filtered pixels, an offset, 20 % ambient
+/// light and a contrast of 200 grey levels: refined coordinates are much closer to the truth than
+/// the integer decoding (uniform quantisation: RMS 1/√12 ≈ 0.289 px).
+#[test]
+fn refinement_beats_integer_decoding_on_an_area_sampled_magnified_view() {
+    let p = PatternSet::new(128, 96, 1).unwrap();
+    let (w, h) = (300usize, 200usize);
+    let scale = 1.0 / 2.7; // projector pixels per camera pixel
+    let (u0, v0) = (7.3, 11.85);
+    let truth = |x: usize, y: usize| (u0 + scale * x as f64, v0 + scale * y as f64);
+    let frames: Vec<Vec<u8>> = (0..p.len())
+        .map(|i| {
+            let frame = p.frame(i).unwrap();
+            let mut img = vec![0u8; w * h];
+            for y in 0..h {
+                for x in 0..w {
+                    let (u, v) = truth(x, y);
+                    let f = match frame {
+                        Frame::Column { .. } => lit_fraction(&p, frame, u - scale / 2.0, u + scale / 2.0, true),
+                        Frame::Row { .. } => lit_fraction(&p, frame, v - scale / 2.0, v + scale / 2.0, false),
+                        Frame::White => 1.0,
+                        Frame::Black => 0.0,
+                    };
+                    img[y * w + x] = (30.0 + 200.0 * f).round() as u8;
+                }
+            }
+            img
+        })
+        .collect();
+    let capture = scan::decode::Capture { width: w, height: h, frames };
+    let rms = |refine: bool| {
+        let (map, stats) = decode(&capture, &p, &DecodeSettings { refine, ..DecodeSettings::default() }).unwrap();
+        let (mut sc, mut sr, mut n) = (0.0, 0.0, 0usize);
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                if !map.col[i].is_finite() {
+                    continue;
+                }
+                let (u, v) = truth(x, y);
+                sc += (map.col[i] as f64 - u).powi(2);
+                sr += (map.row[i] as f64 - v).powi(2);
+                n += 1;
+            }
+        }
+        (stats, (sc / n as f64).sqrt(), (sr / n as f64).sqrt())
+    };
+    let (s0, c0, r0) = rms(false);
+    let (s1, c1, r1) = rms(true);
+    eprintln!("integer RMS col {c0:.4} row {r0:.4}; refined RMS col {c1:.4} row {r1:.4}; valid {} refined {} / {}", s1.valid_pixels, s1.refined_columns, s1.refined_rows);
+    // Pixels whose footprint straddles a stripe edge with pattern ≈ inverse are undecided.
+    assert!(s0.valid_pixels > w * h * 8 / 10, "{s0:?}");
+    assert!((c0 - 0.289).abs() < 0.03 && (r0 - 0.289).abs() < 0.03, "integer decoding {c0} {r0}");
+    assert!(c1 < 0.06 && r1 < 0.06, "refined {c1} {r1}");
+    assert!(s1.refined_columns > s1.valid_pixels * 9 / 10);
+}
+
+#[test]
+fn real_captures_cover_the_lit_board_and_decode_monotone_coordinates() {
+    let p = PatternSet::new(1024, 768, 1).unwrap();
+    for k in 0..3 {
+        let dir = sample_capture(k);
+        let capture = read_capture(&dir, &p, &|| {}).unwrap();
+        assert_eq!((capture.width, capture.height), (1280, 1024));
+        let (map, stats) = decode(&capture, &p, &DecodeSettings::default()).unwrap();
+        let frac = map.valid_fraction();
+        eprintln!("capture_{k}: valid {:.4}, refined columns {:.3}, rows {:.3}", frac, stats.refined_columns as f64 / stats.valid_pixels as f64, stats.refined_rows as f64 / stats.valid_pixels as f64);
+        assert!(frac > 0.38, "capture_{k}: valid fraction {frac}");
+        // Along camera rows the projector column increases, along camera columns the projector
+        // row increases (camera and projector side by side, neither mirrored): count decreasing
+        // steps between valid neighbours.
+        let (w, h) = (map.width, map.height);
+        let (mut up, mut down) = (0usize, 0usize);
+        let (mut rup, mut rdown) = (0usize, 0usize);
+        for y in 0..h {
+            for x in 0..w - 1 {
+                let (i, j) = (y * w + x, y * w + x + 1);
+                if map.is_valid(x, y) && map.is_valid(x + 1, y) {
+                    let d = map.col[j] - map.col[i];
+                    if d > 0.0 { up += 1 } else if d < -1.0 { down += 1 }
+                }
+            }
+        }
+        for y in 0..h - 1 {
+            for x in 0..w {
+                let (i, j) = (y * w + x, (y + 1) * w + x);
+                if map.is_valid(x, y) && map.is_valid(x, y + 1) {
+                    let d = map.row[j] - map.row[i];
+                    if d > 0.0 { rup += 1 } else if d < -1.0 { rdown += 1 }
+                }
+            }
+        }
+        eprintln!("capture_{k}: column steps up {up} down {down}; row steps up {rup} down {rdown}");
+        assert!(down * 200 < up, "capture_{k}: columns not monotone ({up} up, {down} down)");
+        assert!(rdown * 200 < rup, "capture_{k}: rows not monotone ({rup} up, {rdown} down)");
+    }
+}
+
+#[test]
+fn bad_capture_folders_name_the_file() {
+    let p = PatternSet::new(16, 8, 1).unwrap();
+    let good = ideal_capture(&p);
+    let err = |dir: &std::path::Path| format!("{:#}", read_capture(dir, &p, &|| {}).unwrap_err());
+
+    let dir = scratch("missing");
+    write_capture(&dir, &good);
+    std::fs::remove_file(dir.join("graycode_05.png")).unwrap();
+    let e = err(&dir);
+    assert!(e.contains("graycode_05.png") && e.contains("missing"), "{e}");
+
+    let dir = scratch("extra");
+    write_capture(&dir, &good);
+    std::fs::copy(dir.join("graycode_00.png"), dir.join(format!("graycode_{}.png", p.len()))).unwrap();
+    let e = err(&dir);
+    assert!(e.contains(&format!("graycode_{}.png", p.len())) && e.contains("extra"), "{e}");
+
+    let dir = scratch("twice");
+    write_capture(&dir, &good);
+    std::fs::copy(dir.join("graycode_03.png"), dir.join("graycode_03.jpg")).unwrap();
+    let e = err(&dir);
+    assert!(e.contains("graycode_03"), "{e}");
+
+    let dir = scratch("size");
+    write_capture(&dir, &good);
+    image::GrayImage::new(16, 9).save(dir.join("graycode_07.png")).unwrap();
+    let e = err(&dir);
+    assert!(e.contains("graycode_07.png") && e.contains("16x9"), "{e}");
+
+    let dir = scratch("corrupt");
+    write_capture(&dir, &good);
+    std::fs::write(dir.join("graycode_02.png"), b"not a png").unwrap();
+    let e = err(&dir);
+    assert!(e.contains("graycode_02.png"), "{e}");
+
+    // Another projector size needs another frame count: a 1024x768 capture read as 2048x768.
+    let e = format!("{:#}", read_capture(&sample_capture(0), &PatternSet::new(2048, 768, 1).unwrap(), &|| {}).unwrap_err());
+    assert!(e.contains("graycode_42.png") && e.contains("missing"), "{e}");
+    let e = format!("{:#}", read_capture(&sample_capture(0), &PatternSet::new(512, 768, 1).unwrap(), &|| {}).unwrap_err());
+    assert!(e.contains("graycode_4") && e.contains("extra"), "{e}");
+
+    let e = err(&scratch("empty").join("nope"));
+    assert!(e.contains("nope"), "{e}");
+}
