@@ -32,6 +32,8 @@ enum Command {
     Compare(cmd::compare::Args),
     /// Inverse problems: optical properties from reflectance, particles from spectra, scene parameters from photos.
     Fit(cmd::fit::Args),
+    /// Structured-light scanning: Gray-code patterns, decoding, calibration, reconstruction.
+    Scan(cmd::scan::Args),
 }
 
 fn main() {
@@ -64,6 +66,7 @@ fn main() {
         Some(Command::Bssrdf(a)) => cmd::bssrdf::run(a),
         Some(Command::Compare(a)) => cmd::compare::run(a),
         Some(Command::Fit(a)) => cmd::fit::run(a),
+        Some(Command::Scan(a)) => cmd::scan::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of contexts joined, as scripts and people read it.

@@ -12,4 +12,5 @@ pub mod medium;
 pub mod merge;
 pub mod mie;
 pub mod render;
+pub mod scan;
 pub mod slab;

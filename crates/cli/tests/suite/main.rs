@@ -8,3 +8,4 @@ mod fit_scene;
 mod render_cli;
 mod robustness_optics;
 mod robustness_render;
+mod scan_cli;

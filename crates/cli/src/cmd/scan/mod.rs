@@ -1,0 +1,95 @@
+//! `lucent scan …`: structured-light scanning with Gray-code patterns (the `scan` crate;
+//! docs/scanning.md). One file per subcommand; this file owns the subcommand list and the
+//! helpers they share (projector size parsing, progress bars).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+pub mod decode;
+pub mod patterns;
+// Calibration subcommand module: `pub mod calibrate;` (cmd/scan/calibrate.rs).
+
+/// Arguments of `lucent scan`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The `lucent scan` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum Command {
+    /// Write the Gray-code pattern images (OpenCV GrayCodePattern order) for a projector.
+    Patterns(patterns::Args),
+    /// Decode a capture folder into projector column and row per camera pixel.
+    Decode(decode::Args),
+    // ── Calibration subcommand: `Calibrate(calibrate::Args),` goes here (cmd/scan/calibrate.rs). ──
+}
+
+/// Runs one `lucent scan` subcommand.
+pub fn run(args: Args) -> Result<()> {
+    match args.command {
+        Command::Patterns(a) => patterns::run(a),
+        Command::Decode(a) => decode::run(a),
+        // ── Calibration subcommand: `Command::Calibrate(a) => calibrate::run(a),` goes here. ──
+    }
+}
+
+/// Parses a projector size `WIDTHxHEIGHT` (pixels), e.g. `1024x768`.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("`{s}` is not a size WIDTHxHEIGHT in pixels (e.g. 1024x768)");
+    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 {
+        return Err(format!("projector size must be at least 1x1, got {s}"));
+    }
+    Ok((w, h))
+}
+
+/// A progress bar on stderr that appears only once its task has run for a second (indicatif
+/// hides it when stderr is not a terminal).
+pub struct Progress {
+    bar: ProgressBar,
+    start: Instant,
+    shown: AtomicBool,
+}
+
+impl Progress {
+    /// A bar of `len` steps labelled `what`.
+    pub fn new(len: u64, what: &str) -> Progress {
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
+        if let Ok(style) = ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} {msg}") {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar.set_message(what.to_string());
+        Progress { bar, start: Instant::now(), shown: AtomicBool::new(false) }
+    }
+
+    /// One step done.
+    pub fn inc(&self) {
+        self.show_if_slow();
+        self.bar.inc(1);
+    }
+
+    /// A new label (a new phase of the same task).
+    pub fn set_message(&self, what: &str) {
+        self.show_if_slow();
+        self.bar.set_message(what.to_string());
+    }
+
+    fn show_if_slow(&self) {
+        if !self.shown.load(Ordering::Relaxed) && self.start.elapsed() >= Duration::from_secs(1) {
+            self.shown.store(true, Ordering::Relaxed);
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
+    }
+
+    /// Removes the bar.
+    pub fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
