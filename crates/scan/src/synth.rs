@@ -31,9 +31,8 @@
 //! - Sensor noise: Gaussian of `noise_sigma` (linear units, full scale 1) per pixel and frame,
 //!   from a fixed seed; then the sRGB curve, rounding and clamping to 0…255.
 
-mod patterns;
-
 use crate::calib::{CapturePose, DeviceCalibration, ProcamCalibration};
+use crate::graycode::{Frame, PatternSet};
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
 use render::camera::{Camera, Distortion, Extrinsics, Intrinsics, OpenCv};
@@ -46,12 +45,6 @@ use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Number of images in the Gray-code sequence of a `width` × `height` projector:
-/// 2·(⌈log₂ width⌉ + ⌈log₂ height⌉) + 2.
-pub fn sequence_length(width: u32, height: u32) -> usize {
-    patterns::image_count(width, height)
-}
 
 /// One device's intrinsics and distortion (OpenCV model and pixel convention).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -287,7 +280,7 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 4, ambient_spp: 16, seed: 14, noise_sigma: 0.002 }
+        RenderSettings { spp: 16, ambient_spp: 64, seed: 14, noise_sigma: 0.002 }
     }
 }
 
@@ -442,10 +435,15 @@ impl CaptureScene {
         Ok(render_grey(&self.scene, spp, seed))
     }
 
+    /// The Gray-code sequence of this projector (step 1).
+    pub fn patterns(&self) -> Result<PatternSet> {
+        PatternSet::new(self.projector.width, self.projector.height, 1)
+    }
+
     /// Linear grey of the projector's share for image `index` of the Gray-code sequence.
     pub fn render_pattern(&mut self, index: usize, spp: u32, seed: u64) -> Result<Vec<f64>> {
-        let (w, h) = (self.projector.width, self.projector.height);
-        self.render_image(patterns::pattern(w, h, index), spp, seed)
+        let img = self.patterns()?.image(index).with_context(|| format!("pattern {index} is past the sequence"))?;
+        self.render_image(img.iter().map(|&c| c as f32 / 255.0).collect(), spp, seed)
     }
 }
 
@@ -475,10 +473,18 @@ pub fn render_capture(rig: &Rig, board: &Board, target: &Target, settings: &Rend
         check_board_visible(rig, board, *rvec, *tvec_mm).with_context(|| format!("capture {name}"))?;
     }
     let t0 = Instant::now();
-    let (pw, ph) = (rig.projector.width, rig.projector.height);
-    let n_img = patterns::image_count(pw, ph);
-    let ncode = n_img - 2;
     let mut cs = CaptureScene::new(rig, board, target)?;
+    let set = cs.patterns()?;
+    let n_img = set.len();
+    let ncode = n_img - 2;
+    // The order this relies on: each bit's pattern, then its inverse; then white and black.
+    let order_ok = (0..ncode).all(|k| {
+        matches!(set.frame(k), Some(Frame::Column { inverse, .. } | Frame::Row { inverse, .. }) if inverse == (k % 2 == 1))
+    }) && set.frame(ncode) == Some(Frame::White)
+        && set.frame(ncode + 1) == Some(Frame::Black);
+    if !order_ok {
+        bail!("the pattern sequence is not pattern/inverse pairs followed by white and black");
+    }
     let ambient = render_ambient(rig, board, target, settings.ambient_spp, settings.seed)?;
     let white = cs.render_pattern(ncode, settings.spp, settings.seed)?;
     let mut linear: Vec<Vec<f64>> = Vec::with_capacity(n_img);
