@@ -7,7 +7,7 @@ for decoding, valid pixels. With --patterns DIR it also checks that DIR/pattern_
 `lucent scan patterns` writes them) equal OpenCV's `generate()` images plus white and black.
 Usage: pip install opencv-contrib-python-headless numpy
        python3 benches-peers/opencv_graycode_decode.py CAPTURE_DIR [--projector 1024x768]
-           [--threads N] [--patterns DIR]"""
+           [--threads N] [--patterns DIR] [--save MAPS.npz]"""
 import argparse
 import glob
 import json
@@ -24,6 +24,7 @@ ap.add_argument("--threads", type=int, default=2)
 ap.add_argument("--patterns")
 ap.add_argument("--black-thr", type=int, default=40)
 ap.add_argument("--white-thr", type=int, default=5)
+ap.add_argument("--save", help="write the integer column and row maps (-1 invalid) to this .npz")
 a = ap.parse_args()
 pw, ph = (int(v) for v in a.projector.lower().split("x"))
 cv2.setNumThreads(a.threads)
@@ -63,4 +64,6 @@ for x, y in zip(xs.tolist(), ys.tolist()):
 t2 = time.perf_counter()
 out.update({"read_s": t1 - t0, "decode_s": t2 - t1, "total_s": t2 - t0, "lit_pixels": int(lit.sum()),
             "valid_pixels": valid, "valid_fraction": valid / white.size})
+if a.save:
+    np.savez(a.save, col=col, row=row)
 print(json.dumps(out))

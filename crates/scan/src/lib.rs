@@ -10,7 +10,9 @@
 //! the calibration and the reconstruction in chessboard square units.
 
 pub mod calib;
+pub mod cloud;
 pub mod decode;
 pub mod eval;
 pub mod graycode;
 pub mod synth;
+pub mod triangulate;

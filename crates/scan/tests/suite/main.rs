@@ -6,3 +6,4 @@ mod decode;
 mod eval;
 mod graycode;
 mod synth;
+mod triangulate;

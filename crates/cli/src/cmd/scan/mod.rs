@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 pub mod decode;
 pub mod patterns;
+pub mod reconstruct;
 // Calibration subcommand module: `pub mod calibrate;` (cmd/scan/calibrate.rs).
 
 /// Arguments of `lucent scan`.
@@ -27,6 +28,8 @@ pub enum Command {
     /// Decode a capture folder into projector column and row per camera pixel.
     Decode(decode::Args),
     // ── Calibration subcommand: `Calibrate(calibrate::Args),` goes here (cmd/scan/calibrate.rs). ──
+    /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
+    Reconstruct(reconstruct::Args),
 }
 
 /// Runs one `lucent scan` subcommand.
@@ -35,6 +38,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Patterns(a) => patterns::run(a),
         Command::Decode(a) => decode::run(a),
         // ── Calibration subcommand: `Command::Calibrate(a) => calibrate::run(a),` goes here. ──
+        Command::Reconstruct(a) => reconstruct::run(a),
     }
 }
 
