@@ -5,5 +5,7 @@ mod calib_real;
 mod chessboard;
 mod common;
 mod decode;
+mod eval;
 mod graycode;
+mod synth;
 mod triangulate;
