@@ -26,8 +26,11 @@ pub struct Shading {
     /// Geometric normal as stored (for the side an area light emits to, and the side of a
     /// closed object the ray arrives from).
     pub ng_raw: Vec3,
-    /// Texture coordinates ([`crate::accel::SurfacePoint::uv`]).
-    pub uv: glam::Vec2,
+    /// Primitive index of the hit within its object.
+    pub prim: u32,
+    /// The hit's barycentric coordinates (sphere: its angular parameters), from which
+    /// [`Shading::uv`] computes texture coordinates where a texture needs them.
+    pub bary: glam::Vec2,
 }
 
 impl Shading {
@@ -41,7 +44,14 @@ impl Shading {
         if !(ns.dot(ng) > 0.0) || !ns.is_finite() {
             ns = ng;
         }
-        Shading { p: sp.p, ng, frame: Frame::from_normal(ns), object: sp.object, ng_raw: sp.ng, uv: sp.uv }
+        Shading { p: sp.p, ng, frame: Frame::from_normal(ns), object: sp.object, ng_raw: sp.ng, prim: hit.prim, bary: glam::Vec2::new(hit.u, hit.v) }
+    }
+
+    /// Texture coordinates of this point ([`crate::accel::Accel::uv`]); computed on demand, so
+    /// untextured surfaces never pay for them.
+    #[inline]
+    pub fn uv(&self, scene: &Scene) -> glam::Vec2 {
+        scene.accel.uv(self.object, self.prim, self.bary.x, self.bary.y)
     }
 
     /// Ray leaving this point in direction `d` (unit), offset off the surface on the side of `d`.

@@ -1,5 +1,6 @@
 //! The integration tests of the `lucent` command, one test binary (each file a module).
 
+mod camera_cli;
 mod common;
 mod aov_cli;
 mod distributed_examples;

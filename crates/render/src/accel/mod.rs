@@ -13,7 +13,7 @@
 
 use crate::math::geometry::{Aabb, Ray};
 use crate::shape::triangle::RayTri;
-use crate::shape::sphere::Sphere;
+use crate::shape::sphere::{sphere_uv, Sphere};
 use crate::shape::Shape;
 use glam::{Vec3, Vec4};
 
@@ -47,12 +47,6 @@ pub struct SurfacePoint {
     pub object: u32,
     /// Primitive index within the shape.
     pub prim: u32,
-    /// Texture coordinates (u left to right, v bottom to top of an image): interpolated vertex
-    /// (u, v) on meshes that have them (0 on meshes without); on spheres u = φ/2π, v = 1 − θ/π
-    /// with θ the polar angle from +y and φ the azimuth about +y from +x towards −z
-    /// (counter-clockwise seen from +y), so an image wrapped round a sphere reads the right way
-    /// round from outside, its top row at the +y pole.
-    pub uv: glam::Vec2,
 }
 
 /// Wide node: the boxes of four children in SoA layout, `b[side][axis][child]` (side 0 = min,
@@ -447,7 +441,13 @@ impl Pre {
             inv: inv.to_array(),
             o: ray.o.to_array(),
             near_side: [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize],
-            parallel: !inv.is_finite(),
+            // Also rays with a non-finite origin or direction (not `traceable`): the careful
+            // test hits nothing for them. x·0 is 0 for finite x and NaN otherwise, so one
+            // comparison tests all nine numbers.
+            parallel: {
+                let z = ray.o * 0.0 + ray.d * 0.0 + inv * 0.0;
+                !(z.x + z.y + z.z == 0.0)
+            },
             k: [rt.k[0].min(2), rt.k[1].min(2), rt.k[2].min(2)],
             rt,
             o4: [Vec4::splat(ray.o.x), Vec4::splat(ray.o.y), Vec4::splat(ray.o.z)],
@@ -478,6 +478,9 @@ impl Pre {
     #[inline(never)]
     fn hit4_parallel(&self, n: &Node4, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
         let mut tn = [0.0f32; 4];
+        if self.o.iter().any(|x| !x.is_finite()) || self.inv.iter().any(|x| x.is_nan() || *x == 0.0) {
+            return (tn, 0); // an untraceable ray (non-finite origin, NaN direction) hits nothing
+        }
         let mut hit = 0u32;
         for i in 0..4 {
             let (mut near, mut far) = (t_min, t_max);
@@ -703,7 +706,8 @@ impl Accel {
 
     /// Closest hit with t in (ray.t_min, ray.t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() || !traceable(ray) {
+        // Untraceable rays (see `traceable`) hit no box: `Pre::hit4` sends them to the careful test.
+        if self.nodes.is_empty() {
             return None;
         }
         if self.stack_needed <= SMALL_STACK {
@@ -1126,7 +1130,8 @@ impl Accel {
 
     /// True when anything is hit with t in (ray.t_min, ray.t_max) (shadow rays).
     pub fn occluded(&self, ray: &Ray) -> bool {
-        if self.nodes.is_empty() || !traceable(ray) {
+        // Untraceable rays (see `traceable`) hit no box: `Pre::hit4` sends them to the careful test.
+        if self.nodes.is_empty() {
             return false;
         }
         if self.stack_needed <= SMALL_STACK {
@@ -1197,9 +1202,7 @@ impl Accel {
             Shape::Sphere(s) => {
                 let n = (ray.at(hit.t) - s.center).normalize_or_zero();
                 let n = if n == Vec3::ZERO { Vec3::Z } else { n };
-                // The hit's (u, v) is (azimuth from +x towards +z, polar angle from +y) / (2π, π).
-                let uv = glam::Vec2::new(1.0 - hit.u, 1.0 - hit.v);
-                SurfacePoint { p: s.center + n * s.radius.abs(), ng: n, ns: n, object: hit.object, prim: 0, uv }
+                SurfacePoint { p: s.center + n * s.radius.abs(), ng: n, ns: n, object: hit.object, prim: 0 }
             }
             Shape::Mesh(m) => {
                 let t = m.indices[hit.prim as usize];
@@ -1223,12 +1226,28 @@ impl Accel {
                     }
                     None => ng,
                 };
-                let uv = match &m.uvs {
-                    Some(uv) => w * uv[t[0] as usize] + hit.u * uv[t[1] as usize] + hit.v * uv[t[2] as usize],
-                    None => glam::Vec2::ZERO,
-                };
-                SurfacePoint { p, ng, ns, object: hit.object, prim: hit.prim, uv }
+                SurfacePoint { p, ng, ns, object: hit.object, prim: hit.prim }
             }
+        }
+    }
+
+    /// Texture coordinates (u left to right, v bottom to top of an image) of the point with
+    /// barycentrics (`u`, `v`) on primitive `prim` of shape `object` (a [`Hit`]'s fields):
+    /// interpolated vertex (u, v) on meshes that have them (0 on meshes without); on spheres
+    /// [`crate::shape::sphere::texture_uv`]. Computed only where a texture is looked up.
+    #[inline]
+    pub fn uv(&self, object: u32, prim: u32, u: f32, v: f32) -> glam::Vec2 {
+        match self.shape(object) {
+            // The hit's (u, v) is (azimuth from +x towards +z, polar angle from +y) / (2π, π).
+            Shape::Sphere(_) => glam::Vec2::new(1.0 - u, 1.0 - v),
+            Shape::Mesh(m) => match &m.uvs {
+                Some(uv) => {
+                    let t = m.indices[prim as usize];
+                    let w = 1.0 - u - v;
+                    w * uv[t[0] as usize] + u * uv[t[1] as usize] + v * uv[t[2] as usize]
+                }
+                None => glam::Vec2::ZERO,
+            },
         }
     }
 
@@ -1270,13 +1289,6 @@ impl Accel {
     }
 }
 
-/// Sphere parametrisation of the direction `d` from the centre: (azimuth about +y / 2π, polar angle from +y / π).
-fn sphere_uv(d: Vec3) -> (f32, f32) {
-    let d = d.normalize_or_zero();
-    let phi = d.z.atan2(d.x);
-    let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
-    (phi / (2.0 * std::f32::consts::PI), d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
-}
 
 /// Ask the CPU to start loading `lines` cache lines from `p`.
 #[inline(always)]

@@ -14,7 +14,7 @@ use glam::{Vec3, Vec4};
 pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
     let Some(hit) = scene.accel.intersect(&ray) else {
         return match scene.environment {
-            Some(ei) => scene.lights[ei as usize].le(Vec3::ZERO, -ray.d, wl),
+            Some(ei) => scene.lights[ei as usize].le(Vec3::ZERO, -ray.d, || glam::Vec2::ZERO, wl),
             None => Vec4::ZERO,
         };
     };
@@ -23,9 +23,9 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
     let obj = &scene.objects[s.object as usize];
     let mut l = Vec4::ZERO;
     if let Some(li_idx) = obj.light {
-        l += scene.lights[li_idx as usize].le(s.ng_raw, wo, wl);
+        l += scene.lights[li_idx as usize].le(s.ng_raw, wo, || s.uv(scene), wl);
     }
-    let bsdf = scene.materials[obj.material as usize].bsdf(wl, s.uv).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
+    let bsdf = scene.materials[obj.material as usize].bsdf_with(wl, || s.uv(scene)).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
     if !bsdf.is_delta() && !bsdf.is_black() {
         l += nee::surface_light(scene, &s, wo, &bsdf, wl, rng, false);
     }

@@ -96,7 +96,7 @@ pub fn surface_light(scene: &Scene, s: &Shading, wo: Vec3, bsdf: &Bsdf, wl: &Sam
 pub fn environment_emission(scene: &Scene, ray: &Ray, beta: SampledSpectrum, prev_p: Vec3, prev_pdf: f32, no_mis: bool, wl: &SampledWavelengths) -> SampledSpectrum {
     let Some(ei) = scene.environment else { return Vec4::ZERO };
     let env = &scene.lights[ei as usize];
-    let le = env.le(Vec3::ZERO, -ray.d, wl);
+    let le = env.le(Vec3::ZERO, -ray.d, || glam::Vec2::ZERO, wl);
     let w = if no_mis {
         1.0
     } else {

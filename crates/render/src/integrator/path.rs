@@ -55,7 +55,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
         let obj = &scene.objects[s.object as usize];
         if let Some(li_idx) = obj.light {
             let light = &scene.lights[li_idx as usize];
-            let le = light.le(s.ng_raw, wo, wl);
+            let le = light.le(s.ng_raw, wo, || s.uv(scene), wl);
             if le != Vec4::ZERO {
                 let w = if prev_delta {
                     1.0
@@ -79,7 +79,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
                 t.boundary_reflection()
             }
             // Back face: η → 1/η; dispersion: hero only.
-            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0, s.uv),
+            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0, || s.uv(scene)),
         };
         if bsdf.is_black() {
             break;

@@ -369,7 +369,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         let obj = &scene.objects[sp.object as usize];
         if let Some(li_idx) = obj.light {
             let light = &scene.lights[li_idx as usize];
-            let le = light.le(sp.ng_raw, wo, wl);
+            let le = light.le(sp.ng_raw, wo, || sp.uv(scene), wl);
             if le != Vec4::ZERO {
                 let w = if prev_medium_mis {
                     let lp = nee::area_light_pdf(scene, li_idx, prev_p, ray.d, sp.p, sp.ng_raw);
@@ -399,7 +399,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         if depth >= settings.max_depth {
             break;
         }
-        let bsdf = material.bsdf_at(wl, front, sp.uv);
+        let bsdf = material.bsdf_at(wl, front, || sp.uv(scene));
         if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
             break;
         }

@@ -21,6 +21,8 @@ pub mod projector;
 
 use crate::math::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
+use crate::shape::sphere::texture_uv;
+use crate::texture::SpectrumTexture;
 use glam::{Vec2, Vec3, Vec4};
 use optics::spectrum::DenseSpectrum;
 use std::f32::consts::PI;
@@ -35,6 +37,9 @@ pub enum Emitter {
         tris: Vec<[Vec3; 4]>,
         /// Cumulative areas (m²); the last entry is the total area.
         cdf: Vec<f32>,
+        /// Texture coordinates of each triangle's vertices (for a textured radiance), in the
+        /// order of `tris`.
+        uvs: Option<Vec<[Vec2; 3]>>,
     },
     /// A sphere.
     Sphere {
@@ -76,7 +81,8 @@ pub enum Light {
         /// Spectral irradiance on a surface perpendicular to it (W·m⁻²·nm⁻¹).
         irradiance: DenseSpectrum,
     },
-    /// Diffuse emitter on the surface of a scene object.
+    /// Diffuse emitter on the surface of a scene object; its radiance may vary over the surface
+    /// with the texture coordinates (an emissive image).
     Area {
         /// Index of the emitting object in the scene.
         object: u32,
@@ -84,8 +90,9 @@ pub enum Light {
         emitter: Emitter,
         /// Emitting area (m²).
         area_m2: f32,
-        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹).
-        radiance: DenseSpectrum,
+        /// Spectral radiance (W·m⁻²·sr⁻¹·nm⁻¹), constant or textured (image texels uplifted
+        /// to illuminant spectra).
+        radiance: SpectrumTexture,
         /// Whether it emits on both sides (else only on the side of the geometric normal).
         two_sided: bool,
     },
@@ -127,10 +134,20 @@ impl Emitter {
 
     /// Build from triangles; errors when the total area is not positive.
     pub fn triangles(tris: Vec<[Vec3; 3]>) -> anyhow::Result<Emitter> {
+        Emitter::textured_triangles(tris, None)
+    }
+
+    /// Build from triangles with, optionally, the texture coordinates of their vertices (one
+    /// entry per triangle); errors when the total area is not positive.
+    pub fn textured_triangles(tris: Vec<[Vec3; 3]>, uvs: Option<Vec<[Vec2; 3]>>) -> anyhow::Result<Emitter> {
+        if let Some(u) = &uvs {
+            anyhow::ensure!(u.len() == tris.len(), "{} triangles but {} texture-coordinate triples", tris.len(), u.len());
+        }
         let mut cdf = Vec::with_capacity(tris.len());
         let mut out = Vec::with_capacity(tris.len());
+        let mut out_uv = Vec::new();
         let mut acc = 0.0f64;
-        for t in &tris {
+        for (i, t) in tris.iter().enumerate() {
             let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
             let c = e1.cross(e2);
             let a = 0.5 * c.length() as f64;
@@ -138,12 +155,15 @@ impl Emitter {
                 acc += a;
                 cdf.push(acc as f32);
                 out.push([t[0], e1, e2, c.normalize()]);
+                if let Some(u) = &uvs {
+                    out_uv.push(u[i]);
+                }
             }
         }
         if !(acc > 0.0) || !acc.is_finite() {
             anyhow::bail!("emitting surface has zero area");
         }
-        Ok(Emitter::Triangles { tris: out, cdf })
+        Ok(Emitter::Triangles { tris: out, cdf, uvs: uvs.map(|_| out_uv) })
     }
 }
 
@@ -164,7 +184,7 @@ impl Light {
             }
             Light::Directional { irradiance, .. } => PI * scene_radius_m * scene_radius_m * integral(irradiance),
             Light::Area { area_m2, radiance, two_sided, .. } => {
-                PI * area_m2 * integral(radiance) * if *two_sided { 2.0 } else { 1.0 }
+                PI * area_m2 * integral(&radiance.representative()) * if *two_sided { 2.0 } else { 1.0 }
             }
             Light::Projector(p) => p.weighted_solid_angle_sr * integral(&p.intensity),
             Light::Environment { radiance } => 4.0 * PI * PI * scene_radius_m * scene_radius_m * integral(radiance),
@@ -218,12 +238,13 @@ impl Light {
                 delta: true,
             }),
             Light::Area { emitter, area_m2, radiance, two_sided, .. } => {
-                let (q, n) = match emitter {
-                    Emitter::Triangles { tris, cdf } => {
+                // The triangle and barycentrics of the sample (texture coordinates, where needed).
+                let (q, n, tri, b) = match emitter {
+                    Emitter::Triangles { tris, cdf, .. } => {
                         let (i, ur) = if cdf.len() == 1 { (0, u.x) } else { sample_cdf(cdf, u.x) };
                         let t = &tris[i];
                         let b = uniform_triangle(Vec2::new(ur, u.y));
-                        (t[0] + t[1] * b.x + t[2] * b.y, t[3])
+                        (t[0] + t[1] * b.x + t[2] * b.y, t[3], i, b)
                     }
                     Emitter::Sphere { center, radius } => {
                         let dc = *center - p;
@@ -248,10 +269,14 @@ impl Light {
                                 return None;
                             }
                             let pdf = 1.0 / (2.0 * PI * (1.0 - cos_max));
-                            return Some(LightSample { wi, dist: t, li: wl.eval(radiance), pdf, delta: false });
+                            let li = match radiance {
+                                SpectrumTexture::Constant(s) => wl.eval(s),
+                                textured => textured_radiance(textured, emitter, 0, Vec2::ZERO, n, wl),
+                            };
+                            return Some(LightSample { wi, dist: t, li, pdf, delta: false });
                         }
                         let n = uniform_sphere(u);
-                        (*center + n * *radius, n)
+                        (*center + n * *radius, n, 0, Vec2::ZERO)
                     }
                 };
                 let d = q - p;
@@ -266,7 +291,11 @@ impl Light {
                     return None;
                 }
                 let pdf = dist2 / (cos_l.abs() * area_m2);
-                Some(LightSample { wi, dist, li: wl.eval(radiance), pdf, delta: false })
+                let li = match radiance {
+                    SpectrumTexture::Constant(s) => wl.eval(s),
+                    textured => textured_radiance(textured, emitter, tri, b, n, wl),
+                };
+                Some(LightSample { wi, dist, li, pdf, delta: false })
             }
             Light::Environment { radiance } => {
                 let wi = uniform_sphere(u);
@@ -308,13 +337,14 @@ impl Light {
     }
 
     /// Radiance emitted towards `wo` (unit, pointing away from the surface) by an area light at a
-    /// point with geometric normal `ng`, or by the environment in direction −`wo`.
+    /// point with geometric normal `ng` and texture coordinates `uv()` (called only for a
+    /// textured radiance), or by the environment in direction −`wo`.
     #[inline]
-    pub fn le(&self, ng: Vec3, wo: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+    pub fn le(&self, ng: Vec3, wo: Vec3, uv: impl FnOnce() -> Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Area { radiance, two_sided, .. } => {
                 if *two_sided || ng.dot(wo) > 0.0 {
-                    wl.eval(radiance)
+                    radiance.eval_with(wl, uv)
                 } else {
                     Vec4::ZERO
                 }
@@ -324,6 +354,23 @@ impl Light {
             Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_) => Vec4::ZERO,
         }
     }
+}
+
+/// Radiance of a textured area light at a sampled point: on triangle `tri` of a mesh emitter
+/// at barycentrics `b` (weights 1 − b₁ − b₂, b₁, b₂ of its vertices, as a ray hit's), or on a
+/// sphere emitter at unit normal `n`. Kept out of line: untextured lights never come here.
+#[cold]
+#[inline(never)]
+fn textured_radiance(radiance: &SpectrumTexture, emitter: &Emitter, tri: usize, b: Vec2, n: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+    let uv = match emitter {
+        Emitter::Triangles { uvs: Some(uvs), .. } => {
+            let t = uvs[tri];
+            (1.0 - b.x - b.y) * t[0] + b.x * t[1] + b.y * t[2]
+        }
+        Emitter::Triangles { uvs: None, .. } => Vec2::ZERO,
+        Emitter::Sphere { .. } => texture_uv(n),
+    };
+    radiance.eval(wl, uv)
 }
 
 /// Spot-light falloff: 1 inside the inner cone, 0 outside the outer one, smoothstep in between.

@@ -179,11 +179,28 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 if objects[oi].light.is_some() {
                     return Err(cx.err(&span, &format!("{field}.object"), format!("object {} already has a light", quote(oname))));
                 }
+                let rv = l.radiance.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.radiance"), format!("missing (a {} light needs radiance)", l.kind)))?;
+                let radiance = sp.resolve_texture(rv, &format!("{field}.radiance"), SpectrumUse::Emission)?;
+                let textured = radiance.is_textured();
                 let emitter = match &shapes[oi] {
-                    Shape::Mesh(m) => Emitter::triangles(
-                        m.indices.iter().map(|t| [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]]).collect(),
-                    )
-                    .map_err(|e| cx.err(&span, &format!("{field}.object"), format!("{}: {e}", quote(oname))))?,
+                    Shape::Mesh(m) => {
+                        let uvs = match (&m.uvs, textured) {
+                            (Some(uv), true) => Some(m.indices.iter().map(|t| t.map(|k| uv[k as usize])).collect()),
+                            (None, true) => {
+                                return Err(cx.err(
+                                    &span,
+                                    &format!("{field}.radiance"),
+                                    format!("is textured but object {} has no texture coordinates (OBJ vt, PLY u/v)", quote(oname)),
+                                ))
+                            }
+                            (_, false) => None,
+                        };
+                        Emitter::textured_triangles(
+                            m.indices.iter().map(|t| [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]]).collect(),
+                            uvs,
+                        )
+                        .map_err(|e| cx.err(&span, &format!("{field}.object"), format!("{}: {e}", quote(oname))))?
+                    }
                     Shape::Sphere(s) => Emitter::Sphere { center: s.center, radius: s.radius },
                 };
                 let area_m2 = emitter.area_m2();
@@ -193,7 +210,11 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 let two_sided = l.two_sided.unwrap_or(false);
                 let geometric = std::f64::consts::PI * area_m2 as f64 * if two_sided { 2.0 } else { 1.0 };
                 objects[oi].light = Some(lights.len() as u32);
-                Light::Area { object: oi as u32, emitter, area_m2, radiance: scaled(need(&l.radiance, "radiance")?, geometric)?, two_sided }
+                let radiance = match radiance {
+                    crate::texture::SpectrumTexture::Constant(c) => crate::texture::SpectrumTexture::Constant(scaled(c, geometric)?),
+                    t => scaled_texture(cx, &span, &field, l, t, geometric)?,
+                };
+                Light::Area { object: oi as u32, emitter, area_m2, radiance, two_sided }
             }
             "projector" => {
                 check_keys(&["image", "response", "camera", "intensity"])?;
@@ -207,6 +228,35 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
     }
 
     Ok((lights, environment))
+}
+
+/// A textured radiance scaled by `scale`, or so that the light emits `power_w` watts with the
+/// representative spectrum of the texture ([`crate::texture::SpectrumTexture::representative`]);
+/// refused when its peak exceeds [`MAX_EMISSION`].
+fn scaled_texture(
+    cx: &Cx,
+    span: &std::ops::Range<usize>,
+    field: &str,
+    l: &crate::load::desc::LightDesc,
+    t: crate::texture::SpectrumTexture,
+    geometric: f64,
+) -> Result<crate::texture::SpectrumTexture> {
+    let k = if let Some(p) = l.power_w {
+        let rep = t.representative();
+        let integral: f64 = (0..=470).map(|i| rep.eval(360.0 + i as f32) as f64).sum();
+        if !(integral > 0.0) || !(geometric > 0.0) {
+            return Err(cx.err(span, &format!("{field}.power_w"), "cannot scale a light whose texture or size is zero"));
+        }
+        p / (integral * geometric)
+    } else {
+        l.scale.unwrap_or(1.0)
+    };
+    let peak = t.peak() * k;
+    if !(peak <= MAX_EMISSION) {
+        let at = if l.power_w.is_some() { format!("{field}.power_w") } else if l.scale.is_some() { format!("{field}.scale") } else { format!("{field}.radiance") };
+        return Err(cx.err(span, &at, format!("the scaled texture peaks at {peak:.3e} per nm, above the {MAX_EMISSION:e} the renderer carries")));
+    }
+    Ok(if k == 1.0 { t } else { t.scaled(k) })
 }
 
 /// A projector light: `image` (through `response`), `camera` (a camera table; its size defaults to

@@ -130,9 +130,10 @@ impl Material {
     /// 4) before its η is taken at the hero wavelength. Equivalent to [`Material::bsdf`] followed
     /// by [`Bsdf::from_inside`] for back faces and `wl.terminate_secondary()` when
     /// [`Bsdf::terminates_secondary`].
-    #[inline]
-    pub fn bsdf_at(&self, wl: &mut SampledWavelengths, front_face: bool, uv: Vec2) -> Bsdf {
-        let b = self.bsdf(wl, uv);
+    /// The texture coordinates come from `uv`, called only by textured materials.
+    #[inline(always)]
+    pub fn bsdf_at(&self, wl: &mut SampledWavelengths, front_face: bool, uv: impl FnOnce() -> Vec2) -> Bsdf {
+        let b = self.bsdf_with(wl, uv);
         if b.terminates_secondary() {
             wl.terminate_secondary();
         }
@@ -148,8 +149,15 @@ impl Material {
     /// inside use [`Bsdf::from_inside`] on the result.
     #[inline]
     pub fn bsdf(&self, wl: &SampledWavelengths, uv: Vec2) -> Bsdf {
+        self.bsdf_with(wl, || uv)
+    }
+
+    /// [`Material::bsdf`] with the texture coordinates computed by `uv` only when a texture
+    /// is looked up (untextured materials never call it).
+    #[inline(always)]
+    pub fn bsdf_with(&self, wl: &SampledWavelengths, uv: impl FnOnce() -> Vec2) -> Bsdf {
         match self {
-            Material::Lambertian { albedo } => Bsdf::Diffuse { r: albedo.eval(wl, uv) },
+            Material::Lambertian { albedo } => Bsdf::Diffuse { r: albedo.eval_with(wl, uv) },
             Material::Black => Bsdf::Black,
             Material::Dielectric { ior, dispersive, distrib, roughness } => {
                 let distrib = &textured_distrib(distrib, roughness, uv);
@@ -173,7 +181,7 @@ impl Material {
                 }
             }
             Material::Plastic { albedo, ior, alpha, table } => Bsdf::Coated(CoatedDiffuse {
-                albedo: albedo.eval(wl, uv),
+                albedo: albedo.eval_with(wl, uv),
                 eta: *ior,
                 distrib: TrowbridgeReitz::isotropic(*alpha),
                 table,
@@ -185,9 +193,9 @@ impl Material {
 
 /// The microfacet distribution at `uv`: `distrib` itself when the roughness is not textured.
 #[inline]
-fn textured_distrib(distrib: &TrowbridgeReitz, roughness: &Option<FloatTexture>, uv: Vec2) -> TrowbridgeReitz {
+fn textured_distrib(distrib: &TrowbridgeReitz, roughness: &Option<FloatTexture>, uv: impl FnOnce() -> Vec2) -> TrowbridgeReitz {
     match roughness {
         None => *distrib,
-        Some(r) => TrowbridgeReitz::isotropic(crate::bsdf::microfacet::roughness_to_alpha(r.eval(uv).clamp(0.0, 1.0))),
+        Some(r) => TrowbridgeReitz::isotropic(crate::bsdf::microfacet::roughness_to_alpha(r.eval_with(uv).clamp(0.0, 1.0))),
     }
 }

@@ -6,7 +6,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
 
 use crate::math::geometry::{Aabb, Ray};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
@@ -66,4 +66,24 @@ impl Sphere {
     pub fn area(&self) -> f32 {
         4.0 * std::f32::consts::PI * self.radius * self.radius
     }
+}
+
+/// Sphere parametrisation of the direction `d` from the centre: (azimuth about +y from +x
+/// towards +z / 2π, polar angle from +y / π), each in [0, 1].
+#[inline]
+pub fn sphere_uv(d: Vec3) -> (f32, f32) {
+    let d = d.normalize_or_zero();
+    let phi = d.z.atan2(d.x);
+    let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
+    (phi / (2.0 * std::f32::consts::PI), d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
+}
+
+/// Texture coordinates of the sphere point in direction `d` from the centre: u = φ/2π,
+/// v = 1 − θ/π with θ the polar angle from +y and φ the azimuth about +y from +x towards −z
+/// (counter-clockwise seen from +y), so an image wrapped round a sphere reads the right way
+/// round from outside, its top row at the +y pole.
+#[inline]
+pub fn texture_uv(d: Vec3) -> Vec2 {
+    let (u, v) = sphere_uv(d);
+    Vec2::new(1.0 - u, 1.0 - v)
 }

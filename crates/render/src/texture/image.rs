@@ -89,6 +89,8 @@ pub struct SpectralImage {
     texels: Vec<[f32; 4]>,
     /// D65 for illuminants (relative, luminance 1), None for reflectances.
     d65: Option<DenseSpectrum>,
+    /// Mean texel colour (linear sRGB), times the scale applied by [`SpectralImage::scaled`].
+    mean_rgb: [f64; 3],
 }
 
 impl SpectralImage {
@@ -129,7 +131,41 @@ impl SpectralImage {
             Uplift::Reflectance => None,
             Uplift::Illuminant => Some(DenseSpectrum::from_fn(optics::spectrum::d65_normalized)),
         };
-        Ok(SpectralImage { width: img.width as usize, height: img.height as usize, wrap, uv_scale, texels, d65 })
+        let n = img.rgb.len().max(1) as f64;
+        let mean_rgb = img.rgb.iter().fold([0.0f64; 3], |a, p| [0, 1, 2].map(|k| a[k] + p[k] as f64)).map(|v| v / n);
+        Ok(SpectralImage { width: img.width as usize, height: img.height as usize, wrap, uv_scale, texels, d65, mean_rgb })
+    }
+
+    /// This image with every texel spectrum multiplied by `k` (≥ 0).
+    pub fn scaled(&self, k: f32) -> SpectralImage {
+        let mut out = self.clone();
+        for c in &mut out.texels {
+            c[3] *= k;
+        }
+        out.mean_rgb = out.mean_rgb.map(|v| v * k as f64);
+        out
+    }
+
+    /// The uplift of the mean texel colour (with D65 for illuminants): stands for the image as
+    /// a whole where one spectrum is needed (light choice by power).
+    pub fn representative(&self) -> DenseSpectrum {
+        match &self.d65 {
+            Some(d) => {
+                let s = SigmoidSpectrum::illuminant(self.mean_rgb);
+                DenseSpectrum::from_fn(|l| s.eval(l) * d.eval(l as f32) as f64)
+            }
+            None => {
+                let s = SigmoidSpectrum::reflectance(self.mean_rgb);
+                DenseSpectrum::from_fn(|l| s.eval(l))
+            }
+        }
+    }
+
+    /// An upper bound of every texel spectrum (with D65 for illuminants) at every wavelength.
+    pub fn peak(&self) -> f64 {
+        let scale = self.texels.iter().map(|c| c[3] as f64).fold(0.0, f64::max);
+        let d = self.d65.as_ref().map_or(1.0, |d| (0..=470).map(|i| d.eval(360.0 + i as f32) as f64).fold(0.0, f64::max));
+        scale * d
     }
 
     /// Width and height in texels.

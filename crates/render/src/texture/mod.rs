@@ -49,10 +49,49 @@ impl SpectrumTexture {
     /// The spectrum at texture coordinates `uv`, at the wavelengths `wl`.
     #[inline(always)]
     pub fn eval(&self, wl: &SampledWavelengths, uv: Vec2) -> SampledSpectrum {
+        self.eval_with(wl, || uv)
+    }
+
+    /// [`SpectrumTexture::eval`] with the texture coordinates computed by `uv` only when the
+    /// value depends on them (a constant never calls it).
+    #[inline(always)]
+    pub fn eval_with(&self, wl: &SampledWavelengths, uv: impl FnOnce() -> Vec2) -> SampledSpectrum {
         match self {
             SpectrumTexture::Constant(s) => wl.eval(s),
-            SpectrumTexture::Image(t) => t.eval(wl, uv),
-            SpectrumTexture::Checkerboard(c) => c.eval(wl, uv),
+            SpectrumTexture::Image(t) => t.eval(wl, uv()),
+            SpectrumTexture::Checkerboard(c) => c.eval(wl, uv()),
+        }
+    }
+
+    /// This texture times `k` (≥ 0).
+    pub fn scaled(&self, k: f64) -> SpectrumTexture {
+        let sc = |s: &DenseSpectrum| DenseSpectrum::from_fn(|x| s.eval(x as f32) as f64 * k);
+        match self {
+            SpectrumTexture::Constant(s) => SpectrumTexture::Constant(sc(s)),
+            SpectrumTexture::Image(t) => SpectrumTexture::Image(Arc::new(t.scaled(k as f32))),
+            SpectrumTexture::Checkerboard(c) => SpectrumTexture::Checkerboard(Arc::new(checkerboard::Checkerboard { squares: c.squares, even: sc(&c.even), odd: sc(&c.odd) })),
+        }
+    }
+
+    /// A spectrum standing for the texture as a whole: the constant itself; for a checkerboard
+    /// the mean of its two spectra; for an image the uplift of its mean texel colour (an
+    /// approximation of the mean texel spectrum, used to choose lights by power and to scale
+    /// to a `power_w`).
+    pub fn representative(&self) -> DenseSpectrum {
+        match self {
+            SpectrumTexture::Constant(s) => s.clone(),
+            SpectrumTexture::Image(t) => t.representative(),
+            SpectrumTexture::Checkerboard(c) => DenseSpectrum::from_fn(|x| 0.5 * (c.even.eval(x as f32) + c.odd.eval(x as f32)) as f64),
+        }
+    }
+
+    /// An upper bound of the texture's value over all (u, v) and wavelengths.
+    pub fn peak(&self) -> f64 {
+        let max = |s: &DenseSpectrum| (0..=470).map(|i| s.eval(360.0 + i as f32) as f64).fold(0.0, f64::max);
+        match self {
+            SpectrumTexture::Constant(s) => max(s),
+            SpectrumTexture::Image(t) => t.peak(),
+            SpectrumTexture::Checkerboard(c) => max(&c.even).max(max(&c.odd)),
         }
     }
 
@@ -89,9 +128,15 @@ impl FloatTexture {
     /// The value at texture coordinates `uv`.
     #[inline]
     pub fn eval(&self, uv: Vec2) -> f32 {
+        self.eval_with(|| uv)
+    }
+
+    /// [`FloatTexture::eval`] with the texture coordinates computed by `uv` only when needed.
+    #[inline(always)]
+    pub fn eval_with(&self, uv: impl FnOnce() -> Vec2) -> f32 {
         match self {
             FloatTexture::Constant(x) => *x,
-            FloatTexture::Image(t) => t.eval(uv),
+            FloatTexture::Image(t) => t.eval(uv()),
         }
     }
 }

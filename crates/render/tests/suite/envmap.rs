@@ -163,7 +163,7 @@ fn constant_map_renders_as_the_constant_environment() {
     for _ in 0..200 {
         let wl = SampledWavelengths::sample(rng.next_f32());
         let d = uniform_sphere(rng.next_2d());
-        let (a, b) = (env_light(&map).le(Vec3::ZERO, -d, &wl), env_light(&env).le(Vec3::ZERO, -d, &wl));
+        let (a, b) = (env_light(&map).le(Vec3::ZERO, -d, || glam::Vec2::ZERO, &wl), env_light(&env).le(Vec3::ZERO, -d, || glam::Vec2::ZERO, &wl));
         assert!((a - b).abs().max_element() <= 1e-5 * b.max_element(), "{a} vs {b} towards {d}");
     }
     // Same image mean within noise (different light sampling, so not the same samples).
@@ -299,7 +299,7 @@ fn bright_upper_hemisphere_gives_pi_l_by_light_bsdf_and_mis_sampling() {
         let wl = SampledWavelengths::sample(rng.next_f32());
         let c = cosine_hemisphere(rng.next_2d());
         let wi = Vec3::new(c.x, c.z, c.y); // around +y
-        let y = 0.5 * wl.to_xyz(light.le(Vec3::ZERO, -wi, &wl))[1] as f64;
+        let y = 0.5 * wl.to_xyz(light.le(Vec3::ZERO, -wi, || glam::Vec2::ZERO, &wl))[1] as f64;
         s1 += y;
         s2 += y * y;
     }
@@ -384,7 +384,7 @@ fn a_single_bright_texel_lights_the_plane_facing_it_mitsuba_orientation() {
     // The full texel value arrives from the rotated texel direction.
     let wl = SampledWavelengths::fixed([450.0, 520.0, 580.0, 640.0]);
     let d65 = Vec4::from_array(wl.lambda_nm.map(|l| optics::spectrum::d65_normalized(l as f64) as f32));
-    let le = env_light(&facing).le(Vec3::ZERO, -n, &wl);
+    let le = env_light(&facing).le(Vec3::ZERO, -n, || glam::Vec2::ZERO, &wl);
     assert!((le - d65 * 100.0).abs().max_element() < 1e-3 * 100.0 * d65.max_element(), "{le} vs {}", d65 * 100.0);
     // Irradiance from the bilinear footprint (tent of one texel in u and in v), by quadrature
     // over the footprint: E = ∫ L cos dω, dω = 2π² sin θ du dv.

@@ -10,7 +10,7 @@ use optics::spectrum::DenseSpectrum;
 
 fn area_light(emitter: Emitter, two_sided: bool) -> Light {
     let area_m2 = emitter.area_m2();
-    Light::Area { object: 0, emitter, area_m2, radiance: DenseSpectrum::from_fn(|_| 1.0), two_sided }
+    Light::Area { object: 0, emitter, area_m2, radiance: DenseSpectrum::from_fn(|_| 1.0).into(), two_sided }
 }
 
 /// Mean and standard error of 1/pdf over `n` samples from point `p`.

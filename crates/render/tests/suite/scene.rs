@@ -88,6 +88,7 @@ fn cornell_geometry_is_the_published_obj() {
     // downwards only.
     let li = s.objects.iter().find(|o| o.name == "light").unwrap().light.unwrap();
     let Light::Area { radiance, two_sided, area_m2, .. } = &s.lights[li as usize] else { panic!() };
+    let radiance = radiance.as_constant().unwrap();
     assert!(!two_sided);
     assert!((area_m2 - 0.130 * 0.105).abs() < 1e-6);
     for (l, v) in [(400.0, 0.0), (450.0, 4.0), (500.0, 8.0), (600.0, 15.6), (700.0, 18.4), (399.0, 0.0), (701.0, 0.0)] {
@@ -151,6 +152,7 @@ fn power_scale_sets_the_emitted_power() {
     let t = MINIMAL.replace("radiance = 1", "radiance = 1\npower_w = 3");
     let s = parse(&t).unwrap();
     let Light::Area { radiance, area_m2, .. } = &s.lights[0] else { panic!() };
+    let radiance = radiance.as_constant().unwrap();
     let expect = 3.0 / (std::f64::consts::PI * (*area_m2 as f64) * 471.0);
     assert!(((radiance.eval(550.0) as f64) / expect - 1.0).abs() < 1e-5);
     assert!((area_m2 - 4e-6).abs() < 1e-10);
@@ -163,6 +165,7 @@ fn rgb_albedo_never_exceeds_one_and_blackbody_peaks_at_scale() {
     let render::material::Material::Lambertian { albedo } = &s.materials[0] else { panic!() };
     assert!(albedo.as_constant().unwrap().samples().iter().all(|v| (0.0..=1.0).contains(v)));
     let Light::Area { radiance, .. } = &s.lights[0] else { panic!() };
+    let radiance = radiance.as_constant().unwrap();
     // Wien: the 5000 K peak is at 579.6 nm.
     assert!((radiance.max_value() - 2.0).abs() < 1e-3);
     assert!(radiance.eval(580.0) > radiance.eval(450.0) && radiance.eval(580.0) > radiance.eval(750.0));
