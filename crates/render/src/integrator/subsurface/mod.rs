@@ -28,9 +28,12 @@
 //! nodes on the cut plus the number of candidates. `rejection_control = false` accepts every
 //! point (p_i = 1, cost linear in M) — the reference for the unbiasedness test.
 //!
-//! Wavelengths: the stored L_t are spectral, so a pass that uses the point cloud traces every
-//! path of the pass (camera and cloud) at the same four hero wavelengths, drawn from (seed,
-//! pass); passes average over wavelengths as they do over everything else.
+//! Wavelengths: the stored L_t are spectral, so a camera path uses a cloud traced at its own four
+//! hero wavelengths. A pass builds K clouds ([`Translucent::wavelength_sets`]) at K interleaved
+//! sets of wavelengths (one random offset per pass, stratified in the sampling CDF), and each
+//! pixel uses one set ([`SubsurfacePass::set_of_pixel`]), so a pass no longer tints the whole
+//! image with the colour of four wavelengths; passes average over wavelengths as they do over
+//! everything else.
 //!
 //! Limitation (default `bounces = 1`): the paths traced from cloud points see translucent
 //! surfaces as their specular reflection only, so light that leaves one translucent surface by
