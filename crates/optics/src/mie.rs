@@ -191,6 +191,363 @@ fn log_derivative(z: Complex64, terms: usize, out: &mut Vec<Complex64>) {
     }
 }
 
+/// Four f64 lanes (terms n … n+3 of the series): two SSE2 vectors on x86-64 (part of the
+/// baseline, so no run-time detection; no fused multiply-add, so every lane rounds as scalar
+/// code would), plain arrays elsewhere.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug)]
+struct F4(std::arch::x86_64::__m128d, std::arch::x86_64::__m128d);
+
+#[cfg(target_arch = "x86_64")]
+mod f4_impl {
+    use super::F4;
+    use std::arch::x86_64::*;
+
+    impl F4 {
+        #[inline(always)]
+        pub(super) fn new(v: [f64; 4]) -> F4 {
+            // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+            unsafe {
+                F4(_mm_set_pd(v[1], v[0]), _mm_set_pd(v[3], v[2]))
+            }
+        }
+        #[inline(always)]
+        pub(super) fn splat(v: f64) -> F4 {
+            // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+            unsafe {
+                F4(_mm_set1_pd(v), _mm_set1_pd(v))
+            }
+        }
+        /// (v₀ + v₁) + (v₂ + v₃).
+        #[inline(always)]
+        pub(super) fn sum(self) -> f64 {
+            // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+            unsafe {
+                let lo = _mm_add_sd(self.0, _mm_unpackhi_pd(self.0, self.0));
+                let hi = _mm_add_sd(self.1, _mm_unpackhi_pd(self.1, self.1));
+                _mm_cvtsd_f64(_mm_add_sd(lo, hi))
+            }
+        }
+        /// The last lane, v₃.
+        #[inline(always)]
+        pub(super) fn last(self) -> f64 {
+            // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+            unsafe {
+                _mm_cvtsd_f64(_mm_unpackhi_pd(self.1, self.1))
+            }
+        }
+        /// [carry, v₀, v₁, v₂]: the lanes shifted up by one term.
+        #[inline(always)]
+        pub(super) fn shift_in(self, carry: f64) -> F4 {
+            // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+            unsafe {
+                F4(_mm_shuffle_pd::<0b00>(_mm_set_sd(carry), self.0), _mm_shuffle_pd::<0b01>(self.0, self.1))
+            }
+        }
+        /// 1 where the lane is ≤ `limit`, else 0.
+        #[inline(always)]
+        pub(super) fn le_mask(self, limit: f64) -> F4 {
+            // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+            unsafe {
+                let l = _mm_set1_pd(limit);
+                let one = _mm_set1_pd(1.0);
+                F4(_mm_and_pd(_mm_cmple_pd(self.0, l), one), _mm_and_pd(_mm_cmple_pd(self.1, l), one))
+            }
+        }
+    }
+
+    macro_rules! f4_op {
+        ($tr:ident, $f:ident, $intr:ident) => {
+            impl std::ops::$tr for F4 {
+                type Output = F4;
+                #[inline(always)]
+                fn $f(self, o: F4) -> F4 {
+                    // SAFETY: SSE2 is part of the x86-64 baseline, always present.
+                    unsafe {
+                        F4($intr(self.0, o.0), $intr(self.1, o.1))
+                    }
+                }
+            }
+        };
+    }
+    f4_op!(Add, add, _mm_add_pd);
+    f4_op!(Sub, sub, _mm_sub_pd);
+    f4_op!(Mul, mul, _mm_mul_pd);
+    f4_op!(Div, div, _mm_div_pd);
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[derive(Clone, Copy, Debug)]
+struct F4([f64; 4]);
+
+#[cfg(not(target_arch = "x86_64"))]
+mod f4_impl {
+    use super::F4;
+
+    impl F4 {
+        #[inline(always)]
+        pub(super) fn new(v: [f64; 4]) -> F4 {
+            F4(v)
+        }
+        #[inline(always)]
+        pub(super) fn splat(v: f64) -> F4 {
+            F4([v; 4])
+        }
+        #[inline(always)]
+        pub(super) fn sum(self) -> f64 {
+            (self.0[0] + self.0[1]) + (self.0[2] + self.0[3])
+        }
+        #[inline(always)]
+        pub(super) fn last(self) -> f64 {
+            self.0[3]
+        }
+        #[inline(always)]
+        pub(super) fn shift_in(self, carry: f64) -> F4 {
+            F4([carry, self.0[0], self.0[1], self.0[2]])
+        }
+        #[inline(always)]
+        pub(super) fn le_mask(self, limit: f64) -> F4 {
+            F4(self.0.map(|v| if v <= limit { 1.0 } else { 0.0 }))
+        }
+    }
+
+    macro_rules! f4_op {
+        ($tr:ident, $f:ident, $op:tt) => {
+            impl std::ops::$tr for F4 {
+                type Output = F4;
+                #[inline(always)]
+                fn $f(self, o: F4) -> F4 {
+                    F4(std::array::from_fn(|k| self.0[k] $op o.0[k]))
+                }
+            }
+        };
+    }
+    f4_op!(Add, add, +);
+    f4_op!(Sub, sub, -);
+    f4_op!(Mul, mul, *);
+    f4_op!(Div, div, /);
+}
+
+impl Default for F4 {
+    fn default() -> F4 {
+        F4::splat(0.0)
+    }
+}
+
+/// Four consecutive terms n = 4k+1 … 4k+4 of the real-x series: the numbers [A, C, B, T]
+/// (real and imaginary lanes) of [`riccati_downward`].
+#[derive(Clone, Copy, Debug, Default)]
+struct Block {
+    /// Real and imaginary parts of A, C, B, T (in that order), lane by lane.
+    v: [[f64; 4]; 8],
+}
+
+impl Block {
+    #[inline(always)]
+    fn set(&mut self, lane: usize, [a, c, b, t]: [Complex64; 4]) {
+        for (k, z) in [a, c, b, t].into_iter().enumerate() {
+            self.v[2 * k][lane] = z.re;
+            self.v[2 * k + 1][lane] = z.im;
+        }
+    }
+}
+
+/// For real x and relative index m, fill the term n = 1..=terms of `rows` (block (n−1)/4,
+/// lane (n−1)%4) with the four numbers [A, C, B, T] that give the Bohren–Huffman coefficients
+/// without a division for D_n(mx): with t_n ∝ ψ_n(mx) from the downward three-term recurrence
+/// t_{n−1} = (2n+1)/(mx)·t_n − t_{n+1} (the same recurrence as D_{n−1} = n/z − 1/(D_n + n/z),
+/// D_n = t_{n−1}/t_n − n/z, started with D = 0 at the same index as [`log_derivative`]),
+/// D_n/m + n/x = A/C with A = t_{n−1} + (n/x)(m − 1/m)·t_n, C = m·t_n, and
+/// m·D_n + n/x = B/T with B = m·t_{n−1}, T = t_n. Each term has one consistent scale of t
+/// (the pair is rescaled when |t| leaves [1e-30, 1e30]), and a_n, b_n are homogeneous in it.
+/// Lanes past `terms` hold A = B = 1, C = T = 0 (a_n = b_n = ψ_n/ξ_n, finite; their weights are 0).
+fn riccati_downward(x: f64, m: Complex64, terms: usize, rows: &mut Vec<Block>) {
+    let z = m * x;
+    let start = downward_start(terms, z.norm());
+    let one = Complex64::new(1.0, 0.0);
+    let zero = Complex64::new(0.0, 0.0);
+    let blocks = terms.div_ceil(4);
+    rows.clear();
+    rows.resize(blocks, Block::default());
+    for n in terms + 1..=4 * blocks {
+        rows[(n - 1) / 4].set((n - 1) % 4, [one, zero, one, zero]);
+    }
+    let inv_z = inv(z);
+    let kk = (m - inv(m)) * (1.0 / x);
+    // D_start = 0: t_start = 1, t_{start−1} = (start/z)·t_start.
+    let mut t1 = one; // t_{n+1}
+    let mut t0 = inv_z * start as f64; // t_n
+    let mut n = start - 1;
+    #[inline(always)]
+    fn rescale(t0: &mut Complex64, t1: &mut Complex64) {
+        let size = t0.re.abs() + t0.im.abs();
+        if !(1e-30..=1e30).contains(&size) {
+            let k = 1.0 / size;
+            *t0 *= k;
+            *t1 *= k;
+        }
+    }
+    // Two steps at a time, t_{n−2} = (c_{n−1}c_n − 1)·t_n − c_{n−1}·t_{n+1} beside
+    // t_{n−1} = c_n·t_n − t_{n+1} (c_n = (2n+1)/z): the serial chain is one complex product per
+    // two steps.
+    let inv_z2 = inv_z * inv_z;
+    let two_steps = |n: usize, t0: Complex64, t1: Complex64| {
+        let nf = n as f64;
+        let c_n = inv_z * (2.0 * nf + 1.0);
+        let c_n1 = inv_z * (2.0 * nf - 1.0);
+        let a = inv_z2 * (4.0 * nf * nf - 1.0) - 1.0;
+        (c_n * t0 - t1, a * t0 - c_n1 * t1)
+    };
+    while n >= terms + 2 {
+        let (u, v) = two_steps(n, t0, t1);
+        t1 = u;
+        t0 = v;
+        n -= 2;
+        rescale(&mut t0, &mut t1);
+    }
+    if n > terms {
+        let t = inv_z * (2 * n + 1) as f64 * t0 - t1;
+        t1 = t0;
+        t0 = t;
+        n -= 1;
+        rescale(&mut t0, &mut t1);
+    }
+    // Now t0 = t_terms, t1 = t_{terms+1}.
+    let row = |n: usize, t_prev: Complex64, t_n: Complex64| [t_prev + kk * (t_n * n as f64), m * t_n, m * t_prev, t_n];
+    let mut put = |n: usize, r: [Complex64; 4]| rows[(n - 1) / 4].set((n - 1) % 4, r);
+    while n >= 2 {
+        let (u, v) = two_steps(n, t0, t1); // t_{n−1}, t_{n−2}
+        put(n, row(n, u, t0));
+        put(n - 1, row(n - 1, v, u));
+        t1 = u;
+        t0 = v;
+        n -= 2;
+        rescale(&mut t0, &mut t1);
+    }
+    if n == 1 {
+        let t = inv_z * 3.0 * t0 - t1;
+        put(1, row(1, t, t0));
+    }
+}
+
+/// One [`Block`] as vectors.
+struct BlockF4 {
+    a_re: F4,
+    a_im: F4,
+    c_re: F4,
+    c_im: F4,
+    b_re: F4,
+    b_im: F4,
+    t_re: F4,
+    t_im: F4,
+}
+
+/// The sums of the real-x series over the blocks of [`riccati_downward`], four terms at a time:
+/// ψ_n(x), η_n(x) (ξ_n = ψ_n + iη_n) by upward recurrence, then
+/// a_n = (Aψ_n − Cψ_{n−1}) / (Aξ_n − Cξ_{n−1}), b_n = (Bψ_n − Tψ_{n−1}) / (Bξ_n − Tξ_{n−1}),
+/// with one division for 1/|·|² of both denominators and 1/(n+1) (for the weights of g).
+fn series_blocks(x: f64, terms: usize, rows: &[Block]) -> Sums {
+    let terms_f = terms as f64;
+    let (s, c) = x.sin_cos();
+    let inv_x = 1.0 / x;
+    // ψ_{n-1}, η_{n-1} (η_n = x y_n), starting at n = 0.
+    let (mut psi_m1, mut psi_0) = (c, s);
+    let (mut eta_m1, mut eta_0) = (s, -c);
+    let mut ext = F4::default();
+    let mut sca = F4::default();
+    let mut g_cross = F4::default();
+    let mut g_ab = F4::default();
+    let mut back_re = F4::default();
+    let mut back_im = F4::default();
+    let sign = F4::new([-1.0, 1.0, -1.0, 1.0]);
+    let (mut a_carry_re, mut a_carry_im, mut b_carry_re, mut b_carry_im) = (0.0, 0.0, 0.0, 0.0);
+    let mut inv_n_carry = 1.0;
+    let one = F4::splat(1.0);
+    let two = F4::splat(2.0);
+    let mut nf = F4::new([1.0, 2.0, 3.0, 4.0]);
+    let mut n0 = 1.0;
+    for blk in rows {
+        let mut psi = [0.0; 4];
+        let mut psi_p = [0.0; 4];
+        let mut eta = [0.0; 4];
+        let mut eta_p = [0.0; 4];
+        for k in 0..4 {
+            let f = (2.0 * (n0 + k as f64) - 1.0) * inv_x;
+            let p = f * psi_0 - psi_m1;
+            let e = f * eta_0 - eta_m1;
+            psi[k] = p;
+            psi_p[k] = psi_0;
+            eta[k] = e;
+            eta_p[k] = eta_0;
+            psi_m1 = psi_0;
+            psi_0 = p;
+            eta_m1 = eta_0;
+            eta_0 = e;
+        }
+        n0 += 4.0;
+        let (psi, psi_p, eta, eta_p) = (F4::new(psi), F4::new(psi_p), F4::new(eta), F4::new(eta_p));
+        let r = BlockF4 {
+            a_re: F4::new(blk.v[0]),
+            a_im: F4::new(blk.v[1]),
+            c_re: F4::new(blk.v[2]),
+            c_im: F4::new(blk.v[3]),
+            b_re: F4::new(blk.v[4]),
+            b_im: F4::new(blk.v[5]),
+            t_re: F4::new(blk.v[6]),
+            t_im: F4::new(blk.v[7]),
+        };
+        let na_re = r.a_re * psi - r.c_re * psi_p;
+        let na_im = r.a_im * psi - r.c_im * psi_p;
+        let nb_re = r.b_re * psi - r.t_re * psi_p;
+        let nb_im = r.b_im * psi - r.t_im * psi_p;
+        let da_re = r.a_re * psi - r.a_im * eta - r.c_re * psi_p + r.c_im * eta_p;
+        let da_im = r.a_re * eta + r.a_im * psi - r.c_re * eta_p - r.c_im * psi_p;
+        let db_re = r.b_re * psi - r.b_im * eta - r.t_re * psi_p + r.t_im * eta_p;
+        let db_im = r.b_re * eta + r.b_im * psi - r.t_re * eta_p - r.t_im * psi_p;
+        let da2 = da_re * da_re + da_im * da_im;
+        let db2 = db_re * db_re + db_im * db_im;
+        let dd = da2 * db2;
+        let n1 = nf + one;
+        let rr = one / (dd * n1);
+        let sa = db2 * n1 * rr;
+        let sb = da2 * n1 * rr;
+        let inv_n1 = dd * rr;
+        let an_re = (na_re * da_re + na_im * da_im) * sa;
+        let an_im = (na_im * da_re - na_re * da_im) * sa;
+        let bn_re = (nb_re * db_re + nb_im * db_im) * sb;
+        let bn_im = (nb_im * db_re - nb_re * db_im) * sb;
+        // Weights: 2n+1; (n−1)(n+1)/n = n − 1/n for Re(a_{n−1}a*_n + b_{n−1}b*_n);
+        // (2n+1)/(n(n+1)) = 1/n + 1/(n+1) for Re(a_n b*_n). Padded lanes have 2n+1 = 0.
+        let live = nf.le_mask(terms_f);
+        let w = (two * nf + one) * live;
+        ext = ext + w * (an_re + bn_re);
+        sca = sca + w * (an_re * an_re + an_im * an_im + bn_re * bn_re + bn_im * bn_im);
+        let inv_n = inv_n1.shift_in(inv_n_carry);
+        let ap_re = an_re.shift_in(a_carry_re);
+        let ap_im = an_im.shift_in(a_carry_im);
+        let bp_re = bn_re.shift_in(b_carry_re);
+        let bp_im = bn_im.shift_in(b_carry_im);
+        g_cross = g_cross + (nf - inv_n) * live * (ap_re * an_re + ap_im * an_im + bp_re * bn_re + bp_im * bn_im);
+        g_ab = g_ab + (inv_n + inv_n1) * live * (an_re * bn_re + an_im * bn_im);
+        let ws = w * sign;
+        back_re = back_re + (an_re - bn_re) * ws;
+        back_im = back_im + (an_im - bn_im) * ws;
+        inv_n_carry = inv_n1.last();
+        a_carry_re = an_re.last();
+        a_carry_im = an_im.last();
+        b_carry_re = bn_re.last();
+        b_carry_im = bn_im.last();
+        nf = nf + F4::splat(4.0);
+    }
+    Sums {
+        terms: 0,
+        ext: Complex64::new(ext.sum(), 0.0),
+        sca: sca.sum(),
+        g_num: g_cross.sum() + g_ab.sum(),
+        back: Complex64::new(back_re.sum(), back_im.sum()),
+    }
+}
+
 /// Efficiencies and asymmetry parameter of one sphere (dimensionless).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Efficiencies {
@@ -228,6 +585,7 @@ pub struct MieWorkspace {
     d_h: Vec<Complex64>,
     a: Vec<Complex64>,
     b: Vec<Complex64>,
+    rows: Vec<Block>,
 }
 
 impl MieWorkspace {
@@ -262,62 +620,18 @@ impl MieWorkspace {
             };
         }
         let terms = number_of_terms(x);
-        log_derivative(m * x, terms, &mut self.d_p);
-        let d = &self.d_p;
-        let (s, c) = x.sin_cos();
-        let inv_x = 1.0 / x;
-        let inv_m = inv(m);
-        // ψ_{n-1}, η_{n-1} (η_n = x y_n so that ξ_n = ψ_n + iη_n), starting at n = 0.
-        let (mut psi_m1, mut psi_0) = (c, s); // ψ_{-1}, ψ_0
-        let (mut eta_m1, mut eta_0) = (s, -c); // η_{-1}, η_0
-        let mut ext = 0.0;
-        let mut sca = 0.0;
-        let mut g_cross = 0.0; // Σ n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
-        let mut g_ab = 0.0; // Σ (2n+1)/(n(n+1)) Re(a_n b*_n)
-        let mut back = Complex64::new(0.0, 0.0);
-        let mut a_prev = Complex64::new(0.0, 0.0);
-        let mut b_prev = Complex64::new(0.0, 0.0);
-        let mut sign = -1.0;
-        for (n, dn) in d.iter().enumerate().skip(1) {
-            let nf = n as f64;
-            let f = (2.0 * nf - 1.0) * inv_x;
-            let psi = f * psi_0 - psi_m1;
-            let eta = f * eta_0 - eta_m1;
-            let nx = nf * inv_x;
-            let ta = dn * inv_m + nx;
-            let tb = dn * m + nx;
-            let xi = Complex64::new(psi, eta);
-            let xi_prev = Complex64::new(psi_0, eta_0);
-            let an = div(ta * psi - psi_0, ta * xi - xi_prev);
-            let bn = div(tb * psi - psi_0, tb * xi - xi_prev);
-            let w = 2.0 * nf + 1.0;
-            ext += w * (an.re + bn.re);
-            sca += w * (an.norm_sqr() + bn.norm_sqr());
-            if n > 1 {
-                let k = nf - 1.0;
-                g_cross += k * (k + 2.0) / (k + 1.0)
-                    * (a_prev.re * an.re + a_prev.im * an.im + b_prev.re * bn.re + b_prev.im * bn.im);
-            }
-            g_ab += w / (nf * (nf + 1.0)) * (an.re * bn.re + an.im * bn.im);
-            back += (an - bn) * (w * sign);
-            sign = -sign;
-            a_prev = an;
-            b_prev = bn;
-            psi_m1 = psi_0;
-            psi_0 = psi;
-            eta_m1 = eta_0;
-            eta_0 = eta;
-        }
+        riccati_downward(x, m, terms, &mut self.rows);
+        let sums = series_blocks(x, terms, &self.rows);
         let x2 = x * x;
-        let qext = 2.0 * ext / x2;
-        let qsca = 2.0 * sca / x2;
+        let qext = 2.0 * sums.ext.re / x2;
+        let qsca = 2.0 * sums.sca / x2;
         Efficiencies {
             terms,
             qext,
             qsca,
             qabs: qabs_of(qext, qsca, m.im),
-            qback: back.norm_sqr() / x2,
-            g: if sca > 0.0 { 2.0 * (g_cross + g_ab) / sca } else { 0.0 },
+            qback: sums.back.norm_sqr() / x2,
+            g: if sums.sca > 0.0 { 2.0 * sums.g_num / sums.sca } else { 0.0 },
         }
     }
 

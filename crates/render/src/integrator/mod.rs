@@ -38,13 +38,17 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
     let (w, h) = scene.resolution();
     let n = (w as usize) * (h as usize);
     assert!(xyz_out.len() >= n, "render_pass: output has {} entries, need {}×{}", xyz_out.len(), w, h);
-    // Subsurface hook: with translucent objects and `path`, the pass's point cloud is built first.
-    let sss = if settings.kind == IntegratorKind::Path { path::subsurface_pass(scene, settings, seed, pass) } else { None };
+    // Subsurface hook: with translucent objects and `path`, the pass's point clouds (one per
+    // wavelength set) are built first; each pixel uses one set.
+    let sss = if settings.kind == IntegratorKind::Path { path::subsurface_passes(scene, settings, seed, pass) } else { Vec::new() };
+    let sets = sss.len() as u32;
+    let offset = SubsurfacePass::set_offset(seed, pass);
     xyz_out[..n].par_chunks_mut(w as usize).enumerate().for_each(|(j, row)| {
         for (i, out) in row.iter_mut().enumerate() {
             let pixel = (j as u64) * (w as u64) + i as u64;
             let mut rng = Pcg32::for_pixel(seed, pass, pixel);
-            *out = sample_pixel_sss(scene, settings, i as u32, j as u32, &mut rng, sss.as_ref());
+            let p = (sets > 0).then(|| &sss[SubsurfacePass::set_of_pixel(i as u32, j as u32, offset, sets) as usize]);
+            *out = sample_pixel_sss(scene, settings, i as u32, j as u32, &mut rng, p);
         }
     });
 }

@@ -25,6 +25,16 @@ pub fn subsurface_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, 
     SubsurfacePass::build(scene, seed, pass, &|ray, wl, rng, mode, first_pdf| li_path_mode(scene, settings, ray, wl, rng, mode, first_pdf))
 }
 
+/// This pass's subsurface states, one per wavelength set ([`SubsurfacePass::wavelength_sets`];
+/// empty when the scene has no translucent object). Pixels choose one with
+/// [`SubsurfacePass::set_of_pixel`].
+pub fn subsurface_passes(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass: u64) -> Vec<SubsurfacePass> {
+    let sets = SubsurfacePass::wavelength_sets(scene);
+    (0..sets)
+        .filter_map(|k| SubsurfacePass::build_set(scene, seed, pass, k, sets, &|ray, wl, rng, mode, first_pdf| li_path_mode(scene, settings, ray, wl, rng, mode, first_pdf)))
+        .collect()
+}
+
 /// Radiance along `ray` by path tracing with NEE, MIS and Russian roulette.
 /// `wl` may lose its secondary wavelengths on the way (dispersion): convert the result with the
 /// `wl` as it is on return.

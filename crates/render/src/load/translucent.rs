@@ -44,6 +44,7 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
         "rejection_control",
         "rejection_radius_mfp",
         "bounces",
+        "wavelength_sets",
     ];
     let t = table.as_table().ok_or_else(|| {
         anyhow!("subsurface: expected a table such as {{ model = \"directional\", preset = \"marble\" }}")
@@ -204,6 +205,13 @@ pub fn translucent_from_toml(ior: Option<f64>, roughness: Option<f64>, table: &t
             .filter(|n| (1..=8).contains(n))
             .ok_or_else(|| anyhow!("subsurface.bounces: expected an integer in 1..=8"))?;
         mat.bounces = n as u32;
+    }
+    if let Some(v) = t.get("wavelength_sets") {
+        let n = v
+            .as_integer()
+            .filter(|n| (1..=64).contains(n))
+            .ok_or_else(|| anyhow!("subsurface.wavelength_sets: expected an integer in 1..=64"))?;
+        mat.wavelength_sets = n as u32;
     }
     if let Some(r) = roughness {
         mat.set_roughness(r)?;

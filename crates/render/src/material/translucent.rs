@@ -19,6 +19,9 @@ pub const DEFAULT_REJECTION_RADIUS_MFP: f32 = 0.0;
 /// Default number of cloud points per pass and translucent object.
 pub const DEFAULT_POINTS_PER_PASS: usize = 16384;
 
+/// Default number of wavelength sets (point clouds) per pass, [`Translucent::wavelength_sets`].
+pub const DEFAULT_WAVELENGTH_SETS: u32 = 4;
+
 /// A translucent material: smooth dielectric boundary over a homogeneous scattering interior,
 /// rendered with a dipole BSSRDF.
 #[derive(Clone, Debug)]
@@ -59,6 +62,13 @@ pub struct Translucent {
     /// surroundings (a glass around milk) and enters again is then counted up to N − 1 times
     /// instead of dropped. The scene uses the largest N of its translucent materials.
     pub bounces: u32,
+    /// Wavelength sets per pass (`wavelength_sets`, default [`DEFAULT_WAVELENGTH_SETS`]): each pass
+    /// builds K point clouds (each of `points_per_pass` points), at K interleaved sets of hero
+    /// wavelengths, and every pixel of the pass uses one of them (each 2×2 block of pixels holds
+    /// all four sets when K = 4). With K = 1 every path of a pass shares four wavelengths, which
+    /// gives each pass an image-wide colour cast. The scene uses the largest K of its
+    /// translucent materials.
+    pub wavelength_sets: u32,
 }
 
 impl Translucent {
@@ -86,6 +96,7 @@ impl Translucent {
             from_medium: false,
             boundary_alpha: 0.0,
             bounces: 1,
+            wavelength_sets: DEFAULT_WAVELENGTH_SETS,
         };
         for l in (360..=830).step_by(5) {
             let p = t.properties(l as f32);

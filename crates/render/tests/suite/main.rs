@@ -21,5 +21,6 @@ mod projector;
 mod robustness;
 mod scene;
 mod subsurface;
+mod subsurface_colour;
 mod texture;
 mod volpath;

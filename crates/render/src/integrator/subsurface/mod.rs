@@ -28,9 +28,12 @@
 //! nodes on the cut plus the number of candidates. `rejection_control = false` accepts every
 //! point (p_i = 1, cost linear in M) — the reference for the unbiasedness test.
 //!
-//! Wavelengths: the stored L_t are spectral, so a pass that uses the point cloud traces every
-//! path of the pass (camera and cloud) at the same four hero wavelengths, drawn from (seed,
-//! pass); passes average over wavelengths as they do over everything else.
+//! Wavelengths: the stored L_t are spectral, so a camera path uses a cloud traced at its own four
+//! hero wavelengths. A pass builds K clouds ([`Translucent::wavelength_sets`]) at K interleaved
+//! sets of wavelengths (one random offset per pass, stratified in the sampling CDF), and each
+//! pixel uses one set ([`SubsurfacePass::set_of_pixel`]), so a pass no longer tints the whole
+//! image with the colour of four wavelengths; passes average over wavelengths as they do over
+//! everything else.
 //!
 //! Limitation (default `bounces = 1`): the paths traced from cloud points see translucent
 //! surfaces as their specular reflection only, so light that leaves one translucent surface by
@@ -248,20 +251,64 @@ fn box_distance(b: &Aabb, p: Vec3) -> f32 {
 }
 
 impl SubsurfacePass {
-    /// Wavelengths of pass `pass` (every path of a pass with translucent objects uses them).
+    /// Wavelengths of pass `pass` (every path of a pass with translucent objects and one
+    /// wavelength set uses them).
     pub fn pass_wavelengths(seed: u64, pass: u64) -> SampledWavelengths {
+        Self::set_wavelengths(seed, pass, 0, 1)
+    }
+
+    /// Wavelengths of set `set` of `sets` in pass `pass`: one random offset u per pass, set k at
+    /// u + k/(4K), so the 4K wavelengths of a pass are stratified (evenly spaced in the sampling
+    /// CDF, as the four of one set are); set 0 of 1 is [`SubsurfacePass::pass_wavelengths`].
+    pub fn set_wavelengths(seed: u64, pass: u64, set: u32, sets: u32) -> SampledWavelengths {
         let mut rng = Pcg32::for_pixel(seed ^ 0x5b5d_2c1e_9e37_79b9, pass, u64::MAX);
-        SampledWavelengths::sample(rng.next_f32())
+        let mut u = rng.next_f32();
+        if set > 0 {
+            u += set as f32 / (N_LAMBDA as f32 * sets.max(1) as f32);
+            if u >= 1.0 {
+                u -= 1.0;
+            }
+        }
+        SampledWavelengths::sample(u)
+    }
+
+    /// Number of wavelength sets (point clouds) per pass of `scene`: the largest
+    /// [`Translucent::wavelength_sets`] of its translucent materials (1 without any).
+    pub fn wavelength_sets(scene: &Scene) -> u32 {
+        scene.materials.iter().filter_map(|m| m.as_translucent().map(|t| t.wavelength_sets)).max().unwrap_or(1).max(1)
+    }
+
+    /// Which of `sets` wavelength sets pixel (`i`, `j`) uses in a pass whose sets are shifted by
+    /// `offset`: (i + s·j + offset) mod K with s = ⌊K/2⌋ (at least 1), so that every K
+    /// consecutive pixels of a row, and for K = 4 every 2×2 block, hold each set once.
+    pub fn set_of_pixel(i: u32, j: u32, offset: u32, sets: u32) -> u32 {
+        let k = sets.max(1);
+        let s = (k / 2).max(1);
+        ((i % k) + (s * (j % k)) + offset % k) % k
+    }
+
+    /// The per-pass shift of the pixel pattern of [`SubsurfacePass::set_of_pixel`].
+    pub fn set_offset(seed: u64, pass: u64) -> u32 {
+        Pcg32::for_pixel(seed ^ 0x2f1c_6a3b_5d4e_8f70, pass, u64::MAX).next_u32()
     }
 
     /// Build the pass state: for each translucent object draw its points, trace them with the
     /// path tracer (translucent surfaces reflect only) and build the kd-tree. `None` when the
-    /// scene has no translucent object. Deterministic in (`seed`, `pass`).
+    /// scene has no translucent object. Deterministic in (`seed`, `pass`). One wavelength set:
+    /// every path of the pass at [`SubsurfacePass::pass_wavelengths`].
     pub fn build(scene: &Scene, seed: u64, pass: u64, trace: &Tracer) -> Option<SubsurfacePass> {
+        Self::build_set(scene, seed, pass, 0, 1, trace)
+    }
+
+    /// [`SubsurfacePass::build`] for set `set` of `sets`: wavelengths
+    /// [`SubsurfacePass::set_wavelengths`], cloud points independent of the other sets' (set 0
+    /// draws the points of [`SubsurfacePass::build`]).
+    pub fn build_set(scene: &Scene, seed: u64, pass: u64, set: u32, sets: u32, trace: &Tracer) -> Option<SubsurfacePass> {
         if !scene_has_translucent(scene) {
             return None;
         }
-        let wl = Self::pass_wavelengths(seed, pass);
+        let wl = Self::set_wavelengths(seed, pass, set, sets);
+        let seed = if set == 0 { seed } else { seed ^ (set as u64).wrapping_mul(0xa076_1d64_78bd_642f) };
         let bounces = scene
             .materials
             .iter()
