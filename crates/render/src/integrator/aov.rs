@@ -162,6 +162,7 @@ pub fn first_hit(scene: &Scene, ray: &Ray, u_lambda: f32) -> FirstHit {
     let mat = &scene.materials[obj.material as usize];
     let wo_local = s.frame.to_local(-ray.d);
     let front = s.ng_raw.dot(-ray.d) > 0.0;
+    let uv = s.uv(scene);
     let mut albedo = [0.0f32; 3];
     for k in 0..ALBEDO_SETS {
         let mut u = u_lambda + k as f32 / (ALBEDO_SETS * crate::math::spectral::N_LAMBDA) as f32;
@@ -169,7 +170,7 @@ pub fn first_hit(scene: &Scene, ray: &Ray, u_lambda: f32) -> FirstHit {
             u -= 1.0;
         }
         let wl = SampledWavelengths::sample(u);
-        let rgb = wl.reflectance_to_srgb(reflectance(mat, &wl, front, s.uv, wo_local));
+        let rgb = wl.reflectance_to_srgb(reflectance(mat, &wl, front, uv, wo_local));
         for c in 0..3 {
             albedo[c] += rgb[c] / ALBEDO_SETS as f32;
         }
