@@ -36,6 +36,9 @@ pub struct Args {
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
     #[arg(long, default_value_t = 5, value_name = "LEVELS")]
     pub white_threshold: i32,
+    /// Integer decoding only (block centres), no sub-pixel refinement from stripe edges.
+    #[arg(long)]
+    pub no_refine: bool,
     /// Neighbouring points are joined (normals, mesh) when closer than this many camera-pixel
     /// footprints at their depth.
     #[arg(long, default_value_t = DEFAULT_MAX_EDGE_PIXELS, value_name = "PIXELS")]
@@ -65,7 +68,7 @@ pub fn run(args: Args) -> Result<()> {
     let calib: ProcamCalibration = serde_json::from_str(&text).with_context(|| format!("{}: not a calibration", args.calibration.display()))?;
     let rig = Rig::new(&calib).with_context(|| format!("{}", args.calibration.display()))?;
     let patterns = PatternSet::new(calib.projector.width, calib.projector.height, args.step).with_context(|| format!("{}: projector", args.calibration.display()))?;
-    let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true };
+    let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine };
 
     let progress = Progress::new(patterns.len() as u64, "images read");
     let capture = read_capture(&args.capture, &patterns, &|| progress.inc());
