@@ -53,6 +53,8 @@ pub fn synthetic_calibration() -> scan::calib::ProcamCalibration {
         translation: t,
         rms_px: 0.0,
         captures: Vec::new(),
+    }
+}
 
 // A synthetic projector–camera rig with known truth (calibration tests).
 use nalgebra::Vector3;
