@@ -247,7 +247,7 @@ fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
     let missing = s.arg("nowhere");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &missing, "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &bad]);
     assert!(e.contains("nowhere"), "{e}");
-    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "-1"]);
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "0"]);
     assert!(e.contains("--square"), "{e}");
     assert!(!s.path("bad.json").exists());
 }
