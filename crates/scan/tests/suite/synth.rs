@@ -309,6 +309,22 @@ fn triangulate(map: &scan::decode::DecodeMap, cal: &ProcamCalibration) -> Vec<[f
     out
 }
 
+/// Points of a decoded capture through a calibration: the product's triangulation
+/// (`scan::triangulate`), or, where it refuses the calibration (a distortion that the renderer's
+/// model finds not invertible over the image), the test-side midpoint above, said on stderr.
+fn scan_points(map: &scan::decode::DecodeMap, cal: &ProcamCalibration, label: &str) -> Vec<[f64; 3]> {
+    match scan::triangulate::Rig::new(cal) {
+        Ok(rig) => {
+            let r = scan::triangulate::triangulate_map(map, &rig, &|| {}).unwrap();
+            r.points.iter().flatten().map(|t| t.point).collect()
+        }
+        Err(e) => {
+            eprintln!("{label}: scan::triangulate refuses the calibration ({e:#}); test-side triangulation used");
+            triangulate(map, cal)
+        }
+    }
+}
+
 /// Decode a capture folder of the set with the product's decoder.
 fn decode_capture(set: &Set, name: &str) -> scan::decode::DecodeMap {
     let p = &set.truth.rig.projector;
@@ -321,7 +337,7 @@ fn decode_capture(set: &Set, name: &str) -> scan::decode::DecodeMap {
 /// its bounding-box diagonal).
 fn scan_errors(set: &Set, cal: &ProcamCalibration, label: &str) -> (f64, f64, f64) {
     let sphere = &set.truth.spheres[0];
-    let pts = triangulate(&decode_capture(set, &sphere.name), cal);
+    let pts = scan_points(&decode_capture(set, &sphere.name), cal, label);
     let fit = scan::eval::fit_sphere(&pts).unwrap();
     let r_err = (fit.radius - sphere.radius) / sphere.radius;
     let mut res: Vec<f64> = pts.iter().map(|p| ((0..3).map(|k| (p[k] - fit.centre[k]).powi(2)).sum::<f64>().sqrt() - fit.radius).abs()).collect();
@@ -330,7 +346,7 @@ fn scan_errors(set: &Set, cal: &ProcamCalibration, label: &str) -> (f64, f64, f6
     let c_err = (0..3).map(|k| (fit.centre[k] - sphere.centre[k]).powi(2)).sum::<f64>().sqrt();
     let m = &set.truth.meshes[0];
     let mesh = scan::eval::MeshDistance::from_file(std::path::Path::new(&m.mesh), &m.matrix).unwrap();
-    let bunny = triangulate(&decode_capture(set, &m.name), cal);
+    let bunny = scan_points(&decode_capture(set, &m.name), cal, label);
     let d = scan::eval::mesh_distances(&mesh, &bunny).unwrap();
     eprintln!(
         "{label}: sphere {} points, radius {:.4} mm (true {}; {:+.3} %), centre off by {c_err:.3} mm, RMS to fit {:.4} mm = {:.3} % of r (1.4826·median |residual| {:.4} mm); \
@@ -379,7 +395,10 @@ fn calibrate_set(set: &Set) -> ProcamCalibration {
 /// scanned through the true calibration lies within 0.1 % of its diagonal of the true mesh
 /// (median). Measured: camera fx +0.027 %, fy +0.038 %, cx +1.78 px, cy −0.50 px; projector
 /// fx +0.159 %, fy +0.167 %, cx +1.70 px, cy −0.42 px; rotation 0.049°; |T| +0.045 %; RMS
-/// 0.112 px; radius −0.008 %; bunny median 0.0945 %.
+/// 0.112 px; radius −0.008 %; bunny median 0.0945 %. The recovered camera distortion
+/// (k2 ≈ 3.9, k3 ≈ −43: weakly constrained by boards in the middle of the image) turns back before
+/// the image corners, so `scan::triangulate` refuses it and the test-side triangulation scans
+/// through it.
 #[test]
 #[ignore = "renders the 272 frames of the standard set, about 2 CPU-minutes; run with --ignored (LUCENT_SYNTH_SET=DIR reuses a set)"]
 fn round_trip() {
