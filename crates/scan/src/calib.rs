@@ -96,10 +96,17 @@ pub const MAX_RMS_PX: f64 = 10.0;
 /// (nearest rotation to ΣR_p,iR_c,iᵀ) and mean translation over the captures, then one joint
 /// Levenberg–Marquardt over all reprojection errors of both devices.
 pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Result<ProcamCalibration> {
+    calibrate_corners_from(rig, captures, None)
+}
+
+/// [`calibrate_corners`], or, with `init`, only the joint Levenberg–Marquardt started from `init`'s
+/// lenses and stereo pose (board poses from the homographies); this works from 2 captures and is
+/// how the leave-one-out spread of the intrinsics is measured.
+pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>) -> anyhow::Result<ProcamCalibration> {
     use anyhow::{bail, Context};
-    use bundle::{refine, rms, Free, State, ViewObs};
+    use bundle::{refine, Free, State, ViewObs};
     let n = rig.cols * rig.rows;
-    if captures.len() < 3 {
+    if captures.len() < if init.is_some() { 2 } else { 3 } {
         bail!("degenerate pose set: calibration needs at least 3 captures, got {}", captures.len());
     }
     for c in captures {
@@ -122,6 +129,29 @@ pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Resu
         let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
         refine(&obj, &views, &init, Free::default(), MAX_RMS_PX).with_context(|| what.to_string())
     };
+    let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
+    let start = match init {
+        Some(c) => {
+            let lens = |d: &DeviceCalibration| model::Lens { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy, dist: [d.distortion[0], d.distortion[1], d.distortion[2], d.distortion[3], d.distortion[4]] };
+            let cam = lens(&c.camera);
+            let mut poses = Vec::new();
+            for cap in captures {
+                let h = homography::fit_homography(&obj, &cap.cam).with_context(|| format!("camera, capture {}: the corners do not determine a homography", cap.name))?;
+                poses.push(zhang::pose_from_homography(&h, &cam.k()).with_context(|| format!("capture {}: no board pose", cap.name))?);
+            }
+            let r = nalgebra::Matrix3::from_fn(|i, j| c.rotation[i][j]);
+            State { cam, proj: Some(lens(&c.projector)), stereo: model::Pose::from_rt(&r, nalgebra::Vector3::from(c.translation)), poses }
+        }
+        None => stereo_start(captures, rig, &mono)?,
+    };
+    let fit = refine(&obj, &views, &start, Free::default(), MAX_RMS_PX).context("stereo")?;
+    finish(rig, captures, &obj, &views, &fit)
+}
+
+type MonoFit<'a> = dyn Fn(&dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, (u32, u32), &str) -> anyhow::Result<bundle::State> + 'a;
+
+/// Per-device fits and the stereo pose averaged over the captures.
+fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit) -> anyhow::Result<bundle::State> {
     let cam = mono(&|c| &c.cam, rig.camera, "camera")?;
     let proj = mono(&|c| &c.proj, rig.projector, "projector")?;
     let mut rsum = nalgebra::Matrix3::zeros();
@@ -134,10 +164,11 @@ pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Resu
     let r = model::nearest_rotation(&rsum);
     let t = tsum / captures.len() as f64;
     let stereo = model::Pose::from_rt(&r, t);
-    let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
-    let init = State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() };
-    let fit = refine(&obj, &views, &init, Free::default(), MAX_RMS_PX).context("stereo")?;
-    let e = rms(&obj, &views, &fit);
+    Ok(bundle::State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() })
+}
+
+fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], views: &[bundle::ViewObs], fit: &bundle::State) -> anyhow::Result<ProcamCalibration> {
+    let e = bundle::rms(obj, views, fit);
     let device = |l: &model::Lens, size: (u32, u32), rms_px: f64| DeviceCalibration {
         width: size.0,
         height: size.1,
@@ -161,4 +192,54 @@ pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Resu
             .map(|(c, (p, &r))| CapturePose { name: c.name.clone(), rvec: [p.rvec[0], p.rvec[1], p.rvec[2]], tvec: [p.t[0], p.t[1], p.t[2]], rms_px: r })
             .collect(),
     })
+}
+
+/// Options of [`calibrate_dirs`].
+#[derive(Clone, Copy, Debug)]
+pub struct CalibrateOptions {
+    /// Decoding thresholds.
+    pub decode: crate::decode::DecodeSettings,
+    /// Local homography window.
+    pub local: procam::LocalHomography,
+    /// Projector pixels per Gray code, as the patterns were made.
+    pub step: u32,
+}
+
+impl Default for CalibrateOptions {
+    fn default() -> Self {
+        CalibrateOptions { decode: Default::default(), local: Default::default(), step: 1 }
+    }
+}
+
+/// The corners of one capture folder: decode it, find the board in its white frame, and take each
+/// corner's projector position from a local homography. `progress` is called once per frame read.
+pub fn capture_corners(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<CaptureCorners> {
+    capture_corners_sized(dir, rig, opts, progress).map(|c| c.0)
+}
+
+fn capture_corners_sized(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<(CaptureCorners, (u32, u32))> {
+    use anyhow::bail;
+    let name = dir.display().to_string();
+    let patterns = crate::graycode::PatternSet::new(rig.projector.0, rig.projector.1, opts.step)?;
+    let (map, _) = crate::decode::decode_dir(dir, &patterns, &opts.decode, progress)?;
+    if (map.width as u32, map.height as u32) != rig.camera && rig.camera != (0, 0) {
+        bail!("{name}: camera images are {}x{}, the other captures {}x{}", map.width, map.height, rig.camera.0, rig.camera.1);
+    }
+    let img = chessboard::GrayImage { width: map.width, height: map.height, data: map.white.clone() };
+    let cam = chessboard::find_chessboard_named(&img, rig.cols, rig.rows, &name)?;
+    let proj = procam::projector_corners(&map, &cam, &opts.local, &name)?;
+    Ok((CaptureCorners { name, cam, proj }, (map.width as u32, map.height as u32)))
+}
+
+/// Calibrate from capture folders (each as [`capture_corners`]); the camera size is taken from the
+/// first capture. `progress` is called once per frame read.
+pub fn calibrate_dirs(dirs: &[std::path::PathBuf], rig: &Rig, opts: &CalibrateOptions, progress: &(dyn Fn() + Sync)) -> anyhow::Result<(ProcamCalibration, Vec<CaptureCorners>)> {
+    let mut rig = *rig;
+    let mut caps = Vec::new();
+    for d in dirs {
+        let (c, size) = capture_corners_sized(d, &rig, opts, progress)?;
+        rig.camera = size;
+        caps.push(c);
+    }
+    Ok((calibrate_corners(&rig, &caps)?, caps))
 }

@@ -206,4 +206,48 @@ fn reconstruct_a_rendered_plane_through_the_command() {
     let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("wrong.json"), "--out", &s.arg("p2.ply")]);
     assert!(e.contains("160x120") && e.contains("320x120"), "{e}");
     assert!(!s.path("p2.ply").exists());
+
+/// `scan calibrate` on the three shared captures: the JSON keys of the contract, the stereo RMS
+/// target, the file equal to the printed JSON; and bad input as one line with no output file.
+#[test]
+fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
+    let s = Scratch::new("scan-calibrate");
+    let caps: Vec<String> = (0..3).map(|i| sample_capture(i).display().to_string()).collect();
+    let mut args: Vec<&str> = vec!["scan", "calibrate"];
+    args.extend(caps.iter().map(|c| c.as_str()));
+    let out = s.arg("calib.json");
+    args.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &out, "--json"]);
+    let v = ok_json(&args);
+    for dev in ["camera", "projector"] {
+        let d = v[dev].as_object().unwrap();
+        let mut keys: Vec<&str> = d.keys().map(|k| k.as_str()).collect();
+        keys.sort();
+        assert_eq!(keys, ["cx", "cy", "distortion", "fx", "fy", "height", "rms_px", "width"]);
+        assert_eq!(d["distortion"].as_array().unwrap().len(), 5);
+        assert!(d["rms_px"].as_f64().unwrap() <= 0.6);
+    }
+    assert_eq!((v["camera"]["width"].as_u64(), v["camera"]["height"].as_u64()), (Some(1280), Some(1024)));
+    assert_eq!((v["projector"]["width"].as_u64(), v["projector"]["height"].as_u64()), (Some(1024), Some(768)));
+    assert_eq!(v["rotation"].as_array().unwrap().iter().map(|r| r.as_array().unwrap().len()).collect::<Vec<_>>(), [3, 3, 3]);
+    assert_eq!(v["translation"].as_array().unwrap().len(), 3);
+    assert!(v["rms_px"].as_f64().unwrap() <= 0.6, "stereo RMS {}", v["rms_px"]);
+    let c = v["captures"].as_array().unwrap();
+    assert_eq!(c.len(), 3);
+    for p in c {
+        assert!(p["rvec"].as_array().unwrap().len() == 3 && p["tvec"].as_array().unwrap().len() == 3 && p["rms_px"].as_f64().is_some());
+    }
+    let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(file, v);
+    // Bad input: too few captures, a board that is not there (wrong corner count), a missing folder.
+    let bad = s.arg("bad.json");
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &bad]);
+    assert!(e.contains("degenerate pose set"), "{e}");
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "11x7", "--square", "75", "--out", &bad]);
+    assert!(e.contains("board not found (capture ") && e.contains("capture_0"), "{e}");
+    let missing = s.arg("nowhere");
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &missing, "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &bad]);
+    assert!(e.contains("nowhere"), "{e}");
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "-1"]);
+    assert!(e.contains("--square"), "{e}");
+    assert!(!s.path("bad.json").exists());
 }

@@ -8,6 +8,14 @@
 //! Rodrigues `"rvec"`. `t` is in `unit` (m, dm, cm, mm, um, km, in, ft), or the scene's unit when
 //! `unit` is absent.
 //!
+//! A projector–camera calibration as `lucent scan calibrate` writes it (`{"camera": {…},
+//! "projector": {…}, "rotation": [[…]], "translation": […], …}`, each device `{width, height, fx,
+//! fy, cx, cy, distortion: [k1, k2, p1, p2, k3], rms_px}`) is read as one of its two devices: the
+//! camera by default, the projector when the matrix node is named `projector` (`matrix_node =
+//! "projector"` in the scene, `--camera-matrix-node projector` on the command line). The camera sits
+//! at the world origin with the world axes (R = I, t = 0); the projector has R = `rotation`,
+//! t = `translation` (X_p = R·X_c + T), in the scene's unit (the board's square unit).
+//!
 //! FileStorage (as `cv::FileStorage` and OpenCV's calibration sample write it): the camera matrix
 //! and distortion nodes are `!!opencv-matrix` (YAML, `%YAML:1.0`) or `type_id="opencv-matrix"`
 //! (XML, `<opencv_storage>`) with `rows`, `cols`, `dt`, `data`; their names default to
@@ -82,7 +90,7 @@ pub fn read_calibration(path: &Path, nodes: &CalibrationNodes) -> Result<Calibra
 pub fn parse_calibration(text: &str, name: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
     let t = text.trim_start_matches('\u{feff}').trim_start();
     let r = if t.starts_with('{') {
-        json(t)
+        json(t, nodes)
     } else if t.starts_with("%YAML") {
         filestorage(&Yaml { text: t }, nodes)
     } else if t.starts_with("<?xml") || t.starts_with("<opencv_storage") {
@@ -110,7 +118,42 @@ struct JsonCalib {
     unit: Option<String>,
 }
 
-fn json(text: &str) -> Result<Calibration> {
+#[derive(serde::Deserialize)]
+struct ProcamDevice {
+    width: u32,
+    height: u32,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    distortion: Vec<f64>,
+}
+
+#[derive(serde::Deserialize)]
+struct Procam {
+    camera: ProcamDevice,
+    projector: ProcamDevice,
+    rotation: [[f64; 3]; 3],
+    translation: [f64; 3],
+}
+
+/// A `lucent scan calibrate` file, read as the device named by `nodes.matrix`.
+fn procam(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
+    let j: Procam = serde_json::from_str(text).map_err(|e| anyhow!("{e}"))?;
+    let (d, r, t) = match nodes.matrix.as_str() {
+        "camera" | "camera_matrix" => (&j.camera, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]),
+        "projector" => (&j.projector, j.rotation, j.translation),
+        other => bail!("a projector–camera calibration holds the devices `camera` and `projector`, not `{other}`"),
+    };
+    let distortion = Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("distortion: {e}"))?;
+    Ok(Calibration { width: Some(d.width), height: Some(d.height), intrinsics: Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, distortion, r: Some(r), t: Some(t), t_unit_m: None })
+}
+
+fn json(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
+    let v: serde_json::Value = serde_json::from_str(text).map_err(|e| anyhow!("{e}"))?;
+    if v.get("camera").is_some() && v.get("projector").is_some() {
+        return procam(text, nodes);
+    }
     let j: JsonCalib = serde_json::from_str(text).map_err(|e| anyhow!("{e}"))?;
     let r = match (j.r, j.rvec) {
         (Some(_), Some(_)) => bail!("R, rvec: give one, not both"),

@@ -467,3 +467,39 @@ fn per_ray_inverse_costs_little() {
     eprintln!("ray generation: pinhole {tp:.1} ns, OpenCV with distortion (Newton per ray) {tc:.1} ns; a Cornell path sample ≈ {ts:.0} ns of one thread");
     assert!(tc < 5000.0);
 }
+
+#[test]
+fn scan_calibration_json_is_read_as_camera_or_projector() {
+    // A `lucent scan calibrate` file: the camera at the origin, the projector at X_p = R·X_c + T.
+    let a: f64 = 0.2;
+    let text = format!(
+        r#"{{"camera": {{"width": 1280, "height": 1024, "fx": 3440.0, "fy": 3437.5, "cx": 536.2, "cy": 514.3, "distortion": [0.17, -4.3, -0.0019, -0.0036, 11.4], "rms_px": 0.37}},
+        "projector": {{"width": 1024, "height": 768, "fx": 1893.7, "fy": 1898.3, "cx": 478.4, "cy": 839.3, "distortion": [-0.1, 0.37, 0.008, -0.002, -0.9], "rms_px": 0.23}},
+        "rotation": [[{c}, 0, {s}], [0, 1, 0], [{ms}, 0, {c}]], "translation": [92.8, -624.9, -236.6], "rms_px": 0.31,
+        "captures": [{{"name": "capture_0", "rvec": [0.1, 0.0, 0.0], "tvec": [0, 0, 3000], "rms_px": 0.2}}]}}"#,
+        c = a.cos(),
+        s = a.sin(),
+        ms = -a.sin()
+    );
+    let cam = parse_calibration(&text, "calib.json", &CalibrationNodes::default()).unwrap();
+    assert_eq!((cam.width, cam.height), (Some(1280), Some(1024)));
+    assert_eq!(cam.intrinsics, Intrinsics { fx: 3440.0, fy: 3437.5, cx: 536.2, cy: 514.3 });
+    let e = cam.extrinsics(1.0).unwrap().unwrap();
+    assert_eq!(e.t_m, [0.0; 3]);
+    let nodes = CalibrationNodes { matrix: "projector".into(), ..Default::default() };
+    let proj = parse_calibration(&text, "calib.json", &nodes).unwrap();
+    assert_eq!((proj.width, proj.height), (Some(1024), Some(768)));
+    assert_eq!(proj.distortion, Distortion::from_opencv(&[-0.1, 0.37, 0.008, -0.002, -0.9]).unwrap());
+    // The projector camera projects a point X (camera frame, square units) as the OpenCV model of
+    // R·X + T.
+    let ex = proj.extrinsics(1.0).unwrap().unwrap();
+    let p = OpenCv::new(proj.intrinsics, proj.distortion, ex, 1024, 768).unwrap();
+    let x = [-100.0, 300.0, 3200.0];
+    let xp = [a.cos() * x[0] + a.sin() * x[2] + 92.8, x[1] - 624.9, -a.sin() * x[0] + a.cos() * x[2] - 236.6];
+    let (u, v) = proj.distortion.distort(xp[0] / xp[2], xp[1] / xp[2]);
+    let want = [1893.7 * u + 478.4, 1898.3 * v + 839.3];
+    let got = p.project_pixel(x).unwrap();
+    assert!((got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6, "{got:?} vs {want:?}");
+    let e = parse_calibration(&text, "calib.json", &CalibrationNodes { matrix: "K".into(), ..Default::default() }).unwrap_err().to_string();
+    assert!(e.starts_with("calib.json: ") && e.contains("`camera` and `projector`"), "{e}");
+}

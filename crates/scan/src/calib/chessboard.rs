@@ -24,7 +24,9 @@
 //! 5. **Refinement** as OpenCV's `cornerSubPix`: in a window around the estimate q every
 //!    gradient g at p is orthogonal to q − p at the true corner, so q solves
 //!    (Σ w g gᵀ) q = Σ w g gᵀ p (Gaussian weights w), iterated with bilinearly interpolated
-//!    central-difference gradients until the step is below 10⁻³ px.
+//!    central-difference gradients of the image blurred by σ = 1 px until the step is below 10⁻³ px.
+//!    An ideal X-junction is point-symmetric about its centre whatever the angle between its
+//!    lines, so the fixed point is the centre up to interpolation error.
 //!
 //! Pixel convention: OpenCV's (integer coordinates at pixel centres).
 
@@ -245,7 +247,8 @@ fn nearest(cands: &[Candidate], p: Point2) -> Option<(usize, f64)> {
 /// Grow a lattice from seed candidate `s`; lattice coordinates → position (candidate or predicted).
 fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashMap<(i32, i32), Point2>> {
     let e = cands[s].edges;
-    let maxext = cols.max(rows) as i32;
+    // Two extra rows and columns of room, so that a larger board is seen as larger and refused.
+    let maxext = cols.max(rows) as i32 + 2;
     for k in 0..4 {
         let (Some(n1), Some(n2)) = (along(cands, s, e[k]), along(cands, s, e[(k + 1) % 4])) else { continue };
         let (p0, p1, p2) = (cands[s].p, cands[n1].p, cands[n2].p);
@@ -288,13 +291,27 @@ fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashM
                 break;
             }
         }
+        // The board is the cols × rows window (either way round) holding the most nodes; nodes
+        // outside it (isolated X-like features in line with the lattice) are dropped.
         let (imin, imax, jmin, jmax) = extent(at.keys());
-        let (ni, nj) = ((imax - imin + 1) as usize, (jmax - jmin + 1) as usize);
-        let fits = (ni == cols && nj == rows) || (ni == rows && nj == cols);
-        if std::env::var("CB_DEBUG").is_ok() { eprintln!("seed {s} k {k}: {ni}x{nj} n={}", at.len()); }
-        if !fits || at.len() + 3 < cols * rows {
+        let mut best: Option<(usize, i32, i32, usize, usize)> = None;
+        for (wi, wj) in [(cols, rows), (rows, cols)] {
+            for i0 in imin..=(imax - wi as i32 + 1) {
+                for j0 in jmin..=(jmax - wj as i32 + 1) {
+                    let n = at.keys().filter(|k| k.0 >= i0 && k.0 < i0 + wi as i32 && k.1 >= j0 && k.1 < j0 + wj as i32).count();
+                    if best.map_or(true, |b| n > b.0) {
+                        best = Some((n, i0, j0, wi, wj));
+                    }
+                }
+            }
+        }
+        let Some((count, imin, jmin, ni, nj)) = best else { continue };
+        // At most 3 holes inside the window and 3 stray nodes outside it (a larger board has a
+        // whole row or column outside).
+        if count + 3 < cols * rows || at.len() > count + 3 {
             continue;
         }
+        at.retain(|k, _| k.0 >= imin && k.0 < imin + ni as i32 && k.1 >= jmin && k.1 < jmin + nj as i32);
         let mut out: HashMap<(i32, i32), Point2> = at.iter().map(|(&k, &c)| ((k.0 - imin, k.1 - jmin), cands[c].p)).collect();
         for i in 0..ni as i32 {
             for j in 0..nj as i32 {
@@ -360,10 +377,16 @@ fn order(grid: &HashMap<(i32, i32), Point2>, cols: usize, rows: usize) -> Vec<Po
     best.unwrap().2
 }
 
-/// Sub-pixel refinement of `corners` (OpenCV `cornerSubPix`): window half-size `half` pixels,
+/// Sub-pixel refinement of `corners` (OpenCV `cornerSubPix`) on the image blurred by σ = 1 px
+/// (which makes the bilinearly interpolated gradients nearly isotropic: on the synthetic board of
+/// the `chessboard` tests the worst error drops from 0.087 to 0.034 px): window half-size `half` pixels,
 /// until the step is below `eps` px or after `iterations` steps. A corner that would leave its
 /// window keeps its start position.
 pub fn corner_subpix(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
+    corner_subpix_inner(&img.blur(1.0), corners, half, iterations, eps);
+}
+
+fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
     let (w, h) = (img.width, img.height);
     let mut gx = GrayImage { width: w, height: h, data: vec![0.0; w * h] };
     let mut gy = gx.clone();

@@ -29,7 +29,8 @@ pub fn intrinsics(homographies: &[Matrix3<f64>], width: u32, height: u32) -> Res
     let mut v = DMatrix::<f64>::zeros(rows, 6);
     for (k, h) in homographies.iter().enumerate() {
         let h = n * h;
-        let h = h / h.norm();
+        // The constraints use h1 and h2 only: scale them to unit norm (the board's length unit drops out).
+        let h = h / (h.column(0).norm_squared() + h.column(1).norm_squared()).sqrt();
         let v12 = v_ij(&h, 0, 1);
         let v11 = v_ij(&h, 0, 0);
         let v22 = v_ij(&h, 1, 1);

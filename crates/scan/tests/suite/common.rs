@@ -35,6 +35,27 @@ pub fn write_capture(dir: &Path, c: &Capture) {
     }
 }
 
+/// A synthetic projector–camera calibration in units where the scene is about 1 away: camera
+/// 320×240, projector 256×192 to the camera's right, rotated 12° about y towards it, both with
+/// OpenCV distortion.
+pub fn synthetic_calibration() -> scan::calib::ProcamCalibration {
+    use scan::calib::{DeviceCalibration, ProcamCalibration};
+    let dev = |width, height, fx, fy, cx, cy, distortion: Vec<f64>| DeviceCalibration { width, height, fx, fy, cx, cy, distortion, rms_px: 0.0 };
+    let a = 12f64.to_radians();
+    // X_p = R X_c + T with the projector centre at (0.25, −0.02, 0.05) in camera coordinates.
+    let rotation = [[a.cos(), 0.0, a.sin()], [0.0, 1.0, 0.0], [-a.sin(), 0.0, a.cos()]];
+    let c = [0.25, -0.02, 0.05];
+    let t = [0, 1, 2].map(|i| -(rotation[i][0] * c[0] + rotation[i][1] * c[1] + rotation[i][2] * c[2]));
+    ProcamCalibration {
+        camera: dev(320, 240, 400.0, 402.0, 161.3, 118.7, vec![-0.12, 0.05, 0.001, -0.0007, 0.01]),
+        projector: dev(256, 192, 330.0, 331.0, 127.0, 100.0, vec![0.04, -0.02, -0.0004, 0.0006, 0.0]),
+        rotation,
+        translation: t,
+        rms_px: 0.0,
+        captures: Vec::new(),
+    }
+}
+
 // A synthetic projector–camera rig with known truth (calibration tests).
 use nalgebra::Vector3;
 use scan::calib::bundle::{State, ViewObs};
@@ -105,26 +126,5 @@ impl Pcg {
     pub fn normal(&mut self) -> f64 {
         let (u, v) = (self.uniform(), self.uniform());
         (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
-
-/// A synthetic projector–camera calibration in units where the scene is about 1 away: camera
-/// 320×240, projector 256×192 to the camera's right, rotated 12° about y towards it, both with
-/// OpenCV distortion.
-pub fn synthetic_calibration() -> scan::calib::ProcamCalibration {
-    use scan::calib::{DeviceCalibration, ProcamCalibration};
-    let dev = |width, height, fx, fy, cx, cy, distortion: Vec<f64>| DeviceCalibration { width, height, fx, fy, cx, cy, distortion, rms_px: 0.0 };
-    let a = 12f64.to_radians();
-    // X_p = R X_c + T with the projector centre at (0.25, −0.02, 0.05) in camera coordinates.
-    let rotation = [[a.cos(), 0.0, a.sin()], [0.0, 1.0, 0.0], [-a.sin(), 0.0, a.cos()]];
-    let c = [0.25, -0.02, 0.05];
-    let t = [0, 1, 2].map(|i| -(rotation[i][0] * c[0] + rotation[i][1] * c[1] + rotation[i][2] * c[2]));
-    ProcamCalibration {
-        camera: dev(320, 240, 400.0, 402.0, 161.3, 118.7, vec![-0.12, 0.05, 0.001, -0.0007, 0.01]),
-        projector: dev(256, 192, 330.0, 331.0, 127.0, 100.0, vec![0.04, -0.02, -0.0004, 0.0006, 0.0]),
-        rotation,
-        translation: t,
-        rms_px: 0.0,
-        captures: Vec::new(),
     }
 }

@@ -1,6 +1,8 @@
 //! Integration tests of the scan crate.
 
 mod calib;
+mod calib_real;
+mod chessboard;
 mod common;
 mod decode;
 mod eval;

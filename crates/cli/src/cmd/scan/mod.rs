@@ -10,8 +10,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 pub mod decode;
 pub mod patterns;
+pub mod calibrate;
 pub mod reconstruct;
-// Calibration subcommand module: `pub mod calibrate;` (cmd/scan/calibrate.rs).
 
 /// Arguments of `lucent scan`.
 #[derive(clap::Args, Debug)]
@@ -27,7 +27,8 @@ pub enum Command {
     Patterns(patterns::Args),
     /// Decode a capture folder into projector column and row per camera pixel.
     Decode(decode::Args),
-    // ── Calibration subcommand: `Calibrate(calibrate::Args),` goes here (cmd/scan/calibrate.rs). ──
+    /// Calibrate projector and camera from chessboard captures (local homographies, Zhang, LM).
+    Calibrate(calibrate::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
 }
@@ -37,7 +38,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.command {
         Command::Patterns(a) => patterns::run(a),
         Command::Decode(a) => decode::run(a),
-        // ── Calibration subcommand: `Command::Calibrate(a) => calibrate::run(a),` goes here. ──
+        Command::Calibrate(a) => calibrate::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
     }
 }

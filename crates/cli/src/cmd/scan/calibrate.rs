@@ -1,0 +1,106 @@
+//! `lucent scan calibrate CAPTURE_DIR… --projector WxH --corners CxR --square S [--out CALIB.json]
+//! [--json]`: projector–camera calibration from chessboard captures (scan::calib;
+//! docs/scanning.md, "Calibration").
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use scan::calib::procam::LocalHomography;
+use scan::calib::{calibrate_dirs, CalibrateOptions, Rig};
+use scan::decode::DecodeSettings;
+use scan::graycode::PatternSet;
+
+use super::{parse_size, Progress};
+
+/// Parses an inner-corner count `COLSxROWS`, e.g. `9x7`.
+fn parse_corners(s: &str) -> Result<(u32, u32), String> {
+    let (c, r) = parse_size(s).map_err(|_| format!("`{s}` is not a corner count COLSxROWS (e.g. 9x7)"))?;
+    if c < 3 || r < 3 {
+        return Err(format!("the board needs at least 3x3 inner corners, got {s}"));
+    }
+    Ok((c, r))
+}
+
+/// Arguments of `lucent scan calibrate`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Capture folders (graycode_00.png … as for `lucent scan decode`), one per board pose; at least 3.
+    #[arg(required = true, num_args = 1..)]
+    pub captures: Vec<PathBuf>,
+    /// Projector resolution WIDTHxHEIGHT (pixels).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub projector: (u32, u32),
+    /// Inner corners of the chessboard COLSxROWS (corners per row first, as OpenCV's pattern size).
+    #[arg(long, value_name = "CxR", value_parser = parse_corners)]
+    pub corners: (u32, u32),
+    /// Square size; the translation and board poses come out in this unit.
+    #[arg(long, value_name = "S")]
+    pub square: f64,
+    /// Projector pixels per code, as the patterns were made.
+    #[arg(long, default_value_t = 1, value_name = "S")]
+    pub step: u32,
+    /// A pixel is lit where white − black exceeds this (8-bit grey levels).
+    #[arg(long, default_value_t = 40, value_name = "LEVELS")]
+    pub black_threshold: i32,
+    /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
+    #[arg(long, default_value_t = 5, value_name = "LEVELS")]
+    pub white_threshold: i32,
+    /// Half-size of the local-homography window around each corner (camera pixels; 23 = 47×47).
+    #[arg(long, default_value_t = 23, value_name = "PX")]
+    pub half_window: usize,
+    /// Write the calibration JSON here (written to a temporary name, then renamed).
+    #[arg(long, value_name = "CALIB.json")]
+    pub out: Option<PathBuf>,
+    /// Print the calibration JSON on stdout instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !(args.square > 0.0 && args.square.is_finite()) {
+        bail!("--square: must be a positive length, got {}", args.square);
+    }
+    if args.captures.len() < 3 {
+        bail!("degenerate pose set: calibration needs at least 3 captures (board poses), got {}", args.captures.len());
+    }
+    let (w, h) = args.projector;
+    let patterns = PatternSet::new(w, h, args.step)?;
+    let rig = Rig { cols: args.corners.0 as usize, rows: args.corners.1 as usize, square: args.square, camera: (0, 0), projector: (w, h) };
+    let opts = CalibrateOptions {
+        decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true },
+        local: LocalHomography { half_window: args.half_window, ..Default::default() },
+        step: args.step,
+    };
+    let progress = Progress::new((patterns.len() * args.captures.len()) as u64, "images read and decoded");
+    let result = calibrate_dirs(&args.captures, &rig, &opts, &|| progress.inc());
+    progress.finish();
+    let (calib, _) = result?;
+    let text = serde_json::to_string_pretty(&calib)?;
+    if let Some(out) = &args.out {
+        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: {e}", tmp.display())))?;
+    }
+    if args.json {
+        println!("{text}");
+        return Ok(());
+    }
+    let dev = |name: &str, d: &scan::calib::DeviceCalibration| {
+        println!(
+            "{name:9} {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.4} k2 {:.4} p1 {:.5} p2 {:.5} k3 {:.4}; RMS {:.3} px",
+            d.width, d.height, d.fx, d.fy, d.cx, d.cy, d.distortion[0], d.distortion[1], d.distortion[2], d.distortion[3], d.distortion[4], d.rms_px
+        )
+    };
+    dev("camera", &calib.camera);
+    dev("projector", &calib.projector);
+    let t = calib.translation;
+    let r = &calib.rotation;
+    let angle = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
+    println!("camera → projector: rotation {angle:.3}°, T ({:.3}, {:.3}, {:.3}) squares·{} = |T| {:.3}", t[0], t[1], t[2], args.square, (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt());
+    for c in &calib.captures {
+        println!("  {}: board at {:.1} units, RMS {:.3} px", c.name, (c.tvec[0].powi(2) + c.tvec[1].powi(2) + c.tvec[2].powi(2)).sqrt(), c.rms_px);
+    }
+    println!("stereo RMS {:.3} px", calib.rms_px);
+    if let Some(out) = &args.out {
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
