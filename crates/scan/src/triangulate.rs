@@ -6,8 +6,12 @@
 //!
 //! A camera pixel (u, v) and its projector coordinate (u_p, v_p) (both OpenCV pixel positions,
 //! integers at pixel centres) give two rays: each pixel is undistorted to normalised coordinates
-//! (x′, y′) by Newton's method on OpenCV's distortion model (`render::camera::OpenCv::undistort`,
-//! residual below 1e-9 px), the camera ray is t·(x′, y′, 1), the projector ray
+//! (x′, y′) by Newton's method on OpenCV's distortion model (`render::camera::Distortion`) to a
+//! residual below 1e-9 px, the solution required inside the radius where the radial map
+//! r ↦ r·(radial factor) still increases (the one physical preimage; checked per pixel, so a
+//! calibration whose polynomial folds just outside the image corners — common for projectors with
+//! an off-centre principal point — still triangulates). The camera ray is t·(x′, y′, 1), the
+//! projector ray
 //! C_p + s·Rᵀ(x′_p, y′_p, 1). The point is the midpoint of the shortest segment between the two
 //! rays (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., §12.2, the mid-point method), and
 //! the segment's length is the ray gap, a quality figure (0 for exact correspondences; it grows
@@ -16,18 +20,130 @@
 
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
-use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
+use render::camera::{Distortion, Extrinsics};
 
 use crate::calib::{DeviceCalibration, ProcamCalibration};
 use crate::decode::DecodeMap;
 
+/// One device's intrinsics and distortion with a per-pixel Newton undistortion.
+#[derive(Clone, Debug)]
+struct Lens {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    d: Distortion,
+    /// Squared normalised radius where the radial map stops increasing (∞ if it never does).
+    r_fold2: f64,
+}
+
+impl Lens {
+    fn new(c: &DeviceCalibration, what: &str) -> Result<Lens> {
+        if !(c.fx > 0.0 && c.fy > 0.0 && c.fx.is_finite() && c.fy.is_finite()) {
+            bail!("{what}: focal lengths fx, fy must be positive pixels, got {}, {}", c.fx, c.fy);
+        }
+        if !(c.cx.is_finite() && c.cy.is_finite()) {
+            bail!("{what}: principal point cx, cy must be finite");
+        }
+        if c.width == 0 || c.height == 0 {
+            bail!("{what}: image size must be at least 1x1");
+        }
+        let d = Distortion::from_opencv(&c.distortion).with_context(|| format!("{what}.distortion"))?;
+        // Walk the radial map outwards (to 10× the image corners' radius) until it turns back.
+        let (w, h) = (c.width as f64 - 0.5, c.height as f64 - 0.5);
+        let corner = [(-0.5, -0.5), (w, h), (-0.5, h), (w, -0.5)].iter().map(|&(u, v)| ((u - c.cx) / c.fx).hypot((v - c.cy) / c.fy)).fold(0.0f64, f64::max);
+        let mut r_fold2 = f64::INFINITY;
+        let n = 20000;
+        for i in 1..=n {
+            let r = 10.0 * corner * i as f64 / n as f64;
+            let (f, g, m) = radial(&d, r * r);
+            if !(m > 0.0) || !(f + 2.0 * r * r * g > 0.0) {
+                r_fold2 = r * r;
+                break;
+            }
+        }
+        Ok(Lens { fx: c.fx, fy: c.fy, cx: c.cx, cy: c.cy, d, r_fold2 })
+    }
+
+    /// Undistorted normalised coordinates of OpenCV pixel position (u, v); None where Newton's
+    /// method does not reach 1e-9 px or lands beyond the fold of the radial map.
+    fn undistort(&self, u: f64, v: f64) -> Option<(f64, f64)> {
+        let (xd, yd) = ((u - self.cx) / self.fx, (v - self.cy) / self.fy);
+        let resid2 = |a: f64, b: f64| ((a - xd) * self.fx).powi(2) + ((b - yd) * self.fy).powi(2);
+        let (mut x, mut y) = (xd, yd);
+        let ((mut a, mut b), mut j) = distort_jacobian(&self.d, x, y);
+        let mut e2 = resid2(a, b);
+        for _ in 0..100 {
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            if e2 < 1e-18 {
+                return (x * x + y * y < self.r_fold2 && det > 0.0).then_some((x, y));
+            }
+            if !(det.abs() > 0.0) || !det.is_finite() {
+                return None;
+            }
+            let (rx, ry) = (a - xd, b - yd);
+            let sx = (j[1][1] * rx - j[0][1] * ry) / det;
+            let sy = (j[0][0] * ry - j[1][0] * rx) / det;
+            // Halve the step while it does not reduce the residual.
+            let mut t = 1.0;
+            loop {
+                let (nx, ny) = (x - t * sx, y - t * sy);
+                let ((na, nb), nj) = distort_jacobian(&self.d, nx, ny);
+                let ne2 = resid2(na, nb);
+                if ne2 < e2 {
+                    (x, y, a, b, j, e2) = (nx, ny, na, nb, nj, ne2);
+                    break;
+                }
+                t *= 0.5;
+                if t < 1e-8 {
+                    return None;
+                }
+            }
+        }
+        None
+    }
+
+    /// OpenCV pixel position of a point in this device's coordinates; None behind it.
+    fn project(&self, p: [f64; 3]) -> Option<[f64; 2]> {
+        if !(p[2] > 0.0) {
+            return None;
+        }
+        let (xd, yd) = self.d.distort(p[0] / p[2], p[1] / p[2]);
+        Some([self.fx * xd + self.cx, self.fy * yd + self.cy])
+    }
+}
+
+/// OpenCV's radial factor (1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶), its derivative
+/// with respect to r², and the denominator.
+fn radial(d: &Distortion, r2: f64) -> (f64, f64, f64) {
+    let k = &d.k;
+    let n = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[2]));
+    let dn = k[0] + r2 * (2.0 * k[1] + 3.0 * r2 * k[2]);
+    let m = 1.0 + r2 * (k[3] + r2 * (k[4] + r2 * k[5]));
+    let dm = k[3] + r2 * (2.0 * k[4] + 3.0 * r2 * k[5]);
+    (n / m, (dn * m - n * dm) / (m * m), m)
+}
+
+/// The distorted point and the Jacobian [[∂x″/∂x′, ∂x″/∂y′], [∂y″/∂x′, ∂y″/∂y′]].
+fn distort_jacobian(d: &Distortion, x: f64, y: f64) -> ((f64, f64), [[f64; 2]; 2]) {
+    let r2 = x * x + y * y;
+    let (f, g, _) = radial(d, r2);
+    let [p1, p2] = d.p;
+    let xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+    let yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+    let off = 2.0 * x * y * g + 2.0 * p1 * x + 2.0 * p2 * y;
+    ((xd, yd), [[f + 2.0 * x * x * g + 2.0 * p1 * y + 6.0 * p2 * x, off], [off, f + 2.0 * y * y * g + 6.0 * p1 * y + 2.0 * p2 * x]])
+}
+
 /// A calibrated camera–projector pair ready to triangulate.
 #[derive(Clone, Debug)]
 pub struct Rig {
-    camera: OpenCv,
-    projector: OpenCv,
+    camera: Lens,
+    projector: Lens,
     /// Rotation camera → projector (row-major).
     r: [[f64; 3]; 3],
+    /// Translation camera → projector (square units).
+    t: [f64; 3],
     /// Projector centre in camera coordinates (square units).
     projector_centre: [f64; 3],
     /// Camera image size (pixels).
@@ -45,23 +161,18 @@ pub struct Triangulated {
     pub ray_gap: f64,
 }
 
-fn device(d: &DeviceCalibration, extrinsics: Extrinsics, what: &str) -> Result<OpenCv> {
-    let distortion = Distortion::from_opencv(&d.distortion).with_context(|| format!("{what}.distortion"))?;
-    OpenCv::new(Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, distortion, extrinsics, d.width, d.height).with_context(|| what.to_string())
-}
-
 impl Rig {
     /// The rig of a calibration; an error naming the field for a bad one (non-positive focal
-    /// length, a distortion not invertible over the image, a rotation that is not one).
+    /// length, bad distortion coefficients, a rotation that is not one).
     pub fn new(c: &ProcamCalibration) -> Result<Rig> {
-        let identity = Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
-        let camera = device(&c.camera, identity, "camera")?;
+        let camera = Lens::new(&c.camera, "camera")?;
+        let projector = Lens::new(&c.projector, "projector")?;
         let pose = Extrinsics::from_rt(c.rotation, c.translation).context("rotation, translation")?;
-        let projector = device(&c.projector, pose, "projector")?;
         Ok(Rig {
             camera,
             projector,
             r: c.rotation,
+            t: c.translation,
             projector_centre: pose.centre_m(),
             camera_size: (c.camera.width, c.camera.height),
             projector_size: (c.projector.width, c.projector.height),
@@ -70,18 +181,19 @@ impl Rig {
 
     /// Mean camera focal length (pixels).
     pub fn camera_focal_px(&self) -> f64 {
-        0.5 * (self.camera.intrinsics.fx + self.camera.intrinsics.fy)
+        0.5 * (self.camera.fx + self.camera.fy)
     }
 
     /// Triangulates camera pixel position `cam` with projector pixel position `proj` (OpenCV
     /// convention); None where a pixel cannot be undistorted, the rays are parallel, or the
     /// point is not in front of both devices.
     pub fn triangulate(&self, cam: [f64; 2], proj: [f64; 2]) -> Option<Triangulated> {
-        let d1 = normalised(&self.camera, cam)?;
-        let dp = normalised(&self.projector, proj)?;
-        // Projector direction in camera coordinates: Rᵀ·dp.
+        let (x, y) = self.camera.undistort(cam[0], cam[1])?;
+        let d1 = [x, y, 1.0];
+        let (xp, yp) = self.projector.undistort(proj[0], proj[1])?;
+        // Projector direction in camera coordinates: Rᵀ·(x′_p, y′_p, 1).
         let r = &self.r;
-        let d2 = [0, 1, 2].map(|k| r[0][k] * dp[0] + r[1][k] * dp[1] + r[2][k] * dp[2]);
+        let d2 = [0, 1, 2].map(|k| r[0][k] * xp + r[1][k] * yp + r[2][k]);
         let o2 = self.projector_centre;
         // Closest points of o1 + s·d1 (o1 = 0) and o2 + t·d2.
         let w0 = [-o2[0], -o2[1], -o2[2]];
@@ -105,15 +217,10 @@ impl Rig {
     /// Projects a camera-coordinate point into the camera and the projector (OpenCV pixel
     /// positions, distortion applied); None behind either.
     pub fn project(&self, p: [f64; 3]) -> Option<([f64; 2], [f64; 2])> {
-        Some((self.camera.project_pixel(p)?, self.projector.project_pixel(p)?))
+        let r = &self.r;
+        let q = [0, 1, 2].map(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + self.t[i]);
+        Some((self.camera.project(p)?, self.projector.project(q)?))
     }
-}
-
-/// Undistorted normalised direction (x′, y′, 1) of an OpenCV pixel position.
-fn normalised(dev: &OpenCv, px: [f64; 2]) -> Option<[f64; 3]> {
-    let k = &dev.intrinsics;
-    let (x, y, ok) = dev.undistort((px[0] - k.cx) / k.fx, (px[1] - k.cy) / k.fy);
-    (ok && x.is_finite() && y.is_finite()).then_some([x, y, 1.0])
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
