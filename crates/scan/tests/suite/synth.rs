@@ -391,10 +391,8 @@ fn calibrate_set(set: &Set) -> ProcamCalibration {
 /// scanned through the true calibration lies within 0.1 % of its diagonal of the true mesh
 /// (median). Measured: camera fx −0.093 %, fy −0.088 %, cx +1.63 px, cy +0.29 px; projector
 /// fx +0.019 %, fy +0.027 %, cx +1.34 px, cy +0.30 px; rotation 0.026°; |T| −0.010 %; RMS
-/// 0.093 px; radius +0.011 %; bunny median 0.0945 %. The recovered camera distortion
-/// (k2 ≈ 2.3, k3 ≈ −24: weakly constrained by boards in the middle of the image) turns back before
-/// the image corners, so `scan::triangulate` refuses it and the test-side triangulation scans
-/// through it.
+/// 0.093 px; radius +0.011 %; bunny median 0.0945 %. Scans go through `scan::triangulate`
+/// (the test-side midpoint gives the same numbers).
 #[test]
 #[ignore = "renders the 272 frames of the standard set, about 2 CPU-minutes; run with --ignored (LUCENT_SYNTH_SET=DIR reuses a set)"]
 fn round_trip() {
