@@ -4,10 +4,11 @@
 //! The render thread never waits for a display: after a pass it copies the film at most a few
 //! times a second into one latest-only [`Slot`] per display (skipping the copy when the display
 //! is busy reading it), and each display converts, encodes and sends on its own thread. The
-//! displays' CPU time (their threads' and the copies') is kept within [`CPU_BUDGET`] of the
-//! render's: each display reports the CPU time its thread has used, and a copy is made only when
-//! one more image at the last image's cost stays within the budget, so a large image is
-//! refreshed less often rather than slowing the render, however busy the machine is. A slow
+//! process's CPU time outside the render's worker threads since the render started (display
+//! threads, the HTTP server's threads) plus the copies is kept within [`CPU_BUDGET`] of the
+//! workers' own: a copy is made only when one more image at the last image's cost stays within
+//! the budget, so a large image is refreshed less often rather than slowing the render,
+//! however busy the machine is. A slow
 //! viewer only sees fewer updates; a vanished one is warned about once and left behind.
 
 pub mod serve;
@@ -158,12 +159,14 @@ pub struct Preview {
     /// CPU time the render thread spent copying films for the displays, and the last copy's.
     copies_cpu: Duration,
     last_copy_cpu: Duration,
+    /// Process and render-worker CPU time at the first copy.
+    baseline: Option<(Duration, Duration)>,
 }
 
 impl Preview {
     /// No display: [`Preview::on_pass`] and [`Preview::finish`] do nothing.
     pub fn none() -> Preview {
-        Preview { slots: Vec::new(), tev: None, server: None, last_offer: None, copies_cpu: Duration::ZERO, last_copy_cpu: Duration::ZERO }
+        Preview { slots: Vec::new(), tev: None, server: None, last_offer: None, copies_cpu: Duration::ZERO, last_copy_cpu: Duration::ZERO, baseline: None }
     }
 
     /// Start the displays asked for: a tev connection to `tev` (made on its own thread, so an
@@ -191,17 +194,21 @@ impl Preview {
         Ok(p)
     }
 
-    /// Whether one more image keeps the displays within [`CPU_BUDGET`] of the render, given the
-    /// process's CPU time so far: the displays' CPU time so far plus one more image at the last
-    /// image's cost (copy included), against the rest.
-    pub fn within_budget(&self, process_cpu: Duration) -> bool {
-        let (mut used, mut next) = (self.copies_cpu, self.last_copy_cpu);
-        for s in &self.slots {
-            let (total, last) = s.cpu();
-            used += total;
-            next += last;
-        }
-        (used + next).as_secs_f64() <= CPU_BUDGET * process_cpu.saturating_sub(used).as_secs_f64()
+    /// Whether one more image keeps the displays within [`CPU_BUDGET`] of the render, given
+    /// the CPU time since the first copy of the whole process (`process`) and of the render's
+    /// worker threads (`workers`): what ran outside the workers plus the copies, and one more
+    /// image at the last image's cost, against the workers' time less the copies.
+    pub fn within_budget(&self, process: Duration, workers: Duration) -> bool {
+        let used = process.saturating_sub(workers) + self.copies_cpu;
+        let next = self.last_copy_cpu + self.slots.iter().map(|s| s.cpu().1).sum::<Duration>();
+        (used + next).as_secs_f64() <= CPU_BUDGET * workers.saturating_sub(self.copies_cpu).as_secs_f64()
+    }
+
+    /// CPU time of this process and of the worker threads of the current rayon pool.
+    fn cpu_now() -> Option<(Duration, Duration)> {
+        let process = cpu_time(true)?;
+        let workers: Option<Vec<Duration>> = rayon::broadcast(|_| cpu_time(false)).into_iter().collect();
+        Some((process, workers?.into_iter().sum()))
     }
 
     /// After a pass: offer a copy of `film` if the last offer is [`UPDATE_INTERVAL`] old and
@@ -211,8 +218,14 @@ impl Preview {
         if self.slots.is_empty() || self.last_offer.is_some_and(|t| t.elapsed() < UPDATE_INTERVAL) {
             return;
         }
-        if self.last_offer.is_some() && !cpu_time(true).is_none_or(|p| self.within_budget(p)) {
-            return;
+        match (self.baseline, Preview::cpu_now()) {
+            (Some((p0, w0)), Some((p, w))) => {
+                if !self.within_budget(p.saturating_sub(p0), w.saturating_sub(w0)) {
+                    return;
+                }
+            }
+            (None, now) => self.baseline = now,
+            (Some(_), None) => {}
         }
         let t0 = cpu_time(false);
         let frame = Arc::new(Frame { film: film.clone(), stats, end: None });
@@ -308,9 +321,9 @@ mod tests {
 
     #[test]
     fn images_are_sent_only_within_the_cpu_budget() {
-        // Displays that used 8 ms and 2 ms (1 ms and 2 ms for their last images) with copies of
-        // 1 ms so far: 11 ms used, 4 ms for one more image. 15 ms is 1 % of 1.5 s, so the
-        // process needs 1.511 s of CPU time in all (the rest being the render's).
+        // 10 ms outside the workers and 1 ms of copies so far, 1 + 2 ms for the displays' last
+        // images and 1 ms for the last copy: 15 ms with one more image, which is 1 % of 1.5 s
+        // of render, so the workers need 1.501 s (their copies included).
         let (a, b) = (Arc::new(Slot::default()), Arc::new(Slot::default()));
         let mut p = Preview::none();
         p.slots = vec![a.clone(), b.clone()];
@@ -318,8 +331,9 @@ mod tests {
         b.report_cpu(Duration::from_millis(2), Duration::from_millis(2));
         p.copies_cpu = Duration::from_millis(1);
         p.last_copy_cpu = Duration::from_millis(1);
-        assert!(!p.within_budget(Duration::from_millis(1510)));
-        assert!(p.within_budget(Duration::from_millis(1511)));
+        let ms = Duration::from_millis;
+        assert!(!p.within_budget(ms(1500 + 10), ms(1500)));
+        assert!(p.within_budget(ms(1501 + 10), ms(1501)));
         // Within the update interval the film is not copied again.
         let f = frame(1);
         p.on_pass(&f.film, f.stats);
