@@ -3,11 +3,13 @@
 //!
 //! The render thread never waits for a display: after a pass it copies the film at most a few
 //! times a second into one latest-only [`Slot`] per display (skipping the copy when the display
-//! is busy reading it), and each display converts, encodes and sends on its own thread. Each
-//! display reports what its last image cost it, and copies are spaced so that no display spends
-//! more than 1/[`COST_FACTOR`] of one core's time: a large image is refreshed less often rather
-//! than slowing the render. A slow viewer only sees fewer updates; a vanished one is warned
-//! about once and left behind.
+//! is busy reading it), and each display converts, encodes and sends on its own thread. The
+//! process's CPU time outside the render's worker threads since the render started (display
+//! threads, the HTTP server's threads) plus the copies is kept within [`CPU_BUDGET`] of the
+//! workers' own: a copy is made only when one more image at the last image's cost stays within
+//! the budget, so a large image is refreshed less often rather than slowing the render,
+//! however busy the machine is. A slow
+//! viewer only sees fewer updates; a vanished one is warned about once and left behind.
 
 pub mod serve;
 pub mod tev;
@@ -23,9 +25,28 @@ use render::progressive::PassStats;
 /// Shortest time between two copies of the film offered to the displays: at most 4 updates a
 /// second, as pbrt-v4 refreshes tev (every 250 ms).
 pub const UPDATE_INTERVAL: Duration = Duration::from_millis(250);
-/// Copies are at least this many times a display's cost for its last image apart, so that a
-/// display's thread takes at most 2 % of one core.
-pub const COST_FACTOR: u32 = 50;
+/// The displays' CPU time as a fraction of the render's, at most.
+pub const CPU_BUDGET: f64 = 0.01;
+
+/// CPU time used so far by this process (`process`) or the calling thread, where the system
+/// says (`None` elsewhere).
+pub fn cpu_time(process: bool) -> Option<Duration> {
+    #[cfg(unix)]
+    {
+        let clock = if process { libc::CLOCK_PROCESS_CPUTIME_ID } else { libc::CLOCK_THREAD_CPUTIME_ID };
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: clock_gettime writes one timespec through a valid pointer.
+        if unsafe { libc::clock_gettime(clock, &mut ts) } == 0 {
+            return Some(Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32));
+        }
+        None
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = process;
+        None
+    }
+}
 
 /// How a render ended, as a display shows it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,8 +86,10 @@ pub struct Frame {
 pub struct Slot {
     state: Mutex<(u64, Option<Arc<Frame>>)>,
     changed: Condvar,
-    /// What the display's last image cost it (wall-clock nanoseconds on its thread).
-    cost_ns: AtomicU64,
+    /// CPU time the display's thread has used in all (nanoseconds).
+    cpu_ns: AtomicU64,
+    /// CPU time its last image cost (nanoseconds).
+    last_ns: AtomicU64,
 }
 
 impl Slot {
@@ -98,14 +121,16 @@ impl Slot {
         (s.0, s.1.clone())
     }
 
-    /// Record what showing the last image cost the display.
-    pub fn report_cost(&self, cost: Duration) {
-        self.cost_ns.store(cost.as_nanos().min(u64::MAX as u128) as u64, Ordering::Relaxed);
+    /// Record the CPU time the display's thread has used in all (`total`), and what its last
+    /// image cost it (`last`).
+    pub fn report_cpu(&self, total: Duration, last: Duration) {
+        self.cpu_ns.store(total.as_nanos() as u64, Ordering::Relaxed);
+        self.last_ns.store(last.as_nanos() as u64, Ordering::Relaxed);
     }
 
-    /// The cost last reported.
-    pub fn cost(&self) -> Duration {
-        Duration::from_nanos(self.cost_ns.load(Ordering::Relaxed))
+    /// The CPU time reported in all, and for the last image.
+    pub fn cpu(&self) -> (Duration, Duration) {
+        (Duration::from_nanos(self.cpu_ns.load(Ordering::Relaxed)), Duration::from_nanos(self.last_ns.load(Ordering::Relaxed)))
     }
 
     /// Wait for a frame newer than version `seen`.
@@ -131,12 +156,17 @@ pub struct Preview {
     tev: Option<JoinHandle<()>>,
     server: Option<serve::Server>,
     last_offer: Option<Instant>,
+    /// CPU time the render thread spent copying films for the displays, and the last copy's.
+    copies_cpu: Duration,
+    last_copy_cpu: Duration,
+    /// Process and render-worker CPU time at the first copy.
+    baseline: Option<(Duration, Duration)>,
 }
 
 impl Preview {
     /// No display: [`Preview::on_pass`] and [`Preview::finish`] do nothing.
     pub fn none() -> Preview {
-        Preview { slots: Vec::new(), tev: None, server: None, last_offer: None }
+        Preview { slots: Vec::new(), tev: None, server: None, last_offer: None, copies_cpu: Duration::ZERO, last_copy_cpu: Duration::ZERO, baseline: None }
     }
 
     /// Start the displays asked for: a tev connection to `tev` (made on its own thread, so an
@@ -164,20 +194,45 @@ impl Preview {
         Ok(p)
     }
 
-    /// The time between copies: [`UPDATE_INTERVAL`], or [`COST_FACTOR`] times the dearest
-    /// display's last cost if that is longer.
-    pub fn interval(&self) -> Duration {
-        let dearest = self.slots.iter().map(|s| s.cost()).max().unwrap_or_default();
-        UPDATE_INTERVAL.max(dearest * COST_FACTOR)
+    /// Whether one more image keeps the displays within [`CPU_BUDGET`] of the render, given
+    /// the CPU time since the first copy of the whole process (`process`) and of the render's
+    /// worker threads (`workers`): what ran outside the workers plus the copies, and one more
+    /// image at the last image's cost, against the workers' time less the copies.
+    pub fn within_budget(&self, process: Duration, workers: Duration) -> bool {
+        let used = process.saturating_sub(workers) + self.copies_cpu;
+        let next = self.last_copy_cpu + self.slots.iter().map(|s| s.cpu().1).sum::<Duration>();
+        (used + next).as_secs_f64() <= CPU_BUDGET * workers.saturating_sub(self.copies_cpu).as_secs_f64()
     }
 
-    /// After a pass: offer a copy of `film` if the last offer is [`Preview::interval`] old.
-    /// Never waits: a display busy reading its slot misses this frame and gets the next.
+    /// CPU time of this process and of the worker threads of the current rayon pool.
+    fn cpu_now() -> Option<(Duration, Duration)> {
+        let process = cpu_time(true)?;
+        let workers: Option<Vec<Duration>> = rayon::broadcast(|_| cpu_time(false)).into_iter().collect();
+        Some((process, workers?.into_iter().sum()))
+    }
+
+    /// After a pass: offer a copy of `film` if the last offer is [`UPDATE_INTERVAL`] old and
+    /// the copy is [within budget](Preview::within_budget) (the first is always made). Never
+    /// waits: a display busy reading its slot misses this frame and gets the next.
     pub fn on_pass(&mut self, film: &Film, stats: PassStats) {
-        if self.slots.is_empty() || self.last_offer.is_some_and(|t| t.elapsed() < self.interval()) {
+        if self.slots.is_empty() || self.last_offer.is_some_and(|t| t.elapsed() < UPDATE_INTERVAL) {
             return;
         }
+        match (self.baseline, Preview::cpu_now()) {
+            (Some((p0, w0)), Some((p, w))) => {
+                if !self.within_budget(p.saturating_sub(p0), w.saturating_sub(w0)) {
+                    return;
+                }
+            }
+            (None, now) => self.baseline = now,
+            (Some(_), None) => {}
+        }
+        let t0 = cpu_time(false);
         let frame = Arc::new(Frame { film: film.clone(), stats, end: None });
+        if let (Some(a), Some(b)) = (t0, cpu_time(false)) {
+            self.last_copy_cpu = b.saturating_sub(a);
+            self.copies_cpu += self.last_copy_cpu;
+        }
         let mut taken = true;
         for slot in &self.slots {
             taken &= slot.offer(&frame);
@@ -265,16 +320,21 @@ mod tests {
     }
 
     #[test]
-    fn copies_are_spaced_by_the_dearest_display() {
-        let mut p = Preview::none();
-        assert_eq!(p.interval(), UPDATE_INTERVAL);
+    fn images_are_sent_only_within_the_cpu_budget() {
+        // 10 ms outside the workers and 1 ms of copies so far, 1 + 2 ms for the displays' last
+        // images and 1 ms for the last copy: 15 ms with one more image, which is 1 % of 1.5 s
+        // of render, so the workers need 1.501 s (their copies included).
         let (a, b) = (Arc::new(Slot::default()), Arc::new(Slot::default()));
+        let mut p = Preview::none();
         p.slots = vec![a.clone(), b.clone()];
-        a.report_cost(Duration::from_millis(2));
-        assert_eq!(p.interval(), UPDATE_INTERVAL, "cheap displays: 4 a second");
-        b.report_cost(Duration::from_millis(20));
-        assert_eq!(p.interval(), Duration::from_millis(20) * COST_FACTOR);
-        // Within the interval the film is not copied again.
+        a.report_cpu(Duration::from_millis(8), Duration::from_millis(1));
+        b.report_cpu(Duration::from_millis(2), Duration::from_millis(2));
+        p.copies_cpu = Duration::from_millis(1);
+        p.last_copy_cpu = Duration::from_millis(1);
+        let ms = Duration::from_millis;
+        assert!(!p.within_budget(ms(1500 + 10), ms(1500)));
+        assert!(p.within_budget(ms(1501 + 10), ms(1501)));
+        // Within the update interval the film is not copied again.
         let f = frame(1);
         p.on_pass(&f.film, f.stats);
         p.on_pass(&f.film, f.stats);

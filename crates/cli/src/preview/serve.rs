@@ -163,9 +163,10 @@ fn serve(server: tiny_http::Server, shared: &Shared) {
                         let png = match &png_cache {
                             Some((v, e, png)) if *v == version && *e == exposure.to_bits() => Some(png.clone()),
                             _ => {
-                                let t = Instant::now();
+                                let before = super::cpu_time(false).unwrap_or_default();
                                 let png = encode(&frame, exposure).map(Arc::new);
-                                shared.slot.report_cost(t.elapsed());
+                                let after = super::cpu_time(false).unwrap_or_default();
+                                shared.slot.report_cpu(after, after.saturating_sub(before));
                                 png
                             }
                         };

@@ -271,9 +271,10 @@ pub fn spawn(target: Target, name: String, slot: Arc<Slot>, warn: Warn) -> Resul
                 let (version, frame) = slot.wait_newer(seen);
                 seen = version;
                 // The last frame is worth one more try at a viewer that was away.
-                let t = Instant::now();
+                let before = super::cpu_time(false).unwrap_or_default();
                 client.show(&frame.film.to_image(), frame.end.is_some());
-                slot.report_cost(t.elapsed());
+                let after = super::cpu_time(false).unwrap_or_default();
+                slot.report_cpu(after, after.saturating_sub(before));
                 if frame.end.is_some() {
                     break;
                 }
