@@ -802,7 +802,7 @@ fn trace_sphere(material: &Material, mut o: Vec3, mut d: Vec3, rng: &mut Pcg32) 
         let front = d.dot(ng) < 0.0;
         let n = if front { ng } else { -ng };
         let frame = render::math::sampling::Frame::from_normal(n);
-        let bsdf = material.bsdf_at(&mut wl, front, glam::Vec2::ZERO);
+        let bsdf = material.bsdf_at(&mut wl, front, || glam::Vec2::ZERO);
         let wo = frame.to_local(-d);
         let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) else {
             return (Vec4::ZERO, wl);

@@ -299,6 +299,23 @@ fn texture_errors_are_one_line_and_name_the_field() {
         }
         assert!(e.starts_with("test.toml:"), "{e}");
     }
+    // Emission textures: the same checks, and an emitting mesh needs texture coordinates.
+    let lamp = |radiance: &str, shape: &str| {
+        format!("{CAMERA}[materials.k]\ntype = \"black\"\n[[objects]]\nname = \"lamp\"\nmaterial = \"k\"\n{shape}\n[[lights]]\ntype = \"area\"\nobject = \"lamp\"\nradiance = {radiance}\n")
+    };
+    let light_cases = [
+        (lamp("{ texture = \"missing.png\" }", quad), vec!["lights[0] (area).radiance.texture", "missing.png"]),
+        (lamp("{ texture = \"nan.pfm\" }", quad), vec!["lights[0] (area).radiance.texture", "texel (1, 0)"]),
+        (lamp("{ texture = \"ok.png\", wrap = \"mirror\" }", quad), vec!["lights[0] (area).radiance.wrap", "mirror"]),
+        (lamp("{ texture = \"ok.png\" }", "mesh = \"nouv.obj\""), vec!["lights[0] (area).radiance", "no texture coordinates"]),
+    ];
+    for (text, needles) in light_cases {
+        let e = load(&dir, &text).err().unwrap_or_else(|| panic!("expected an error for {needles:?}"));
+        assert!(!e.contains('\n') && e.starts_with("test.toml:"), "{e}");
+        for n in &needles {
+            assert!(e.contains(n), "`{e}` does not mention `{n}`");
+        }
+    }
     // A valid checkerboard: squares alternate, the origin's square is `even`.
     let s = load(&dir, &scene("{ checkerboard = { squares = 4, even = 0.1, odd = 0.9 } }", quad)).unwrap();
     let render::material::Material::Lambertian { albedo } = &s.materials[0] else { panic!() };
