@@ -206,6 +206,7 @@ fn reconstruct_a_rendered_plane_through_the_command() {
     let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("wrong.json"), "--out", &s.arg("p2.ply")]);
     assert!(e.contains("160x120") && e.contains("320x120"), "{e}");
     assert!(!s.path("p2.ply").exists());
+}
 
 /// `scan calibrate` on the three shared captures: the JSON keys of the contract, the stereo RMS
 /// target, the file equal to the printed JSON; and bad input as one line with no output file.
