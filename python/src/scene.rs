@@ -196,8 +196,8 @@ impl Scene {
             let worker = s.spawn(move || {
                 let run = || {
                     job.run(Film::new(w, h), cancel, |event| {
-                        if let Event::Pass { film, elapsed } = event {
-                            let _ = tx.send((film.samples_per_pixel(), elapsed.as_secs_f64()));
+                        if let Event::Pass { film, stats } = event {
+                            let _ = tx.send((film.samples_per_pixel(), stats.elapsed.as_secs_f64()));
                             if let Some(Ok(ack)) = ack_rx.as_ref().map(|a| a.lock()) {
                                 let _ = ack.recv();
                             }
