@@ -4,6 +4,8 @@
 use clap::{Parser, Subcommand};
 
 mod cmd;
+#[cfg(feature = "denoise")]
+mod denoise;
 mod preview;
 
 #[derive(Parser)]

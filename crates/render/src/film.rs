@@ -395,6 +395,23 @@ impl Film {
         crate::image_io::write_exr_channels(path, self.width, self.height, &self.exr_channels(), attributes)
     }
 
+    /// As [`Film::write_exr`], with `R`, `G`, `B` taken from `image` (e.g. a denoised image of
+    /// the same size) and the film's own image kept as `<kept_as>.R`, `.G`, `.B`.
+    pub fn write_exr_with_rgb(&self, path: &std::path::Path, image: &Image, kept_as: &str) -> Result<()> {
+        if (image.width, image.height) != (self.width, self.height) {
+            bail!("{}: a {}×{} image for a {}×{} film", path.display(), image.width, image.height, self.width, self.height);
+        }
+        let mut channels = self.exr_channels();
+        let own: Vec<crate::image_io::ExrChannel> = channels.drain(..3).collect();
+        let mut out: Vec<crate::image_io::ExrChannel> =
+            ["R", "G", "B"].iter().enumerate().map(|(c, name)| (name.to_string(), image.rgb.iter().map(|p| p[c]).collect())).collect();
+        out.extend(own.into_iter().map(|(name, v)| (format!("{kept_as}.{name}"), v)));
+        out.extend(channels);
+        let attributes: &[(&str, &str)] =
+            if self.layout.bins.is_some() { &[("spectralLayoutVersion", "1.0"), ("emissiveUnits", "W.m^-2.sr^-1")] } else { &[] };
+        crate::image_io::write_exr_channels(path, self.width, self.height, &out, attributes)
+    }
+
     /// Add another film of the same size: sums and counts add, so the mean of the result is the
     /// sample-count-weighted mean of the two.
     pub fn add_film(&mut self, other: &Film) -> Result<()> {

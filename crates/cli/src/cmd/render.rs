@@ -13,6 +13,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use render::checkpoint::{Checkpoint, RenderIdentity};
 use render::film::{Film, FilmLayout};
+use render::image_io::Image;
 use render::integrator::aov::Aov;
 use render::math::spectral::SpectralBins;
 use render::integrator::{IntegratorKind, IntegratorSettings};
@@ -95,7 +96,7 @@ pub struct Args {
     /// Spectral image written into every .exr output: mean spectral radiance per nm in bins START:END:WIDTH nm within 360–830 (e.g. 400:700:10), channels S0.<centre>nm.
     #[arg(long, value_name = "START:END:WIDTH")]
     pub spectral_bins: Option<String>,
-    /// Denoise with Intel Open Image Denoise (cargo feature `denoise`, not available in this version: the flag says so and stops).
+    /// Denoise the image with Intel Open Image Denoise, albedo and normal AOVs as guides (cargo feature `denoise`; the library is loaded at run time, $LUCENT_OIDN_LIBRARY or the system's).
     #[arg(long)]
     pub denoise: bool,
     /// Camera-matrix node of a FileStorage calibration [default: camera_matrix].
@@ -239,19 +240,46 @@ pub(crate) fn check_layout_outputs(layout: &FilmLayout, outs: &[PathBuf]) -> Res
     Ok(())
 }
 
-// The `denoise` feature is the gate for Intel Open Image Denoise; its binding is not written yet
-// (OIDN is not packaged for the project's machines), so enabling it stops the build with the reason.
-#[cfg(feature = "denoise")]
-compile_error!("the `denoise` feature needs the Intel Open Image Denoise binding, which this version of lucent does not have yet");
-
-/// `--denoise`: the one line saying how to get it when this build has no denoiser.
+/// `--denoise`: with the `denoise` feature, check before rendering that Intel Open Image Denoise
+/// loads; without it, the one line saying how to get it.
 pub(crate) fn check_denoise(denoise: bool) -> Result<()> {
-    if denoise {
-        bail!(
-            "--denoise needs a lucent built with the `denoise` cargo feature (Intel Open Image Denoise), which this version does not offer yet; write --aov albedo,normal into an .exr and denoise it with OIDN's own tools"
-        );
+    if !denoise {
+        return Ok(());
     }
-    Ok(())
+    #[cfg(feature = "denoise")]
+    {
+        crate::denoise::library().map(|_| ())
+    }
+    #[cfg(not(feature = "denoise"))]
+    {
+        bail!(
+            "--denoise needs a lucent built with the `denoise` cargo feature (`cargo build --release --features lucent/denoise`) and Intel Open Image Denoise 1.x or 2.x at run time (see docs/outputs.md)"
+        )
+    }
+}
+
+/// `--denoise` needs the albedo and normal AOVs as guides: the layout with them added.
+pub(crate) fn with_denoise_guides(layout: Option<FilmLayout>) -> FilmLayout {
+    let layout = layout.unwrap_or_default();
+    let mut aovs = layout.aovs.clone();
+    aovs.extend([Aov::Albedo, Aov::Normal]);
+    FilmLayout::new(aovs, layout.bins.clone())
+}
+
+/// The denoised image when `--denoise` is on (a build with the `denoise` feature).
+fn denoised_image(denoise: bool, film: &Film) -> Result<Option<Image>> {
+    if !denoise {
+        return Ok(None);
+    }
+    #[cfg(feature = "denoise")]
+    {
+        crate::denoise::denoise(film).map(Some)
+    }
+    #[cfg(not(feature = "denoise"))]
+    {
+        let _ = film;
+        check_denoise(true).map(|_| None)
+    }
 }
 
 /// The folder a file will be written into must exist.
@@ -272,13 +300,28 @@ pub(crate) fn check_parent_dir(path: &Path, option: &str) -> Result<()> {
 /// Write the film's image to every output; returns their absolute paths and what each holds.
 /// EXR outputs of a film with AOVs or spectral bins get them as extra channels.
 pub(crate) fn write_outputs(film: &Film, outs: &[PathBuf], exposure_stops: f32) -> Result<Vec<(PathBuf, String)>> {
-    let image = film.to_image();
+    write_outputs_with(film, None, outs, exposure_stops)
+}
+
+/// [`write_outputs`] with the image replaced by `denoised` where given: PNG/PFM outputs hold
+/// it, EXR outputs hold it as R, G, B with the film's own image as `noisy.R`, `.G`, `.B`.
+pub(crate) fn write_outputs_with(film: &Film, denoised: Option<&Image>, outs: &[PathBuf], exposure_stops: f32) -> Result<Vec<(PathBuf, String)>> {
+    let image = match denoised {
+        Some(d) => d.clone(),
+        None => film.to_image(),
+    };
     let mut written = Vec::with_capacity(outs.len());
     for out in outs {
         let format = render::image_io::Format::from_path(out)?;
-        let what = if format == render::image_io::Format::Exr && !film.layout().is_empty() {
+        let what = if format == render::image_io::Format::Exr && denoised.is_some() {
+            film.write_exr_with_rgb(out, &image, "noisy")?;
+            format!("channels R, G, B (denoised), noisy.R, noisy.G, noisy.B, {}", describe_channels(&film.layout().channel_names()))
+        } else if format == render::image_io::Format::Exr && !film.layout().is_empty() {
             film.write_exr(out)?;
             format!("channels R, G, B, {}", describe_channels(&film.layout().channel_names()))
+        } else if denoised.is_some() {
+            render::image_io::write_image(out, &image, exposure_stops)?;
+            "RGB image (denoised)".to_string()
         } else {
             render::image_io::write_image(out, &image, exposure_stops)?;
             "RGB image".to_string()
@@ -367,6 +410,7 @@ pub fn run(args: Args) -> Result<()> {
         check_layout_outputs(layout, &outs)?;
     }
     check_denoise(args.denoise)?;
+    let layout_arg = if args.denoise { Some(with_denoise_guides(layout_arg)) } else { layout_arg };
     let checkpoint_path = args.checkpoint.clone().or_else(|| args.resume.clone());
     if let Some(c) = &checkpoint_path {
         check_parent_dir(c, "--checkpoint")?;
@@ -521,7 +565,11 @@ pub fn run(args: Args) -> Result<()> {
 
     // ---- Save: checkpoint first (the work, written by the job), then the images, even if the
     // checkpoint failed. ----
-    let written = write_outputs(&film, &outs, exposure);
+    let denoised = denoised_image(args.denoise, &film);
+    let written = match &denoised {
+        Ok(d) => write_outputs_with(&film, d.as_ref(), &outs, exposure),
+        Err(e) => Err(anyhow::anyhow!("{e:#}")),
+    };
     let stopped_by_page = preview.stop_requested() && !ctrl_c.load(Ordering::SeqCst);
     let end = match (was_interrupted, stopped_by_page) {
         (false, _) => preview::End::Finished,

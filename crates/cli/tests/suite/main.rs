@@ -3,6 +3,8 @@
 mod camera_cli;
 mod common;
 mod aov_cli;
+#[cfg(feature = "denoise")]
+mod denoise;
 mod distributed_examples;
 mod fit_cli;
 mod fit_roundtrip;
