@@ -10,6 +10,9 @@ each with its own seed, reporting wall time, process CPU time (user+sys, all thr
 Msamples per wall and CPU second.
 
     pip install mitsuba==3.9.1
+    # drjit's LLVM backend needs a recent libLLVM: with Debian's LLVM 14/15 the JIT aborts
+    # ("Cannot select ... fminimum"); Rust's own LLVM 22 works:
+    export DRJIT_LIBLLVM_PATH=$(ls ~/.rustup/toolchains/stable-*/lib/libLLVM.so.*)
     python3 benches-peers/mitsuba_cornell.py [--variant llvm_ad_spectral] [--size 128] [--spp 256]
         [--repeats 3] [--threads 2] [--json] [--exr out.exr]
 """
