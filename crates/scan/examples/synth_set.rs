@@ -1,7 +1,7 @@
 //! Render the standard synthetic structured-light set (`scan::synth`): six board poses, a
 //! sphere and the bunny, as `graycode_NN.png` folders with `truth.json` and `calibration.json`.
 //!
-//! `cargo run --release -p scan --example synth_set -- OUT_DIR [SPP] [--full] [--only NAME,…]`
+//! `cargo run --release -p scan --example synth_set -- OUT_DIR [SPP] [--ambient-spp N] [--full] [--only NAME,…]`
 //!
 //! `--full` renders at the size of the shared real captures (1280 × 1024 camera, 1024 × 768
 //! projector, 42 images; `Rig::full`), else 320 × 256 and 256 × 192 (34 images;
@@ -20,6 +20,13 @@ fn main() {
         match a.as_str() {
             "--full" => rig = Rig::full(),
             "--only" => only = args.next().map(|l| l.split(',').map(str::to_string).collect()),
+            "--ambient-spp" => match args.next().and_then(|n| n.parse::<u32>().ok()) {
+                Some(n) if n > 0 => settings.ambient_spp = n,
+                _ => {
+                    eprintln!("synth_set: --ambient-spp needs a positive integer");
+                    std::process::exit(2);
+                }
+            },
             _ if out.is_none() => out = Some(a),
             _ => match a.parse::<u32>() {
                 Ok(n) if n > 0 => settings.spp = n,
@@ -31,7 +38,7 @@ fn main() {
         }
     }
     let Some(out) = out else {
-        eprintln!("usage: synth_set OUT_DIR [SPP] [--full] [--only NAME,…]");
+        eprintln!("usage: synth_set OUT_DIR [SPP] [--ambient-spp N] [--full] [--only NAME,…]");
         std::process::exit(2);
     };
     let mesh = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/meshes/bunny.ply");
