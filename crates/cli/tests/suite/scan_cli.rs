@@ -106,6 +106,12 @@ fn scan_bad_input_fails_on_one_line_without_output() {
     let e = fails_on_one_line(&["scan", "decode", &s.arg("cap"), "--projector", "16x8"]);
     assert!(e.contains("graycode_09.png") && e.contains("missing"), "{e}");
     std::fs::copy(s.path("pat").join("pattern_09.png"), cap.join("graycode_09.png")).unwrap();
+    // An extra frame past the sequence of 16.
+    std::fs::copy(s.path("pat").join("pattern_09.png"), cap.join("graycode_16.png")).unwrap();
+    let e = fails_on_one_line(&["scan", "decode", &s.arg("cap"), "--projector", "16x8", "--out", &s.arg("m.exr")]);
+    assert!(e.contains("graycode_16.png") && e.contains("extra"), "{e}");
+    assert!(!s.path("m.exr").exists());
+    std::fs::remove_file(cap.join("graycode_16.png")).unwrap();
     lucent().args(["scan", "patterns", "--projector", "16x9", "--out", &s.arg("pat9")]).output().unwrap();
     std::fs::copy(s.path("pat9").join("pattern_04.png"), cap.join("graycode_04.png")).unwrap();
     let e = fails_on_one_line(&["scan", "decode", &s.arg("cap"), "--projector", "16x8", "--out", &s.arg("m.exr")]);
@@ -251,4 +257,62 @@ fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "0"]);
     assert!(e.contains("--square"), "{e}");
     assert!(!s.path("bad.json").exists());
+}
+
+fn calibrate_args<'a>(caps: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["scan", "calibrate"];
+    a.extend(caps);
+    a.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75"]);
+    a.extend(extra);
+    a
+}
+
+/// `scan calibrate` bad input past the argument checks, each one line, exit ≠ 0, no output file:
+/// too few decoded pixels around a corner (a window of 9 × 9 pixels holds fewer than the 100 a
+/// local homography needs), one board pose three times (Zhang's system has a null space), and
+/// captures of different camera sizes (the 1024 × 768 pattern images as a capture).
+#[test]
+fn calibrate_refuses_sparse_corners_repeated_poses_and_mixed_sizes() {
+    let s = Scratch::new("scan-calibrate-bad");
+    let caps: Vec<String> = (0..3).map(|i| sample_capture(i).display().to_string()).collect();
+    let out = s.arg("calib.json");
+    let e = fails_on_one_line(&calibrate_args(&[&caps[0], &caps[1], &caps[2]], &["--half-window", "4", "--out", &out]));
+    assert!(e.contains("too few valid pixels around corner 0 (capture ") && e.contains("capture_0"), "{e}");
+    let e = fails_on_one_line(&calibrate_args(&[&caps[1], &caps[1], &caps[1]], &["--out", &out]));
+    assert!(e.contains("degenerate pose set"), "{e}");
+    lucent().args(["scan", "patterns", "--projector", "1024x768", "--out", &s.arg("pat")]).output().unwrap();
+    std::fs::create_dir_all(s.path("small")).unwrap();
+    for i in 0..42 {
+        std::fs::rename(s.path("pat").join(format!("pattern_{i:02}.png")), s.path("small").join(format!("graycode_{i:02}.png"))).unwrap();
+    }
+    let small = s.arg("small");
+    let e = fails_on_one_line(&calibrate_args(&[&caps[0], &small, &caps[2]], &["--out", &out]));
+    assert!(e.contains("small") && e.contains("1024x768") && e.contains("1280x1024"), "{e}");
+    assert!(!s.path("calib.json").exists());
+}
+
+/// A capture whose projector columns are mirrored (the most significant column bit's pattern and
+/// inverse swapped: column c reads as 1023 − c), with two true ones: no projector pose explains a
+/// mirrored view together with the others, and the joint fit stops with one line. Ignored in CI:
+/// Levenberg–Marquardt spends its whole evaluation budget first (about 30 CPU-seconds);
+/// `cargo test -p cli --test suite calibrate_reports_a_fit_that_does_not_converge -- --ignored`.
+#[test]
+#[ignore = "about 30 CPU-seconds of Levenberg–Marquardt before it gives up"]
+fn calibrate_reports_a_fit_that_does_not_converge() {
+    let s = Scratch::new("scan-calibrate-diverge");
+    let caps: Vec<String> = (0..3).map(|i| sample_capture(i).display().to_string()).collect();
+    let mirror = s.path("mirror");
+    std::fs::create_dir_all(&mirror).unwrap();
+    for i in 0..42usize {
+        let from = match i {
+            0 => 1,
+            1 => 0,
+            _ => i,
+        };
+        std::fs::copy(sample_capture(2).join(format!("graycode_{from:02}.png")), mirror.join(format!("graycode_{i:02}.png"))).unwrap();
+    }
+    let out = s.arg("calib.json");
+    let e = fails_on_one_line(&calibrate_args(&[&caps[0], &caps[1], &s.arg("mirror")], &["--out", &out]));
+    assert!(e.contains("did not converge"), "{e}");
+    assert!(!s.path("calib.json").exists());
 }
