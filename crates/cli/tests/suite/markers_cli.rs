@@ -39,7 +39,7 @@ fn markers_detect_match_triangulate_and_register() {
     write_inputs(&s, &sc);
     let (a, b) = (s.arg("view0.png"), s.arg("view1.png"));
     // Detection alone, on any number of images.
-    let v = ok_json(&["scan", "markers", &a, &b, "--json"]);
+    let v = ok_json(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--json"]);
     let imgs = v["images"].as_array().unwrap();
     assert_eq!(imgs.len(), 2);
     for img in imgs {
@@ -55,7 +55,7 @@ fn markers_detect_match_triangulate_and_register() {
     }
     assert!(v.get("matches").is_none());
     // Matching, triangulation and registration.
-    let v = ok_json(&["scan", "markers", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json"), "--json"]);
+    let v = ok_json(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json"), "--json"]);
     assert_eq!(v["matches"].as_array().unwrap().len(), 4, "{v}");
     assert_eq!(v["points"].as_array().unwrap().len(), 4);
     assert_eq!(v["unmatched"]["a"].as_array().unwrap().len(), 0);
@@ -76,7 +76,7 @@ fn markers_detect_match_triangulate_and_register() {
     // A similarity: the model given in centimetres comes back with scale 10.
     let cm: Vec<[f64; 3]> = sc.model_markers().iter().map(|p| p.map(|x| x / 10.0)).collect();
     std::fs::write(s.path("model_cm.json"), serde_json::json!({ "markers": cm }).to_string()).unwrap();
-    let v = ok_json(&["scan", "markers", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model_cm.json"), "--scale", "--json"]);
+    let v = ok_json(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model_cm.json"), "--scale", "--json"]);
     let k = v["transform"]["scale"].as_f64().unwrap();
     assert!((k - 10.0).abs() < 0.01, "scale {k}");
 
@@ -90,12 +90,12 @@ fn markers_detect_match_triangulate_and_register() {
     let e = fails_on_one_line(&["scan", "markers", &a, "--calibration", &s.arg("calib.json")]);
     assert!(e.contains("exactly two images"), "{e}");
     // View A's photograph given for both views: its markers do not lie on B's epipolar lines.
-    let e = fails_on_one_line(&["scan", "markers", &a, &a, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json")]);
+    let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &a, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json")]);
     assert!(e.contains("too few matches"), "{e}");
     std::fs::write(s.path("line.json"), r#"{"markers": [[0, 0, 0], [10, 0, 0], [20, 0, 0], [35, 0, 0]]}"#).unwrap();
-    let e = fails_on_one_line(&["scan", "markers", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("line.json")]);
+    let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("line.json")]);
     assert!(e.contains("collinear"), "{e}");
     std::fs::write(s.path("bad.json"), r#"{"points": []}"#).unwrap();
-    let e = fails_on_one_line(&["scan", "markers", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("bad.json")]);
+    let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("bad.json")]);
     assert!(e.contains("bad.json") && e.contains("markers"), "{e}");
 }

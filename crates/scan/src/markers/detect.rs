@@ -48,14 +48,14 @@ const STEP: f64 = 0.25;
 /// Length over which the levels inside and outside the window are averaged (pixels).
 const LEVEL_PX: f64 = 1.5;
 
-/// The detected markers of `img`, strongest Hough candidates first, duplicates (centres within a
-/// pixel and radii within 20 %) removed.
+/// The detected markers of `img`, strongest Hough candidates first: refined radii within 5 % of the
+/// radius range, duplicates (centres within a pixel and radii within 20 %) removed.
 pub fn detect(img: &Image, s: &DetectSettings) -> Vec<Marker> {
     let cands = candidates(img, &s.hough);
     let mut out: Vec<Marker> = Vec::new();
     for c in &cands {
         let Some(m) = refine(img, c, s) else { continue };
-        if m.radius_px < 0.7 * s.hough.radius_min_px || m.radius_px > 1.3 * s.hough.radius_max_px {
+        if m.radius_px < 0.95 * s.hough.radius_min_px || m.radius_px > 1.05 * s.hough.radius_max_px {
             continue;
         }
         let dup = out.iter().any(|o| o.dark == m.dark && (o.x - m.x).hypot(o.y - m.y) < 1.0 && (o.radius_px / m.radius_px - 1.0).abs() < 0.2);

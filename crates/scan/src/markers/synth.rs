@@ -1,9 +1,13 @@
 //! Synthetic marker photographs with known truth: a Lambertian sphere carrying flat circular
-//! markers (dark discs tangent to it, lifted 0.3 mm off the surface) lit by a directional light
-//! from between the views (a delta light: the renders' only noise is where the pixel samples fall),
-//! on a black background, seen by two OpenCV cameras with lens distortion, rendered by lucent's renderer
+//! markers (black discs tangent to it, lifted 0.3 mm off the surface) on a black background, seen
+//! by two OpenCV cameras with lens distortion, rendered by lucent's renderer
 //! (the `direct` integrator; pinhole lenses) with Gaussian sensor noise and 8-bit sRGB
-//! quantisation as [`crate::synth`] makes its captures.
+//! quantisation as [`crate::synth`] makes its captures. The sphere is self-luminous (an area light
+//! of constant radiance with a black surface) and there is no other light: a lit sphere would let
+//! a disc lifted off it cast a shadow next to its own edge (up to 0.7 mm from a 7-mm disc on a
+//! 60-mm sphere) that displaces the edge seen in the image by a few tenths of a pixel, and an
+//! ambient environment is noisy at the sample counts of a test. So the images have two levels,
+//! the sphere's radiance and black, anti-aliased by the renderer's 16 samples per pixel.
 //!
 //! Frame: view A's camera coordinates (x right, y down, z forward, millimetres); view B maps them
 //! as X_B = R·X_A + T, as the calibration's projector entry does. A disc is a fan of 128
@@ -46,16 +50,10 @@ pub struct MarkerScene {
     pub sphere_centre_mm: [f64; 3],
     /// Sphere radius (mm).
     pub sphere_radius_mm: f64,
-    /// Sphere albedo (flat spectrum).
-    pub sphere_albedo: f64,
+    /// Radiance the sphere emits (W·m⁻²·sr⁻¹·nm⁻¹, flat).
+    pub sphere_radiance: f64,
     /// The markers.
     pub discs: Vec<Disc>,
-    /// Marker albedo.
-    pub disc_albedo: f64,
-    /// Irradiance of the directional light on a surface facing it (W·m⁻²·nm⁻¹, flat).
-    pub irradiance: f64,
-    /// Direction the light travels (view A coordinates, unit).
-    pub light_direction: [f64; 3],
     /// Rotation model → view A (Q; the model's origin is the sphere's centre).
     pub model_rotation: [[f64; 3]; 3],
 }
@@ -95,11 +93,8 @@ impl MarkerScene {
             translation_mm: e.t_m,
             sphere_centre_mm: [centre.x, centre.y, centre.z],
             sphere_radius_mm: radius,
-            sphere_albedo: 0.8,
+            sphere_radiance: 0.5,
             discs,
-            disc_albedo: 0.05,
-            irradiance: 2.0,
-            light_direction: { let d = -(bis + up * 0.2).normalize(); [d.x, d.y, d.z] },
             model_rotation: [[q[(0, 0)], q[(0, 1)], q[(0, 2)]], [q[(1, 0)], q[(1, 1)], q[(1, 2)]], [q[(2, 0)], q[(2, 1)], q[(2, 2)]]],
         }
     }
@@ -149,9 +144,8 @@ impl MarkerScene {
         let _ = writeln!(s, "[camera]\nmodel = \"opencv\"\nwidth = {}\nheight = {}\nfx = {}\nfy = {}\ncx = {}\ncy = {}", c.width, c.height, f(c.fx), f(c.fy), f(c.cx), f(c.cy));
         let _ = writeln!(s, "dist = [{}, {}, {}, {}, {}]\nR = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\nt = [0, 0, 0]\n", f(d[0]), f(d[1]), f(d[2]), f(d[3]), f(d[4]));
         let _ = writeln!(s, "[integrator]\ntype = \"direct\"\n");
-        let _ = writeln!(s, "[materials.sphere]\ntype = \"lambertian\"\nalbedo = {}\n", f(self.sphere_albedo));
-        let _ = writeln!(s, "[materials.marker]\ntype = \"lambertian\"\nalbedo = {}\n", f(self.disc_albedo));
-        let _ = writeln!(s, "[[objects]]\nname = \"sphere\"\nmaterial = \"sphere\"\nsphere = {{ center = {}, radius = {} }}\n", v(Vector3::from(self.sphere_centre_mm)), f(self.sphere_radius_mm));
+        let _ = writeln!(s, "[materials.black]\ntype = \"lambertian\"\nalbedo = 0.0\n");
+        let _ = writeln!(s, "[[objects]]\nname = \"sphere\"\nmaterial = \"black\"\nsphere = {{ center = {}, radius = {} }}\n", v(Vector3::from(self.sphere_centre_mm)), f(self.sphere_radius_mm));
         for (k, disc) in self.discs.iter().enumerate() {
             let n = Vector3::from(disc.normal);
             let e1 = n.cross(&if n.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
@@ -163,9 +157,9 @@ impl MarkerScene {
                 c + (e1 * a.cos() + e2 * a.sin()) * disc.radius_mm
             };
             let quads: Vec<String> = (0..m / 2).map(|q| format!("[{}, {}, {}, {}]", v(c), v(p(2 * q)), v(p(2 * q + 1)), v(p(2 * q + 2)))).collect();
-            let _ = writeln!(s, "[[objects]]\nname = \"marker_{k}\"\nmaterial = \"marker\"\nquads = [\n  {},\n]\n", quads.join(",\n  "));
+            let _ = writeln!(s, "[[objects]]\nname = \"marker_{k}\"\nmaterial = \"black\"\nquads = [\n  {},\n]\n", quads.join(",\n  "));
         }
-        let _ = writeln!(s, "[[lights]]\ntype = \"directional\"\ndirection = {}\nirradiance = {}", v(Vector3::from(self.light_direction)), f(self.irradiance));
+        let _ = writeln!(s, "[[lights]]\ntype = \"area\"\nobject = \"sphere\"\nradiance = {}", f(self.sphere_radiance));
         s
     }
 

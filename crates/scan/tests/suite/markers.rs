@@ -249,8 +249,10 @@ fn round_trip_sphere_with_four_markers() {
         let px = sc.photograph(v, 16, 7, 0.002).unwrap();
         let d = &sc.cameras[v];
         let img = Image::new(d.width as usize, d.height as usize, px.iter().map(|&c| render::image_io::srgb_decode(c as f64 / 255.0) as f32).collect()).unwrap();
-        let ms = detect(&img, &DetectSettings::default());
-        assert_eq!(ms.len(), 4, "view {v}: {ms:?}");
+        let s = DetectSettings { hough: scan::markers::hough::HoughSettings { radius_min_px: 3.0, radius_max_px: 40.0, ..Default::default() }, ..Default::default() };
+        let ms = detect(&img, &s);
+        let short: Vec<String> = ms.iter().map(|m| format!("({:.2}, {:.2}) r {:.2} support {:.2} rms {:.3} score {:.2}", m.x, m.y, m.radius_px, m.support, m.rms_px, m.score)).collect();
+        assert_eq!(ms.len(), 4, "view {v}: {short:?}, truth {:?}", sc.projected_centres(v));
         found.push(ms);
     }
     let st = match_markers(&views, &found[0], &found[1], &MatchSettings::default());
@@ -265,6 +267,7 @@ fn round_trip_sphere_with_four_markers() {
         let ma = &found[0][m.a];
         worst_ellipse = worst_ellipse.max((truth[0][k][0] - ma.x).hypot(truth[0][k][1] - ma.y));
         worst = [worst[0].max(ea), worst[1].max(eb)];
+        eprintln!("marker {k}: A corrected {:+.3} {:+.3} ellipse {:+.3} {:+.3}; B corrected {:+.3} {:+.3}; normal dis {:.3} rad", m.centre_a[0] - truth[0][k][0], m.centre_a[1] - truth[0][k][1], ma.x - truth[0][k][0], ma.y - truth[0][k][1], m.centre_b[0] - truth[1][k][0], m.centre_b[1] - truth[1][k][1], m.normal_disagreement_rad);
         assert!(m.corrected);
     }
     eprintln!("round trip: centre errors A {:.4} px, B {:.4} px (ellipse centres in A: {:.4} px)", worst[0], worst[1], worst_ellipse);
