@@ -89,8 +89,17 @@ fn markers_detect_match_triangulate_and_register() {
     assert!(e.contains("small.png") && e.contains("400x320"), "{e}");
     let e = fails_on_one_line(&["scan", "markers", &a, "--calibration", &s.arg("calib.json")]);
     assert!(e.contains("exactly two images"), "{e}");
-    // View A's photograph given for both views: its markers do not lie on B's epipolar lines.
-    let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &a, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json")]);
+    // Two of the four markers painted over in view B (the sphere's grey level): 2 matches.
+    let mut img = image::open(s.path("view1.png")).unwrap().to_luma8();
+    for c in &sc.projected_centres(1)[..2] {
+        for y in (c[1] as u32 - 15)..(c[1] as u32 + 15) {
+            for x in (c[0] as u32 - 15)..(c[0] as u32 + 15) {
+                img.put_pixel(x, y, image::Luma([188]));
+            }
+        }
+    }
+    img.save(s.path("two.png")).unwrap();
+    let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &s.arg("two.png"), "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json")]);
     assert!(e.contains("too few matches"), "{e}");
     std::fs::write(s.path("line.json"), r#"{"markers": [[0, 0, 0], [10, 0, 0], [20, 0, 0], [35, 0, 0]]}"#).unwrap();
     let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("line.json")]);
