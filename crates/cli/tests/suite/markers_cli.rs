@@ -66,10 +66,10 @@ fn markers_detect_match_triangulate_and_register() {
     let err = ((tr[0] - c[0]).powi(2) + (tr[1] - c[1]).powi(2) + (tr[2] - c[2]).powi(2)).sqrt();
     assert!(err < 1e-3 * 2.0 * sc.sphere_radius_mm, "sphere centre off by {err} mm");
     let rot = t["rotation"].as_array().unwrap();
-    for i in 0..3 {
-        for j in 0..3 {
-            let x = rot[i][j].as_f64().unwrap();
-            assert!((x - sc.model_rotation[i][j]).abs() < 2e-3, "rotation[{i}][{j}] = {x}");
+    for (i, (row, truth)) in rot.iter().zip(&sc.model_rotation).enumerate() {
+        for (j, (x, t)) in row.as_array().unwrap().iter().zip(truth).enumerate() {
+            let x = x.as_f64().unwrap();
+            assert!((x - t).abs() < 2e-3, "rotation[{i}][{j}] = {x}");
         }
     }
     assert!(v["rms"].as_f64().unwrap() < 0.2, "{}", v["rms"]);

@@ -13,6 +13,9 @@
 //! ellipse, twice. A candidate is kept if at least `min_support` of its rays found an edge of the
 //! right polarity and the RMS distance of the points from the ellipse is below `max_rms_px`.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use nalgebra::Matrix3;
 
 use super::ellipse::{ellipse_of, fit_conic, radius_along, sampson_distance, Ellipse};
@@ -120,9 +123,11 @@ fn strongest_step(img: &Image, c: [f64; 2], u: [f64; 2], lo: f64, hi: f64, dark:
     best.map(|b| b.0)
 }
 
-/// Fit with one round of outlier rejection; returns the conic, its ellipse, the points kept and
-/// their RMS distance from it.
-fn robust_fit(points: &[[f64; 2]]) -> Option<(Matrix3<f64>, Ellipse, Vec<[f64; 2]>, f64)> {
+/// A fit: the conic, its ellipse, the points kept and their RMS distance from it.
+type Fit = (Matrix3<f64>, Ellipse, Vec<[f64; 2]>, f64);
+
+/// Fit with one round of outlier rejection.
+fn robust_fit(points: &[[f64; 2]]) -> Option<Fit> {
     let q = fit_conic(points)?;
     let d: Vec<f64> = points.iter().map(|p| sampson_distance(&q, *p)).collect();
     let mut ad: Vec<f64> = d.iter().map(|x| x.abs()).collect();

@@ -7,6 +7,9 @@
 //!
 //! A conic is the symmetric 3 × 3 matrix Q with xᵀQx = 0 for x = (u, v, 1) on it.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use nalgebra::{Matrix2, Matrix3, SymmetricEigen, Vector3};
 
 /// An ellipse in image coordinates (pixels, or normalised camera coordinates).

@@ -7,6 +7,9 @@
 //! edges partly cancel. Two accumulators are kept, one for dark discs on a light ground (centre
 //! against the gradient) and one for light discs (centre along it).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::Image;
 
 /// Radius range and thresholds of the transform.

@@ -11,6 +11,9 @@
 //! then the least squared residual — is refitted on all its inliers until the inlier set stops
 //! changing. Triangulated points left out are reported as outliers (wrong matches).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use anyhow::{bail, Result};
 use nalgebra::{Matrix3, Vector3};
 

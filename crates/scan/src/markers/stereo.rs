@@ -25,6 +25,9 @@
 //!   Q⁻¹n ([`super::ellipse::circle_centre_image`]), distorted back to pixels. These corrected
 //!   centres are triangulated by the mid-point method of [`crate::triangulate::Rig`].
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use anyhow::{bail, Result};
 use nalgebra::{Matrix3, Vector3};
 

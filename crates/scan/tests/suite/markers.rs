@@ -40,7 +40,7 @@ fn draw(w: usize, h: usize, bg: f32, shapes: &[([f64; 2], [f64; 2], f64, f32)]) 
     Image::new(w, h, data).unwrap()
 }
 
-fn nearest<'a>(ms: &'a [Marker], p: [f64; 2]) -> &'a Marker {
+fn nearest(ms: &[Marker], p: [f64; 2]) -> &Marker {
     ms.iter().min_by(|a, b| (a.x - p[0]).hypot(a.y - p[1]).total_cmp(&(b.x - p[0]).hypot(b.y - p[1]))).unwrap()
 }
 

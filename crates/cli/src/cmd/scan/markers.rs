@@ -3,6 +3,9 @@
 //! images, their matches and 3-D positions; with a model, its registration onto them
 //! (scan::markers; docs/markers.md).
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
