@@ -3,7 +3,8 @@
 //! coordinates per camera pixel, projector–camera calibration from chessboard captures
 //! (Zhang 2000; Moreno & Taubin, 3DIMPVT 2012), and triangulation to point clouds and meshes.
 //! [`synth`] renders captures with known truth through lucent's renderer, and [`eval`] compares
-//! results with a truth (calibration errors, sphere fit, distances to a mesh).
+//! results with a truth (calibration errors, sphere fit, distances to a mesh). [`markers`] finds
+//! circular markers, triangulates them from two calibrated views and registers a model onto them.
 //!
 //! Conventions (see `docs/scanning.md`): OpenCV's pixel convention (integer coordinates at
 //! pixel centres, x right, y down), camera coordinates x right, y down, z forward; lengths of
@@ -14,5 +15,6 @@ pub mod cloud;
 pub mod decode;
 pub mod eval;
 pub mod graycode;
+pub mod markers;
 pub mod synth;
 pub mod triangulate;

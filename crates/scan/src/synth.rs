@@ -418,7 +418,7 @@ pub fn scene_toml(rig: &Rig, board: &Board, target: &Target, ambient: bool) -> R
 }
 
 /// Linear grey (X + Y + Z)/3 per pixel, averaged over `spp` passes of the `direct` integrator.
-fn render_grey(scene: &Scene, spp: u32, seed: u64) -> Vec<f64> {
+pub(crate) fn render_grey(scene: &Scene, spp: u32, seed: u64) -> Vec<f64> {
     let settings = IntegratorSettings { kind: IntegratorKind::Direct, max_depth: 2, rr_depth: 5 };
     let (w, h) = scene.resolution();
     let n = w as usize * h as usize;
@@ -485,7 +485,7 @@ pub fn render_ambient(rig: &Rig, board: &Board, target: &Target, spp: u32, seed:
 }
 
 /// Linear grey → 8-bit sRGB code with Gaussian noise of `sigma` from `rng`.
-fn sensor(v: &[f64], sigma: f64, rng: &mut Pcg32) -> Vec<u8> {
+pub(crate) fn sensor(v: &[f64], sigma: f64, rng: &mut Pcg32) -> Vec<u8> {
     v.iter()
         .map(|&x| {
             // Box–Muller.

@@ -214,6 +214,32 @@ impl Rig {
         Some(Triangulated { point: [0.5 * (p1[0] + p2[0]), 0.5 * (p1[1] + p2[1]), 0.5 * (p1[2] + p2[2])], ray_gap: gap })
     }
 
+    /// Undistorted normalised coordinates (x′, y′) of a camera pixel position (OpenCV convention);
+    /// None where Newton's method fails or lands beyond the fold of the radial map.
+    pub fn undistort_camera(&self, px: [f64; 2]) -> Option<[f64; 2]> {
+        self.camera.undistort(px[0], px[1]).map(|(x, y)| [x, y])
+    }
+
+    /// [`Rig::undistort_camera`] for the projector (the second view).
+    pub fn undistort_projector(&self, px: [f64; 2]) -> Option<[f64; 2]> {
+        self.projector.undistort(px[0], px[1]).map(|(x, y)| [x, y])
+    }
+
+    /// Camera pixel position of a point in camera coordinates (distortion applied); None behind it.
+    pub fn project_camera(&self, p: [f64; 3]) -> Option<[f64; 2]> {
+        self.camera.project(p)
+    }
+
+    /// Projector pixel position of a point in projector coordinates; None behind it.
+    pub fn project_projector(&self, p: [f64; 3]) -> Option<[f64; 2]> {
+        self.projector.project(p)
+    }
+
+    /// Mean projector focal length (pixels).
+    pub fn projector_focal_px(&self) -> f64 {
+        0.5 * (self.projector.fx + self.projector.fy)
+    }
+
     /// Projects a camera-coordinate point into the camera and the projector (OpenCV pixel
     /// positions, distortion applied); None behind either.
     pub fn project(&self, p: [f64; 3]) -> Option<([f64; 2], [f64; 2])> {

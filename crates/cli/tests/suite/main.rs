@@ -14,3 +14,4 @@ mod render_cli;
 mod robustness_optics;
 mod robustness_render;
 mod scan_cli;
+mod markers_cli;

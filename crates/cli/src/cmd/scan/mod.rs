@@ -12,6 +12,7 @@ pub mod decode;
 pub mod patterns;
 pub mod calibrate;
 pub mod reconstruct;
+pub mod markers;
 
 /// Arguments of `lucent scan`.
 #[derive(clap::Args, Debug)]
@@ -31,6 +32,8 @@ pub enum Command {
     Calibrate(calibrate::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
+    /// Find circular markers; match and triangulate them in two calibrated views; register a model.
+    Markers(markers::Args),
 }
 
 /// Runs one `lucent scan` subcommand.
@@ -40,6 +43,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Decode(a) => decode::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
+        Command::Markers(a) => markers::run(a),
     }
 }
 
