@@ -14,5 +14,6 @@ pub mod cloud;
 pub mod decode;
 pub mod eval;
 pub mod graycode;
+pub mod label;
 pub mod synth;
 pub mod triangulate;

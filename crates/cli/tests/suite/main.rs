@@ -12,3 +12,4 @@ mod render_cli;
 mod robustness_optics;
 mod robustness_render;
 mod scan_cli;
+mod scan_label_cli;

@@ -7,5 +7,6 @@ mod common;
 mod decode;
 mod eval;
 mod graycode;
+mod label;
 mod synth;
 mod triangulate;

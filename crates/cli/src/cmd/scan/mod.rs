@@ -12,6 +12,7 @@ pub mod decode;
 pub mod patterns;
 pub mod calibrate;
 pub mod reconstruct;
+pub mod label;
 
 /// Arguments of `lucent scan`.
 #[derive(clap::Args, Debug)]
@@ -31,6 +32,8 @@ pub enum Command {
     Calibrate(calibrate::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
+    /// Label a scanned mesh's micropolygons with the colour regions of a photograph (watershed).
+    Label(label::Args),
 }
 
 /// Runs one `lucent scan` subcommand.
@@ -40,6 +43,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Decode(a) => decode::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
+        Command::Label(a) => label::run(a),
     }
 }
 
