@@ -84,8 +84,9 @@ pub fn label(mesh: &Mesh, photo: &Photo, camera: &DeviceCalibration, opts: &Labe
     if !vis.visible.iter().any(|&v| v) {
         bail!("no face of the mesh projects into the camera's {}x{} image (the mesh is outside the camera's view, or not in its frame)", camera.width, camera.height);
     }
-    let segmentation = segment::segment(photo, &opts.segment)?;
+    let edges = backproject::occlusion_edges(&vis.zbuf, photo.width, photo.height);
+    let segmentation = segment::segment_with_barriers(photo, &opts.segment, Some(&edges))?;
     let map = segmentation.label_map();
-    let face_label = vis.pixel.iter().zip(&vis.visible).map(|(p, &v)| match (p, v) { (Some(i), true) => map[*i as usize], _ => -1 }).collect();
+    let face_label = backproject::assign(&vis, &segmentation.region, &segmentation.region_label, &map);
     Ok(Labelled { mesh: sub.mesh, source: sub.source, face_label, face_pixel: vis.pixel, segmentation })
 }

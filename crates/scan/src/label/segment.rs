@@ -67,7 +67,7 @@ pub struct SegmentOptions {
 
 impl Default for SegmentOptions {
     fn default() -> Self {
-        SegmentOptions { smoothing_px: 1.5, marker_fraction: 0.15, erosion_px: 2, min_marker_px: 16, labels: None, max_labels: 8, spread_de: 3.0 }
+        SegmentOptions { smoothing_px: 1.5, marker_fraction: 0.15, erosion_px: 1, min_marker_px: 4, labels: None, max_labels: 8, spread_de: 3.0 }
     }
 }
 
@@ -467,6 +467,12 @@ pub fn kmeans(points: &[[f64; 3]], weights: &[f64], k: usize) -> (Vec<usize>, f6
 
 /// Segments `photo` into watershed regions and K colour labels (module documentation).
 pub fn segment(photo: &Photo, opts: &SegmentOptions) -> Result<Segmentation> {
+    segment_with_barriers(photo, opts, None)
+}
+
+/// [`segment`], with `barrier` pixels (e.g. occlusion edges of a mesh seen by the camera) raised
+/// to the largest gradient and kept out of the markers, so that watershed lines pass through them.
+pub fn segment_with_barriers(photo: &Photo, opts: &SegmentOptions, barrier: Option<&[bool]>) -> Result<Segmentation> {
     let (w, h) = (photo.width, photo.height);
     if w < 3 || h < 3 || photo.rgb.len() != w * h {
         bail!("the photo must be at least 3x3 pixels with one colour per pixel");
@@ -476,8 +482,19 @@ pub fn segment(photo: &Photo, opts: &SegmentOptions) -> Result<Segmentation> {
             bail!("--labels must be at least 1");
         }
     }
-    let g = gradient(photo, opts.smoothing_px);
+    let mut g = gradient(photo, opts.smoothing_px);
     let threshold = opts.marker_fraction as f32 * quantile(&g, 0.99);
+    if let Some(b) = barrier {
+        if b.len() != w * h {
+            bail!("the barrier mask has {} pixels, the photo {}", b.len(), w * h);
+        }
+        let top = g.iter().copied().fold(0f32, f32::max).max(f32::MIN_POSITIVE);
+        for (v, &on) in g.iter_mut().zip(b) {
+            if on {
+                *v = top;
+            }
+        }
+    }
     let flat: Vec<bool> = g.iter().map(|&v| v <= threshold).collect();
     let (mk, n) = markers(&flat, w, h, opts.erosion_px, opts.min_marker_px);
     if n == 0 {

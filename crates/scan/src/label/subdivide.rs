@@ -4,9 +4,11 @@
 //!
 //! Each triangle whose three corners project into the camera is diced uniformly: with L its
 //! longest projected edge (pixels) and n = ⌈L / max_edge_px⌉, the barycentric grid
-//! A + (B − A)·i/n + (C − A)·j/n, i + j ≤ n, gives n² triangles similar to the original, so every
-//! projected edge is at most about L/n (exactly for an affine projection; the perspective and
-//! distortion of a triangle a few pixels across change it by a small fraction). Corners keep
+//! A + (B − A)·i/n + (C − A)·j/n, i + j ≤ n, gives n² triangles similar to the original, whose
+//! projected edges are L/n for an affine projection; perspective and distortion stretch some of
+//! them, so the diced edges are projected and n is raised until the longest is within
+//! `max_edge_px` (at most four rounds; the edges of the grid's upright triangles are all the
+//! edges there are). Corners keep
 //! their vertex; the points on an edge are shared with the neighbouring triangle when it dices
 //! that edge into the same number of pieces (the usual case on a mesh of even density), and where
 //! the counts differ the two sides meet in a T-junction (the surface stays closed up to the
@@ -42,6 +44,27 @@ pub struct Subdivided {
 /// The most micropolygons [`subdivide`] makes before it refuses (memory guard).
 pub const MAX_MICROPOLYGONS: u64 = 60_000_000;
 
+/// The longest projected edge of the n-grid of triangle `c` (None where a grid point does not
+/// project).
+fn longest_diced_edge(c: [[f64; 3]; 3], n: u32, lens: &Lens) -> Option<f64> {
+    let at = |i: u32, j: u32| -> Option<[f64; 2]> {
+        let (s, r) = (i as f64 / n as f64, j as f64 / n as f64);
+        lens.project_unfolded([0, 1, 2].map(|k| c[0][k] + (c[1][k] - c[0][k]) * s + (c[2][k] - c[0][k]) * r))
+    };
+    let d = |u: [f64; 2], v: [f64; 2]| (u[0] - v[0]).hypot(u[1] - v[1]);
+    let mut prev: Vec<[f64; 2]> = (0..=n).map(|i| at(i, 0)).collect::<Option<_>>()?;
+    let mut longest = 0f64;
+    for j in 1..=n {
+        let row: Vec<[f64; 2]> = (0..=n - j).map(|i| at(i, j)).collect::<Option<_>>()?;
+        for i in 0..=(n - j) as usize {
+            // Edges of the upright triangle (i, j−1), (i+1, j−1), (i, j).
+            longest = longest.max(d(prev[i], prev[i + 1])).max(d(prev[i + 1], row[i])).max(d(row[i], prev[i]));
+        }
+        prev = row;
+    }
+    Some(longest)
+}
+
 /// Dices every triangle of `mesh` until its projected edges are at most `max_edge_px` pixels
 /// (module documentation).
 pub(crate) fn subdivide(mesh: &Mesh, lens: &Lens, max_edge_px: f64) -> Result<Subdivided> {
@@ -58,7 +81,20 @@ pub(crate) fn subdivide(mesh: &Mesh, lens: &Lens, max_edge_px: f64) -> Result<Su
                 [Some(a), Some(b), Some(c)] => {
                     let d = |u: [f64; 2], v: [f64; 2]| (u[0] - v[0]).hypot(u[1] - v[1]);
                     let l = d(a, b).max(d(b, c)).max(d(c, a));
-                    (l / max_edge_px).ceil().clamp(1.0, 1e6) as u32
+                    let mut n = (l / max_edge_px).ceil().clamp(1.0, 1e4) as u32;
+                    // Perspective and distortion make some pieces longer than L/n: check the
+                    // diced edges and dice finer until they all fit (a few rounds at most).
+                    let corners = t.map(|v| mesh.positions[v as usize]);
+                    for _ in 0..4 {
+                        if n == 1 {
+                            break;
+                        }
+                        match longest_diced_edge(corners, n, lens) {
+                            Some(e) if e > max_edge_px => n = ((n as f64 * e / max_edge_px).ceil() as u32).max(n + 1).min(10_000),
+                            _ => break,
+                        }
+                    }
+                    n
                 }
                 _ => 1,
             }

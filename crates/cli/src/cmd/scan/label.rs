@@ -47,10 +47,10 @@ pub struct Args {
     #[arg(long, default_value_t = 0.15, value_name = "F")]
     pub marker_fraction: f64,
     /// Erosion of the flat mask before its components become markers (pixels).
-    #[arg(long, default_value_t = 2, value_name = "PX")]
+    #[arg(long, default_value_t = 1, value_name = "PX")]
     pub erosion_px: usize,
     /// Smallest marker (pixels).
-    #[arg(long, default_value_t = 16, value_name = "PX")]
+    #[arg(long, default_value_t = 4, value_name = "PX")]
     pub min_marker_px: usize,
     /// Largest K tried when K is chosen.
     #[arg(long, default_value_t = 8, value_name = "K")]
