@@ -132,7 +132,7 @@ fn markers_are_eroded_components() {
     assert_eq!((count(1), count(2)), (36, 36));
     assert_eq!(m[2 * w + 2], 1);
     assert_eq!(m[3 * w + 13], 2);
-    assert_eq!(m[1 * w + 1], 0);
+    assert_eq!(m[w + 1], 0);
 }
 
 /// k-means on three well-separated weighted clusters finds them, with the heaviest first.
@@ -414,7 +414,7 @@ fn board_and_sphere_labels_cover_the_visible_area() {
     let base = mesh.positions.len() as u32;
     mesh.positions.extend(&ball.positions);
     mesh.triangles.extend(ball.triangles.iter().map(|t| t.map(|v| v + base)));
-    class_of_source.extend(std::iter::repeat(3).take(ball.triangles.len()));
+    class_of_source.extend(std::iter::repeat_n(3, ball.triangles.len()));
     write_ply(&dir.join("scene-mesh.ply"), &mesh.positions, &mesh.triangles, None).unwrap();
 
     let photo = render(&text, &dir, 32, Some((0.01, 11)));
