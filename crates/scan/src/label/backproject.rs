@@ -59,6 +59,8 @@ pub struct Visibility {
     pub height: usize,
     /// The relative depth tolerance the visibility was decided with.
     pub depth_tolerance: f64,
+    /// Micropolygons that passed the depth test but were hidden as back faces.
+    pub back_faces: usize,
 }
 
 /// Screen geometry of one triangle: projected corners and their depths.
@@ -190,7 +192,9 @@ pub(crate) fn visibility(mesh: &Mesh, lens: &Lens, width: usize, height: usize, 
     } else {
         None
     };
+    let back_faces = per_face.iter().zip(&winding).filter(|(f, w)| f.1 && cull.is_some_and(|c| w.0 != c)).count();
     Visibility {
+        back_faces,
         pixel: per_face.iter().map(|f| f.0).collect(),
         position: centres.iter().map(|c| c.map_or([f32::NAN; 2], |p| [p[0] as f32, p[1] as f32])).collect(),
         visible: per_face.iter().zip(&winding).map(|(f, w)| f.1 && cull.is_none_or(|c| w.0 == c)).collect(),

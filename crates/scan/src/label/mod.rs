@@ -53,6 +53,13 @@ pub struct Labelled {
     pub face_pixel: Vec<Option<u32>>,
     /// The photo's segmentation.
     pub segmentation: Segmentation,
+    /// Micropolygons whose centroid projects outside the image.
+    pub outside: usize,
+    /// Micropolygons inside the image hidden by the depth test.
+    pub occluded: usize,
+    /// Micropolygons inside the image that passed the depth test but face away (back faces of a
+    /// consistently wound mesh).
+    pub back_faces: usize,
 }
 
 impl Labelled {
@@ -88,5 +95,8 @@ pub fn label(mesh: &Mesh, photo: &Photo, camera: &DeviceCalibration, opts: &Labe
     let segmentation = segment::segment_with_barriers(photo, &opts.segment, Some(&edges))?;
     let map = segmentation.label_map();
     let face_label = backproject::assign(&vis, &segmentation.region, &segmentation.region_label, &map);
-    Ok(Labelled { mesh: sub.mesh, source: sub.source, face_label, face_pixel: vis.pixel, segmentation })
+    let outside = vis.pixel.iter().filter(|p| p.is_none()).count();
+    let back_faces = vis.back_faces;
+    let occluded = vis.pixel.len() - outside - vis.visible.iter().filter(|&&v| v).count() - back_faces;
+    Ok(Labelled { mesh: sub.mesh, source: sub.source, face_label, face_pixel: vis.pixel, segmentation, outside, occluded, back_faces })
 }

@@ -185,6 +185,7 @@ pub fn run(args: Args) -> Result<()> {
             "faces": mesh.triangles.len(),
             "micropolygons": l.mesh.triangles.len(),
             "labelled_micropolygons": faces.iter().sum::<usize>(),
+            "unlabelled": { "outside": l.outside, "occluded": l.occluded, "back_faces": l.back_faces },
             "per_label": per_label,
             "image_regions": seg.regions,
             "marker_threshold": seg.marker_threshold,
