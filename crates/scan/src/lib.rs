@@ -16,5 +16,6 @@ pub mod decode;
 pub mod eval;
 pub mod graycode;
 pub mod markers;
+pub mod label;
 pub mod synth;
 pub mod triangulate;

@@ -27,7 +27,7 @@ use crate::decode::DecodeMap;
 
 /// One device's intrinsics and distortion with a per-pixel Newton undistortion.
 #[derive(Clone, Debug)]
-struct Lens {
+pub(crate) struct Lens {
     fx: f64,
     fy: f64,
     cx: f64,
@@ -38,7 +38,7 @@ struct Lens {
 }
 
 impl Lens {
-    fn new(c: &DeviceCalibration, what: &str) -> Result<Lens> {
+    pub(crate) fn new(c: &DeviceCalibration, what: &str) -> Result<Lens> {
         if !(c.fx > 0.0 && c.fy > 0.0 && c.fx.is_finite() && c.fy.is_finite()) {
             bail!("{what}: focal lengths fx, fy must be positive pixels, got {}, {}", c.fx, c.fy);
         }
@@ -106,6 +106,20 @@ impl Lens {
     /// OpenCV pixel position of a point in this device's coordinates; None behind it.
     fn project(&self, p: [f64; 3]) -> Option<[f64; 2]> {
         if !(p[2] > 0.0) {
+            return None;
+        }
+        let (xd, yd) = self.d.distort(p[0] / p[2], p[1] / p[2]);
+        Some([self.fx * xd + self.cx, self.fy * yd + self.cy])
+    }
+
+    /// As [`Lens::project`], and None beyond the fold of the radial map, where the distortion
+    /// polynomial no longer maps directions one to one onto the image.
+    pub(crate) fn project_unfolded(&self, p: [f64; 3]) -> Option<[f64; 2]> {
+        if !(p[2] > 0.0) {
+            return None;
+        }
+        let (x, y) = (p[0] / p[2], p[1] / p[2]);
+        if !(x * x + y * y < self.r_fold2) {
             return None;
         }
         let (xd, yd) = self.d.distort(p[0] / p[2], p[1] / p[2]);

@@ -15,3 +15,4 @@ mod robustness_optics;
 mod robustness_render;
 mod scan_cli;
 mod markers_cli;
+mod scan_label_cli;

@@ -8,5 +8,6 @@ mod decode;
 mod eval;
 mod graycode;
 mod markers;
+mod label;
 mod synth;
 mod triangulate;

@@ -13,6 +13,7 @@ pub mod patterns;
 pub mod calibrate;
 pub mod reconstruct;
 pub mod markers;
+pub mod label;
 
 /// Arguments of `lucent scan`.
 #[derive(clap::Args, Debug)]
@@ -34,6 +35,8 @@ pub enum Command {
     Reconstruct(reconstruct::Args),
     /// Find circular markers; match and triangulate them in two calibrated views; register a model.
     Markers(markers::Args),
+    /// Label a scanned mesh's micropolygons with the colour regions of a photograph (watershed).
+    Label(label::Args),
 }
 
 /// Runs one `lucent scan` subcommand.
@@ -44,6 +47,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Markers(a) => markers::run(a),
+        Command::Label(a) => label::run(a),
     }
 }
 

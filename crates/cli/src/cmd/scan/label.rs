@@ -1,0 +1,216 @@
+//! `lucent scan label MESH.ply PHOTO --calibration CALIB.json --out LABELLED.ply [--scene
+//! SCENE.toml] [--labels K] [--json]`: micropolygon labelling of a scanned mesh with the regions
+//! of a photograph (scan::label; docs/labelling.md).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use scan::calib::ProcamCalibration;
+use scan::label::io::{label_mesh, label_path, overlay, read_mesh, read_photo, scene_path, scene_toml, write_ply, SceneParts};
+use scan::label::{label, LabelOptions, SegmentOptions};
+
+/// Arguments of `lucent scan label`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The scanned mesh in the calibration's camera frame (PLY or OBJ, e.g. from `lucent scan
+    /// reconstruct --mesh`).
+    pub mesh: PathBuf,
+    /// The photograph to label from (the camera's image, e.g. a capture's white frame).
+    pub photo: PathBuf,
+    /// Calibration JSON as `lucent scan calibrate` writes it.
+    #[arg(long, value_name = "CALIB.json")]
+    pub calibration: PathBuf,
+    /// The labelled micropolygon mesh (PLY with an `int label` per face, −1 = not visible);
+    /// the faces of label k also go to `<stem>_label<k>.ply` beside it.
+    #[arg(long, value_name = "LABELLED.ply")]
+    pub out: PathBuf,
+    /// Also write a scene: the calibration's camera, one Lambertian material `label<k>` per label
+    /// (albedo = the label's mean photo colour), the projector as a light, an ambient term.
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
+    /// The projector's image in the scene (default: an all-white image of the projector's size,
+    /// written beside the scene as `<scene stem>_projector.png`).
+    #[arg(long, value_name = "PNG")]
+    pub projector_pattern: Option<PathBuf>,
+    /// Number of colour labels K (default: chosen, the smallest K whose RMS colour spread within
+    /// the labels is at most --spread-de).
+    #[arg(long, value_name = "K")]
+    pub labels: Option<usize>,
+    /// Longest projected micropolygon edge (pixels).
+    #[arg(long, default_value_t = 1.5, value_name = "PX")]
+    pub max_edge_px: f64,
+    /// Gaussian smoothing before the gradient (pixels).
+    #[arg(long, default_value_t = 1.5, value_name = "PX")]
+    pub smoothing_px: f64,
+    /// Watershed markers: flat where the gradient is below this fraction of its 99th percentile.
+    #[arg(long, default_value_t = 0.15, value_name = "F")]
+    pub marker_fraction: f64,
+    /// Erosion of the flat mask before its components become markers (pixels).
+    #[arg(long, default_value_t = 1, value_name = "PX")]
+    pub erosion_px: usize,
+    /// Smallest marker (pixels).
+    #[arg(long, default_value_t = 4, value_name = "PX")]
+    pub min_marker_px: usize,
+    /// Largest K tried when K is chosen.
+    #[arg(long, default_value_t = 8, value_name = "K")]
+    pub max_labels: usize,
+    /// RMS colour spread within a label (ΔE*ab) below which K is chosen.
+    #[arg(long, default_value_t = 3.0, value_name = "DE")]
+    pub spread_de: f64,
+    /// Also write the photo tinted by the labels (PNG), shrunk by --overlay-scale.
+    #[arg(long, value_name = "PNG")]
+    pub overlay: Option<PathBuf>,
+    /// Integer shrink factor of the overlay image.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub overlay_scale: usize,
+    /// Print a JSON summary on stdout (labels, faces, micropolygons, per_label [{label, faces,
+    /// pixels, mean_rgb}], image_regions).
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn check_ext(path: &Path, ext: &str, what: &str) -> Result<()> {
+    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)) {
+        bail!("{}: {what} is written as .{ext}", path.display());
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    check_ext(&args.out, "ply", "the labelled mesh")?;
+    if let Some(s) = &args.scene {
+        check_ext(s, "toml", "the scene")?;
+    }
+    if let Some(o) = &args.overlay {
+        check_ext(o, "png", "the overlay")?;
+    }
+    let t0 = Instant::now();
+    let text = std::fs::read_to_string(&args.calibration).with_context(|| format!("{}: cannot read", args.calibration.display()))?;
+    let calib: ProcamCalibration = serde_json::from_str(&text).with_context(|| format!("{}: not a calibration", args.calibration.display()))?;
+    let mesh = read_mesh(&args.mesh)?;
+    let photo = read_photo(&args.photo)?;
+    if (photo.width as u64, photo.height as u64) != (calib.camera.width as u64, calib.camera.height as u64) {
+        bail!(
+            "{} is {}x{} pixels but {} calibrates a {}x{} camera (a calibration from another resolution)",
+            args.photo.display(),
+            photo.width,
+            photo.height,
+            args.calibration.display(),
+            calib.camera.width,
+            calib.camera.height
+        );
+    }
+    let t_read = t0.elapsed().as_secs_f64();
+    let opts = LabelOptions {
+        max_edge_px: args.max_edge_px,
+        segment: SegmentOptions {
+            smoothing_px: args.smoothing_px,
+            marker_fraction: args.marker_fraction,
+            erosion_px: args.erosion_px,
+            min_marker_px: args.min_marker_px,
+            labels: args.labels,
+            max_labels: args.max_labels,
+            spread_de: args.spread_de,
+        },
+        ..LabelOptions::default()
+    };
+    let t1 = Instant::now();
+    let l = label(&mesh, &photo, &calib.camera, &opts).with_context(|| format!("{} in {}", args.mesh.display(), args.photo.display()))?;
+    let t_label = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    write_ply(&args.out, &l.mesh.positions, &l.mesh.triangles, Some(&l.face_label))?;
+    let faces = l.faces_per_label();
+    let seg = &l.segmentation;
+    let mut written = Vec::new();
+    for (k, &n) in faces.iter().enumerate() {
+        if n == 0 {
+            continue;
+        }
+        let m = label_mesh(&l, k as i32);
+        let path = label_path(&args.out, k);
+        write_ply(&path, &m.positions, &m.triangles, None)?;
+        written.push((k, path));
+    }
+    if let Some(scene) = &args.scene {
+        let dir = scene.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let calibration = scene_path(&args.calibration, dir)?;
+        let mut labels = Vec::new();
+        for (k, path) in &written {
+            labels.push((*k, scene_path(path, dir)?, seg.label_rgb[*k]));
+        }
+        let image = match &args.projector_pattern {
+            Some(p) => scene_path(p, dir)?,
+            None => {
+                let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+                let p = scene.with_file_name(format!("{stem}_projector.png"));
+                let (w, h) = (calib.projector.width, calib.projector.height);
+                let white = render::image_io::Image { width: w, height: h, rgb: vec![[1.0; 3]; w as usize * h as usize] };
+                render::image_io::write_image(&p, &white, 0.0)?;
+                scene_path(&p, dir)?
+            }
+        };
+        // A Lambertian surface of albedo ρ facing a projector of intensity π·z² at distance z
+        // has radiance ρ: the albedos (mean photo colours) then start near the photo.
+        let mut depths: Vec<f64> = l
+            .mesh
+            .triangles
+            .iter()
+            .zip(&l.face_label)
+            .filter(|(_, &lab)| lab >= 0)
+            .map(|(t, _)| t.iter().map(|&v| l.mesh.positions[v as usize][2]).sum::<f64>() / 3.0)
+            .collect();
+        let mid = depths.len() / 2;
+        let z = if depths.is_empty() { 1.0 } else { *depths.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 };
+        let text = scene_toml(&SceneParts {
+            calibration: &calibration,
+            labels: &labels,
+            projector_image: Some(&image),
+            projector_intensity: std::f64::consts::PI * z * z,
+            ambient_radiance: 0.02,
+        });
+        render::image_io::write_atomic(scene, |tmp| std::fs::write(tmp, &text).with_context(|| format!("{}: cannot write", tmp.display())))
+            .with_context(|| format!("writing {}", scene.display()))?;
+    }
+    if let Some(o) = &args.overlay {
+        render::image_io::write_image(o, &overlay(&l, &photo, args.overlay_scale), 0.0)?;
+    }
+    let t_write = t2.elapsed().as_secs_f64();
+    if args.json {
+        let per_label: Vec<serde_json::Value> = (0..seg.labels)
+            .map(|k| serde_json::json!({ "label": k, "faces": faces[k], "pixels": seg.label_pixels[k], "mean_rgb": seg.label_rgb[k] }))
+            .collect();
+        let v = serde_json::json!({
+            "labels": seg.labels,
+            "faces": mesh.triangles.len(),
+            "micropolygons": l.mesh.triangles.len(),
+            "labelled_micropolygons": faces.iter().sum::<usize>(),
+            "unlabelled": { "outside": l.outside, "occluded": l.occluded, "back_faces": l.back_faces },
+            "per_label": per_label,
+            "image_regions": seg.regions,
+            "marker_threshold": seg.marker_threshold,
+            "seconds": { "read": t_read, "label": t_label, "write": t_write },
+        });
+        println!("{v}");
+    } else {
+        println!(
+            "{}: {} faces → {} micropolygons, {} labelled; {} image regions in {} labels ({:.2} s labelling)",
+            args.mesh.display(),
+            mesh.triangles.len(),
+            l.mesh.triangles.len(),
+            faces.iter().sum::<usize>(),
+            seg.regions,
+            seg.labels,
+            t_label
+        );
+        for k in 0..seg.labels {
+            let c = seg.label_rgb[k];
+            println!("  label{k}: {} micropolygons, {} pixels, mean linear RGB [{:.3}, {:.3}, {:.3}]", faces[k], seg.label_pixels[k], c[0], c[1], c[2]);
+        }
+        println!("wrote {}", args.out.display());
+        if let Some(s) = &args.scene {
+            println!("wrote {}", s.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,123 @@
+//! `lucent scan label`: the contract with the photo fit (files, PLY properties, scene, JSON keys)
+//! and bad input (one line, exit ≠ 0, no panic).
+
+use render::image_io::{write_image, Image};
+use render::shape::mesh::parse_ply;
+use scan::calib::{DeviceCalibration, ProcamCalibration};
+
+use crate::common::{lucent, Scratch};
+
+fn calibration(w: u32, h: u32) -> ProcamCalibration {
+    let dev = |width, height, f: f64| DeviceCalibration { width, height, fx: f, fy: f, cx: width as f64 / 2.0 - 0.5, cy: height as f64 / 2.0 - 0.5, distortion: vec![-0.05, 0.0, 0.0, 0.0, 0.0], rms_px: 0.0 };
+    ProcamCalibration {
+        camera: dev(w, h, 60.0),
+        projector: dev(32, 24, 30.0),
+        rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        translation: [-2.0, 0.0, 0.0],
+        rms_px: 0.0,
+        captures: Vec::new(),
+    }
+}
+
+/// A quad at depth `z` filling the view of the 64 × 48 camera (ASCII PLY).
+fn quad_ply(z: f64) -> String {
+    let (x, y) = (0.7 * z, 0.5 * z);
+    format!("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n{} {} {z}\n{x} {} {z}\n{x} {y} {z}\n{} {y} {z}\n3 0 1 2\n3 0 2 3\n", -x, -y, -y, -x)
+}
+
+struct Inputs {
+    s: Scratch,
+}
+
+/// Calibration, a photo (left half red, right half blue), and the quad.
+fn inputs(name: &str) -> Inputs {
+    let s = Scratch::new(name);
+    std::fs::write(s.path("calib.json"), serde_json::to_string(&calibration(64, 48)).unwrap()).unwrap();
+    let rgb = (0..64 * 48).map(|i| if i % 64 < 32 { [0.6, 0.1, 0.1] } else { [0.1, 0.15, 0.5] }).collect();
+    write_image(&s.path("photo.png"), &Image { width: 64, height: 48, rgb }, 0.0).unwrap();
+    std::fs::write(s.path("mesh.ply"), quad_ply(10.0)).unwrap();
+    Inputs { s }
+}
+
+fn fails_on_one_line(args: &[&str]) -> String {
+    let out = lucent().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// Two colour halves of a photo give two labels; the labelled PLY carries an `int label` per
+/// face and the renderer reads it; each label's mesh and the scene (camera from the
+/// calibration, materials label0/label1, projector and ambient lights) load.
+#[test]
+fn label_writes_the_contract_files() {
+    let i = inputs("label-contract");
+    let s = &i.s;
+    let out = lucent()
+        .args(["scan", "label", &s.arg("mesh.ply"), &s.arg("photo.png"), "--calibration", &s.arg("calib.json"), "--out", &s.arg("lab.ply"), "--scene", &s.arg("scene.toml"), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["labels"].as_u64(), Some(2), "{v}");
+    assert_eq!(v["faces"].as_u64(), Some(2));
+    let micro = v["micropolygons"].as_u64().unwrap();
+    assert!(micro > 2000, "{v}");
+    assert!(v["image_regions"].as_u64().unwrap() >= 2);
+    let per = v["per_label"].as_array().unwrap();
+    assert_eq!(per.len(), 2);
+    for p in per {
+        for key in ["label", "faces", "pixels", "mean_rgb"] {
+            assert!(!p[key].is_null(), "{key} in {p}");
+        }
+    }
+    // Label 0 is the larger region (ties: either); its mean colour is one of the two halves.
+    let mean: Vec<f64> = per[0]["mean_rgb"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let near = |c: [f64; 3]| (0..3).all(|k| (mean[k] - c[k]).abs() < 0.01);
+    assert!(near([0.6, 0.1, 0.1]) || near([0.1, 0.15, 0.5]), "{mean:?}");
+    let bytes = std::fs::read(s.path("lab.ply")).unwrap();
+    let header = String::from_utf8_lossy(&bytes[..bytes.windows(10).position(|w| w == b"end_header").unwrap()]).into_owned();
+    assert!(header.contains("property list uchar int vertex_indices\nproperty int label\n"), "{header}");
+    assert!(header.contains("property float x\nproperty float y\nproperty float z\n"), "{header}");
+    assert_eq!(parse_ply(&bytes).unwrap().indices.len() as u64, micro);
+    let faces: u64 = per.iter().map(|p| p["faces"].as_u64().unwrap()).sum();
+    let mut total = 0;
+    for k in 0..2 {
+        let m = parse_ply(&std::fs::read(s.path(&format!("lab_label{k}.ply"))).unwrap()).unwrap();
+        assert_eq!(m.indices.len() as u64, per[k]["faces"].as_u64().unwrap());
+        total += m.indices.len() as u64;
+    }
+    assert_eq!(total, faces);
+    let text = std::fs::read_to_string(s.path("scene.toml")).unwrap();
+    for key in ["[materials.label0]", "[materials.label1]", "mesh = \"lab_label0.ply\"", "type = \"projector\"", "type = \"environment\"", "calibration = \"calib.json\""] {
+        assert!(text.contains(key), "{key} in {text}");
+    }
+    let scene = render::scene::Scene::load(&s.path("scene.toml")).unwrap();
+    assert_eq!(scene.resolution(), (64, 48));
+}
+
+/// A mesh behind the camera, a photo of another size than the calibration's, and a file that is
+/// not a mesh: one line each, exit ≠ 0.
+#[test]
+fn label_bad_input_is_one_line() {
+    let i = inputs("label-bad");
+    let s = &i.s;
+    std::fs::write(s.path("behind.ply"), quad_ply(-10.0)).unwrap();
+    let base = |mesh: &str, photo: &str| {
+        vec!["scan".to_string(), "label".into(), s.arg(mesh), s.arg(photo), "--calibration".into(), s.arg("calib.json"), "--out".into(), s.arg("o.ply")]
+    };
+    let run = |a: Vec<String>| fails_on_one_line(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let e = run(base("behind.ply", "photo.png"));
+    assert!(e.contains("outside the camera's view"), "{e}");
+    write_image(&s.path("small.png"), &Image { width: 32, height: 24, rgb: vec![[0.5; 3]; 32 * 24] }, 0.0).unwrap();
+    let e = run(base("mesh.ply", "small.png"));
+    assert!(e.contains("small.png is 32x24") && e.contains("64x48"), "{e}");
+    std::fs::write(s.path("junk.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n").unwrap();
+    let e = run(base("junk.ply", "photo.png"));
+    assert!(e.contains("junk.ply"), "{e}");
+    let e = run(base("missing.ply", "photo.png"));
+    assert!(e.contains("missing.ply"), "{e}");
+    assert!(!s.path("o.ply").exists());
+}
