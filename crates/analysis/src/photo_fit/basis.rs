@@ -2,7 +2,8 @@
 //! surfaces at albedo 1 with the other labels black, under the environment alone, under an
 //! all-white projector image and under each frame's pattern; and the same for the rest of the
 //! scene (objects whose material is not a label, and the environment seen directly). All renders
-//! use the `direct` integrator and the same seed and passes (common random numbers): the
+//! use the `direct` integrator, one light at a time (the light choice never wastes samples on a
+//! light that is off), and the same seed and passes (common random numbers): the
 //! estimator is then linear in the albedos, the light spectra and the projector's image values
 //! sample by sample, so a pattern and its complement sum to the all-white render exactly and the
 //! complement is formed as all-white − pattern instead of being rendered.
@@ -59,7 +60,7 @@ pub struct Basis {
 /// untextured Lambertian. Errors when there is none.
 pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
     let white = DenseSpectrum::from_fn(optics::spectrum::d65_normalized);
-    let white_rgb = spectrum_rgb(&white, &white);
+    let white_rgb = spectrum_rgb(&DenseSpectrum::from_fn(|_| 1.0), &white);
     let mut labels = vec![];
     for (i, (name, m)) in scene.material_names.iter().zip(&scene.materials).enumerate() {
         if !name.starts_with(LABEL_PREFIX) {
@@ -125,6 +126,24 @@ pub fn projector_size(scene: &Scene) -> Option<(u32, u32)> {
     scene.lights.iter().find_map(|l| if let Light::Projector(p) = l { Some((p.camera.width, p.camera.height)) } else { None })
 }
 
+/// Renders `scene` lit by light `index` alone (light choice pmf 1): each light's share is
+/// rendered on its own, so that next-event estimation never spends samples on another light.
+fn render_one_light(scene: &mut Scene, index: usize, settings: &IntegratorSettings, seed: u64, spp: u64) -> Plane {
+    let lights = std::mem::take(&mut scene.lights);
+    let (pmf, cdf, env) = (std::mem::take(&mut scene.light_pmf), std::mem::take(&mut scene.light_cdf), scene.environment);
+    let light = lights[index].clone();
+    scene.environment = if matches!(light, Light::Environment { .. } | Light::EnvMap(_)) { Some(0) } else { None };
+    scene.lights = vec![light];
+    scene.light_pmf = vec![1.0];
+    scene.light_cdf = vec![1.0];
+    let img = render_image(scene, settings, seed, 0..spp);
+    scene.lights = lights;
+    scene.light_pmf = pmf;
+    scene.light_cdf = cdf;
+    scene.environment = env;
+    img.rgb
+}
+
 /// What one basis render lights and shows.
 #[derive(Clone, Copy, PartialEq)]
 enum Target {
@@ -178,9 +197,13 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
             }
         }
         let t = Instant::now();
-        let img = render_image(scene, &settings, seed, 0..spp);
+        let only = if image.is_some() { proj_i } else { env_i };
+        let img = match only {
+            Some(i) => render_one_light(scene, i, &settings, seed, spp),
+            None => vec![[0.0; 3]; n],
+        };
         render_seconds.push(t.elapsed().as_secs_f64());
-        Ok(img.rgb)
+        Ok(img)
     };
 
     let targets: Vec<Target> = (0..labels.len()).map(Target::Label).chain(std::iter::once(Target::Rest)).collect();
@@ -213,12 +236,9 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
             if img.len() != pm {
                 bail!("a frame's pattern has {} pixels, the projector {pm}", img.len());
             }
-            if img.iter().all(|&v| v == 1.0) {
-                frames.push(flood.clone());
-                continue;
-            }
-            if img.iter().all(|&v| v == 0.0) {
-                frames.push(targets.iter().map(|_| blank()).collect());
+            // A uniform image v₀ gives v₀ × the all-white render (the estimator is linear in it).
+            if let Some(&v0) = img.first().filter(|&&v0| img.iter().all(|&v| v == v0)) {
+                frames.push(flood.iter().map(|fl| fl.iter().map(|f| f.map(|c| c * v0)).collect()).collect());
                 continue;
             }
             if let Some((_, b)) = rendered.iter().find(|(q, _)| q.as_slice() == img) {
@@ -274,7 +294,8 @@ pub fn apply_fit(scene: &mut Scene, labels: &[Label], albedo: &[[f64; 3]], proje
     }
 }
 
-/// Full render (linear sRGB, `direct`, `spp` passes of `seed`) of the scene with the projector
+/// Full render (linear sRGB, `direct`, `spp` passes of `seed`, each light rendered alone and the
+/// shares added, as light adds linearly) of the scene with the projector
 /// showing `pattern` (None: its own image) lifted by the black level β: v' = (1 − β) v + β.
 pub fn render_frame(scene: &mut Scene, pattern: Option<&[f32]>, projector_black: f64, spp: u64, seed: u64) -> Result<Plane> {
     let settings = IntegratorSettings { kind: IntegratorKind::Direct, max_depth: 2, rr_depth: 1000 };
@@ -289,7 +310,16 @@ pub fn render_frame(scene: &mut Scene, pattern: Option<&[f32]>, projector_black:
             saved = Some(std::mem::replace(&mut p.image, base.iter().map(|v| (1.0 - b) * v + b).collect()));
         }
     }
-    let img = render_image(scene, &settings, seed, 0..spp);
+    let (w, h) = scene.resolution();
+    let mut sum = vec![[0.0f32; 3]; w as usize * h as usize];
+    for i in 0..scene.lights.len() {
+        let img = render_one_light(scene, i, &settings, seed, spp);
+        for (a, b) in sum.iter_mut().zip(&img) {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        }
+    }
     if let Some(orig) = saved {
         for l in scene.lights.iter_mut() {
             if let Light::Projector(p) = l {
@@ -297,5 +327,21 @@ pub fn render_frame(scene: &mut Scene, pattern: Option<&[f32]>, projector_black:
             }
         }
     }
-    Ok(img.rgb)
+    Ok(sum)
+}
+
+/// The mean of two bases of the same scene and frames (rendered with independent seeds and the
+/// same number of passes): the basis of both renders' samples together.
+pub fn average(a: &Basis, b: &Basis) -> Basis {
+    let mean = |p: &Plane, q: &Plane| -> Plane { p.iter().zip(q).map(|(x, y)| std::array::from_fn(|c| 0.5 * (x[c] + y[c]))).collect() };
+    let both = |p: &[Plane], q: &[Plane]| -> Vec<Plane> { p.iter().zip(q).map(|(x, y)| mean(x, y)).collect() };
+    Basis {
+        width: a.width,
+        height: a.height,
+        labels: a.labels.clone(),
+        ambient: both(&a.ambient, &b.ambient),
+        flood: both(&a.flood, &b.flood),
+        frames: a.frames.iter().zip(&b.frames).map(|(x, y)| both(x, y)).collect(),
+        render_seconds: a.render_seconds.iter().chain(&b.render_seconds).cloned().collect(),
+    }
 }

@@ -1,6 +1,7 @@
 //! Levenberg–Marquardt on accumulated normal equations, for least-squares problems with millions
 //! of residuals and a few dozen parameters (the residual Jacobian is never stored): each
-//! evaluation returns the cost ½Σr², JᵀJ and Jᵀr over the free parameters; the step solves
+//! evaluation returns the cost (½Σr², or an unbiased cross form of it), JᵀJ and Jᵀr over the
+//! free parameters; the step solves
 //! (JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr (Marquardt 1963's scaling), λ shrinks by 3 after a step that
 //! lowers the cost and grows by 4 after one that does not; the parameters are clamped into their
 //! box after each step (projected LM).
@@ -73,7 +74,7 @@ pub fn levenberg_marquardt(
             clamp(&mut trial);
             let t = eval(&trial, false)?;
             if t.cost.is_finite() && t.cost < cur.cost {
-                let decrease = (cur.cost - t.cost) / cur.cost.max(1e-300);
+                let decrease = (cur.cost - t.cost) / cur.cost.abs().max(1e-300);
                 x = trial;
                 cur = eval(&x, true)?;
                 lambda = (lambda / 3.0).max(1e-12);

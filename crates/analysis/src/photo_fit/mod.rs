@@ -312,11 +312,41 @@ struct Acc {
     buf: Vec<PixelBasis>,
     dx: [Vec<f64>; 3],
     jy: [Vec<f64>; 3],
+    jy2: [Vec<f64>; 3],
 }
 
-/// Cost ½Σr² of the codes over the usable pixels of all frames and, with `jacobian`, the normal
-/// equations over `free`.
-fn normal_equations(basis: &Basis, frames: &[Frame], regions: &[i32], params: &Params, free: &[usize], jacobian: bool, opts: &FitOptions) -> Normal {
+/// Codes of pixel `i` of frame `f` and, with `jac`, their derivatives (into `a.jy` or `a.jy2`).
+fn pixel_codes(basis: &Basis, f: usize, i: usize, params: &Params, a: &mut Acc, jac: bool, second: bool) -> [f64; 3] {
+    let k = basis.labels.len();
+    pixel_basis(basis, f, i, &mut a.buf);
+    if jac {
+        for c in 0..3 {
+            a.dx[c].iter_mut().for_each(|v| *v = 0.0);
+        }
+        let xl = linear_render(params, &a.buf[..k], &a.buf[k], Some(&mut a.dx));
+        let out = if second { &mut a.jy2 } else { &mut a.jy };
+        camera_response(params, xl, Some((&a.dx, out)))
+    } else {
+        camera_response(params, linear_render(params, &a.buf[..k], &a.buf[k], None), None)
+    }
+}
+
+/// Cost and, with `jacobian`, normal equations over `free`, summed over the usable pixels of all
+/// frames. With one basis: ½Σr² and JᵀJ, Jᵀr. With two independent bases a and b (`second`), the
+/// unbiased form: ½Σ r_a r_b, whose expectation has no term from the bases' Monte Carlo noise (a
+/// plain Σr² over a noisy basis is lowest for parameters that damp that noise: errors in the
+/// variables), with the symmetrised ½Σ(J_aᵀJ_b + J_bᵀJ_a) and ½Σ(J_aᵀ r_b + J_bᵀ r_a).
+#[allow(clippy::too_many_arguments)]
+fn normal_equations(
+    basis: &Basis,
+    second: Option<&Basis>,
+    frames: &[Frame],
+    regions: &[i32],
+    params: &Params,
+    free: &[usize],
+    jacobian: bool,
+    opts: &FitOptions,
+) -> Normal {
     let (w, h) = (basis.width as usize, basis.height as usize);
     let k = basis.labels.len();
     let np = params.len();
@@ -331,6 +361,7 @@ fn normal_equations(basis: &Basis, frames: &[Frame], regions: &[i32], params: &P
         buf: Vec::with_capacity(k + 1),
         dx: std::array::from_fn(|_| vec![0.0; np]),
         jy: std::array::from_fn(|_| vec![0.0; np]),
+        jy2: std::array::from_fn(|_| vec![0.0; np]),
     };
     let acc = rows
         .par_iter()
@@ -341,31 +372,28 @@ fn normal_equations(basis: &Basis, frames: &[Frame], regions: &[i32], params: &P
                 if !usable(regions, frame, i, opts.saturation) {
                     continue;
                 }
-                pixel_basis(basis, f, i, &mut a.buf);
-                let yv = if jacobian {
-                    for c in 0..3 {
-                        a.dx[c].iter_mut().for_each(|v| *v = 0.0);
-                    }
-                    let xl = linear_render(params, &a.buf[..k], &a.buf[k], Some(&mut a.dx));
-                    camera_response(params, xl, Some((&a.dx, &mut a.jy)))
-                } else {
-                    camera_response(params, linear_render(params, &a.buf[..k], &a.buf[k], None), None)
+                let ya = pixel_codes(basis, f, i, params, &mut a, jacobian, false);
+                let yb = match second {
+                    Some(b2) => pixel_codes(b2, f, i, params, &mut a, jacobian, true),
+                    None => ya,
                 };
                 for c in 0..3 {
-                    let r = yv[c] - frame.codes[i][c] as f64;
-                    a.cost += 0.5 * r * r;
+                    let ra = ya[c] - frame.codes[i][c] as f64;
+                    let rb = yb[c] - frame.codes[i][c] as f64;
+                    a.cost += 0.5 * ra * rb;
                     a.n += 1;
-                    if jacobian {
-                        let row = &a.jy[c];
-                        for (p, &ip) in free.iter().enumerate() {
-                            let jp = row[ip];
-                            if jp == 0.0 {
-                                continue;
-                            }
-                            a.jtr[p] += jp * r;
-                            for (q, &iq) in free.iter().enumerate().skip(p) {
-                                a.jtj[p * nf + q] += jp * row[iq];
-                            }
+                    if !jacobian {
+                        continue;
+                    }
+                    let (ja, jb) = (&a.jy[c], if second.is_some() { &a.jy2[c] } else { &a.jy[c] });
+                    for (p, &ip) in free.iter().enumerate() {
+                        let (jap, jbp) = (ja[ip], jb[ip]);
+                        if jap == 0.0 && jbp == 0.0 {
+                            continue;
+                        }
+                        a.jtr[p] += 0.5 * (jap * rb + jbp * ra);
+                        for (q, &iq) in free.iter().enumerate().skip(p) {
+                            a.jtj[p * nf + q] += 0.5 * (jap * jb[iq] + jbp * ja[iq]);
                         }
                     }
                 }
@@ -396,7 +424,12 @@ pub const HOLD_NAMES: [&str; 7] = ["gain", "black_level", "gamma", "projector", 
 /// Fits `frames` (one per basis frame, in order) from `start`. Errors on an unknown hold, on
 /// frames of another size, when no pixel is usable, and when the held parameters leave the
 /// scale free.
-pub fn fit(basis: &Basis, frames: &[Frame], start: &Params, opts: &FitOptions) -> Result<PhotoFit> {
+///
+/// With `second`, a basis of the same scene and frames from an independent seed, the fit
+/// minimises the unbiased cross error (see `normal_equations`) and the reported errors use the
+/// mean of the two bases (pass [`basis::average`] of the two as `basis` then, and the halves as
+/// `halves`).
+pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], start: &Params, opts: &FitOptions) -> Result<PhotoFit> {
     let t0 = Instant::now();
     let k = basis.labels.len();
     let n_px = basis.width as usize * basis.height as usize;
@@ -474,7 +507,10 @@ pub fn fit(basis: &Basis, frames: &[Frame], start: &Params, opts: &FitOptions) -
         levenberg_marquardt(
             |x, jac| {
                 let p = Params { labels, x: x.to_vec() };
-                Ok(normal_equations(basis, frames, &regions, &p, free, jac, opts))
+                Ok(match halves {
+                    Some((a, b)) => normal_equations(a, Some(b), frames, &regions, &p, free, jac, opts),
+                    None => normal_equations(basis, None, frames, &regions, &p, free, jac, opts),
+                })
             },
             |x| {
                 let mut p = Params { labels, x: std::mem::take(x) };
@@ -484,7 +520,7 @@ pub fn fit(basis: &Basis, frames: &[Frame], start: &Params, opts: &FitOptions) -
             &params.x,
             free,
             opts.max_iterations,
-            1e-10,
+            1e-9,
         )
     };
     let mut last: Option<LmResult> = None;

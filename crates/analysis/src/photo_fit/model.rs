@@ -275,3 +275,65 @@ pub fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
         [c(1, 0, 2, 1) / det, -c(0, 0, 2, 1) / det, c(0, 0, 1, 1) / det],
     ])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pixel() -> (Vec<PixelBasis>, PixelBasis) {
+        let labels = vec![
+            PixelBasis { pattern: [0.3, 0.28, 0.25], flood: [0.6, 0.55, 0.5], ambient: [0.05, 0.06, 0.07] },
+            PixelBasis { pattern: [0.1, 0.12, 0.09], flood: [0.2, 0.22, 0.21], ambient: [0.02, 0.02, 0.03] },
+        ];
+        (labels, PixelBasis { pattern: [0.0; 3], flood: [0.0; 3], ambient: [0.01, 0.012, 0.011] })
+    }
+
+    /// The analytic derivatives of the codes equal central differences for every parameter.
+    #[test]
+    fn jacobian_matches_central_differences() {
+        let (labels, rest) = pixel();
+        let mut p = Params::new(&[[0.4, 0.5, 0.6], [0.2, 0.25, 0.15]], 2.1);
+        let g = 3 * 2;
+        p.x[g + PROJECTOR] = 1.2;
+        p.x[g + PROJECTOR_BLACK] = 0.05;
+        p.x[g + AMBIENT] = 0.8;
+        p.x[g + BLACK_LEVEL] = 0.02;
+        p.x[g + GAIN] = 0.9;
+        for t in 0..6 {
+            p.x[g + COLOR + t] = 0.01 * (t as f64 + 1.0) * if t % 2 == 0 { 1.0 } else { -1.0 };
+        }
+        let n = p.len();
+        let mut dx: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        let mut jy: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        let x = linear_render(&p, &labels, &rest, Some(&mut dx));
+        camera_response(&p, x, Some((&dx, &mut jy)));
+        for i in 0..n {
+            let h = 1e-6;
+            let (mut a, mut b) = (p.clone(), p.clone());
+            a.x[i] += h;
+            b.x[i] -= h;
+            let ya = camera_response(&a, linear_render(&a, &labels, &rest, None), None);
+            let yb = camera_response(&b, linear_render(&b, &labels, &rest, None), None);
+            for c in 0..3 {
+                let fd = (ya[c] - yb[c]) / (2.0 * h);
+                assert!((fd - jy[c][i]).abs() < 1e-7 * (1.0 + fd.abs()), "∂y{c}/∂{}: analytic {} vs {fd}", p.name(i, &["l0".into(), "l1".into()]), jy[c][i]);
+            }
+        }
+    }
+
+    /// The inverse response undoes the response.
+    #[test]
+    fn inverse_response_round_trips() {
+        let mut p = Params::new(&[[0.5; 3]], 2.2);
+        p.x[3 + BLACK_LEVEL] = 0.03;
+        p.x[3 + GAIN] = 0.9;
+        p.x[3 + COLOR] = 0.05;
+        p.x[3 + COLOR + 3] = -0.04;
+        let x = [0.2, 0.3, 0.25];
+        let y = camera_response(&p, x, None);
+        let back = inverse_response(&p, y);
+        for c in 0..3 {
+            assert!((back[c] - x[c]).abs() < 1e-12, "{back:?} vs {x:?}");
+        }
+    }
+}
