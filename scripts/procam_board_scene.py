@@ -1,9 +1,10 @@
 """Scene of a calibrated chessboard capture for `lucent fit photo`, labelled from the board geometry.
 
 Usage: python3 scripts/procam_board_scene.py CALIB.json CAPTURE_INDEX OUT_DIR
-       [--corners 9x7] [--margin 0.4] [--first black|white] [--pattern PNG]
+       [--corners 9x7] [--square 75] [--margin 0.4] [--first black|white] [--pattern PNG]
 
-CALIB.json is what `lucent scan calibrate` writes (lengths in board square units); the board
+CALIB.json is what `lucent scan calibrate` writes (lengths in the unit of its `--square`, which
+`--square` here must repeat); the board
 pose of capture CAPTURE_INDEX (`captures[i].rvec`, `tvec`, board -> camera) places the board
 plane. The squares are known from that pose, so the labels need no segmentation:
 
@@ -16,7 +17,7 @@ corners 0, 1, cols, cols + 1 and is `--first` (default black). The meshes are AS
 camera coordinates (square units), as the labelling tool's `<stem>_label<k>.ply`; the scene
 (OUT_DIR/scene<i>.toml) has the calibration's camera, the projector as a light (its calibration
 with matrix_node = "projector", showing `--pattern`, default a white image written beside), a
-constant environment as the ambient term, and starting albedos 0.05 / 0.7 / 0.7. The projector
+constant environment as the ambient term (both D65 white, linear sRGB (1, 1, 1)), and starting albedos 0.05 / 0.7 / 0.7. The projector
 intensity is chosen so that an albedo of 0.7 at the board centre would read about 0.5 linear.
 """
 import json, math, os, sys, struct, zlib
@@ -43,7 +44,7 @@ def write_white_png(path, w, h):
 
 def main(argv):
     args = [a for a in argv]
-    opts = {'--corners': '9x7', '--margin': '0.4', '--first': 'black', '--pattern': None}
+    opts = {'--corners': '9x7', '--square': '75', '--margin': '0.4', '--first': 'black', '--pattern': None}
     pos = []
     i = 0
     while i < len(args):
@@ -60,11 +61,12 @@ def main(argv):
     calib_path, idx, out = pos[0], int(pos[1]), pos[2]
     cols, rows = (int(v) for v in opts['--corners'].split('x'))
     margin = float(opts['--margin'])
+    sq = float(opts['--square'])
     calib = json.load(open(calib_path))
     cap = calib['captures'][idx]
     R, t = rodrigues(cap['rvec']), cap['tvec']
     os.makedirs(out, exist_ok=True)
-    to_cam = lambda x, y: [R[r][0] * x + R[r][1] * y + t[r] for r in range(3)]
+    to_cam = lambda x, y: [R[r][0] * x * sq + R[r][1] * y * sq + t[r] for r in range(3)]
     # Squares: (cols + 1) x (rows + 1), square (i, j) spans [i-1, i] x [j-1, j] in corner units.
     quads = {0: [], 1: [], 2: []}
     first_black = opts['--first'] == 'black'
@@ -112,9 +114,9 @@ def main(argv):
         toml += [f'[materials.label{k}]', 'type = "lambertian"', f'albedo = {albedo[k]}', '']
     for k, name in enumerate(names):
         toml += ['[[objects]]', f'name = "{["black_squares", "white_squares", "margin"][k]}"', f'material = "label{k}"', f'mesh = "{name}"', '']
-    toml += ['[[lights]]', 'type = "projector"', f'image = "{pattern_rel}"', f'intensity = {intensity:.6g}',
+    toml += ['[[lights]]', 'type = "projector"', f'image = "{pattern_rel}"', f'intensity = {{ rgb = [1, 1, 1], scale = {intensity:.6g} }}',
              f'camera = {{ calibration = "{calib_rel}", matrix_node = "projector" }}', '',
-             '[[lights]]', 'type = "environment"', 'radiance = 0.01', '']
+             '[[lights]]', 'type = "environment"', 'radiance = { rgb = [1, 1, 1], scale = 0.01 }', '']
     path = os.path.join(out, f'scene{idx}.toml')
     open(path, 'w').write('\n'.join(toml))
     print(path)

@@ -58,11 +58,13 @@ pub struct FitOptions {
     pub saturation: f64,
     /// Only every `stride`-th pixel of each row and column enters the fit (1: all).
     pub stride: usize,
+    /// Which frames enter the fit (None: all); every frame is evaluated after each step.
+    pub fit_frames: Option<Vec<bool>>,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { hold: vec![], color_matrix: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1 }
+        FitOptions { hold: vec![], color_matrix: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None }
     }
 }
 
@@ -352,7 +354,8 @@ fn normal_equations(
     let np = params.len();
     let nf = free.len();
     let stride = opts.stride.max(1);
-    let rows: Vec<(usize, usize)> = (0..frames.len()).flat_map(|f| (0..h).step_by(stride).map(move |y| (f, y))).collect();
+    let fitted = |f: usize| opts.fit_frames.as_ref().map_or(true, |v| v.get(f).copied().unwrap_or(false));
+    let rows: Vec<(usize, usize)> = (0..frames.len()).filter(|&f| fitted(f)).flat_map(|f| (0..h).step_by(stride).map(move |y| (f, y))).collect();
     let new_acc = || Acc {
         cost: 0.0,
         n: 0,
@@ -520,7 +523,7 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
             &params.x,
             free,
             opts.max_iterations,
-            1e-9,
+            1e-7,
         )
     };
     let mut last: Option<LmResult> = None;

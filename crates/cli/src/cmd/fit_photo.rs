@@ -44,6 +44,10 @@ pub struct Args {
     /// Only these frame numbers of --capture, e.g. `0-39,40,41` [default: all].
     #[arg(long, value_name = "LIST", requires = "capture")]
     pub frames: Option<String>,
+    /// Of those frames, only these enter the fit (the others are predicted and compared after
+    /// each step) [default: all].
+    #[arg(long, value_name = "LIST", requires = "capture")]
+    pub fit_frames: Option<String>,
     /// Another scene and capture of the same materials to predict with the fit (not fitted):
     /// `SCENE.toml,CAPTURE_DIR`; repeatable; the capture's frames pair with --patterns.
     #[arg(long, value_name = "SCENE.toml,DIR", requires = "capture")]
@@ -76,7 +80,7 @@ pub struct Args {
     /// Starting camera black level, in codes of full scale 1 [default: 0].
     #[arg(long, value_name = "B", allow_hyphen_values = true)]
     pub black_level: Option<String>,
-    /// Most Levenberg–Marquardt steps per refinement step [default: 100].
+    /// Most Levenberg–Marquardt steps per refinement step [default: 30].
     #[arg(long, value_name = "K", allow_hyphen_values = true)]
     pub max_iterations: Option<String>,
     /// Fit on every S-th pixel of each row and column [default: 1].
@@ -157,7 +161,10 @@ fn pattern_path(dir: &Path, n: usize) -> Result<PathBuf> {
 }
 
 /// A photograph as codes (1 = full scale), box-averaged down to `w × h` (the photo must be the
-/// camera's size `cam`, an integer multiple of `w × h`).
+/// camera's size `cam`, an integer multiple of `w × h`). The average is taken of the codes
+/// decoded with the sRGB curve and re-encoded, so that a block straddling an edge averages light
+/// (as a larger sensor pixel would) rather than codes, exactly when the camera's response is the
+/// sRGB curve and approximately otherwise.
 fn read_photo(path: &Path, cam: (u32, u32), w: u32, h: u32) -> Result<Frame> {
     let img = read_image(path)?;
     if (img.width, img.height) != cam {
@@ -175,11 +182,11 @@ fn read_photo(path: &Path, cam: (u32, u32), w: u32, h: u32) -> Result<Frame> {
                 for dx in 0..s {
                     let p = img.get(x * s + dx, y * s + dy);
                     for c in 0..3 {
-                        acc[c] += optics::color::srgb_encode(p[c] as f64);
+                        acc[c] += p[c] as f64;
                     }
                 }
             }
-            codes[(y * w + x) as usize] = acc.map(|v| (v / (s * s) as f64) as f32);
+            codes[(y * w + x) as usize] = acc.map(|v| optics::color::srgb_encode(v / (s * s) as f64) as f32);
         }
     }
     let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("photo").to_string();
@@ -243,7 +250,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(t) => t.trim().parse::<u64>().with_context(|| format!("--seed must be a whole number ≥ 0, got `{t}`"))?,
         None => 0,
     };
-    let max_iterations = args.max_iterations.as_deref().map(|t| positive_u64("--max-iterations", t)).transpose()?.unwrap_or(100) as usize;
+    let max_iterations = args.max_iterations.as_deref().map(|t| positive_u64("--max-iterations", t)).transpose()?.unwrap_or(30) as usize;
     let stride = args.stride.as_deref().map(|t| positive_u64("--stride", t)).transpose()?.unwrap_or(1) as usize;
     let num = |name: &str, v: &Option<String>, d: f64| -> Result<f64> { v.as_deref().map(|t| finite_f64(name, t)).transpose().map(|o| o.unwrap_or(d)) };
     let gamma = num("--gamma", &args.gamma, 2.2)?;
@@ -347,9 +354,30 @@ pub fn run(args: Args) -> Result<()> {
     say(format!("{} basis renders in {basis_seconds:.2} s", basis.render_seconds.len()));
 
     let mut start = Params::new(&labels.iter().map(|l| l.albedo).collect::<Vec<_>>(), gamma);
-    start.x[start.global(model::GAIN)] = gain;
-    start.x[start.global(model::BLACK_LEVEL)] = black_level;
-    let opts = FitOptions { hold: args.hold.clone(), color_matrix: args.color_matrix, gamma, black_level, gain, max_iterations, stride, ..FitOptions::default() };
+    let (ig, ib) = (start.global(model::GAIN), start.global(model::BLACK_LEVEL));
+    start.x[ig] = gain;
+    start.x[ib] = black_level;
+    let fit_frames = match &args.fit_frames {
+        Some(t) => {
+            let list = parse_frames(t)?;
+            if let Some(n) = list.iter().find(|n| !frame_numbers.contains(n)) {
+                bail!("--fit-frames: frame {n} is not among the frames read");
+            }
+            Some(frame_numbers.iter().map(|n| list.contains(n)).collect())
+        }
+        None => None,
+    };
+    let opts = FitOptions {
+        hold: args.hold.clone(),
+        color_matrix: args.color_matrix,
+        gamma,
+        black_level,
+        gain,
+        max_iterations,
+        stride,
+        fit_frames,
+        ..FitOptions::default()
+    };
     let result = fit(&basis, Some((&half_a, &half_b)), &frames, &start, &opts)?;
     drop((half_a, half_b));
     for s in &result.steps {
