@@ -42,7 +42,8 @@ pub struct Frame {
 #[derive(Clone, Debug)]
 pub struct FitOptions {
     /// Parameters held at their starting values: `gain`, `black_level`, `gamma`, `projector`,
-    /// `projector_black`, `ambient`, `color` or a label's name. Empty: hold `projector`.
+    /// `projector_black`, `ambient`, `color` or a label's name. Empty: hold the projector (the
+    /// ambient light in a scene without one).
     pub hold: Vec<String>,
     /// Fit the colour matrix in the response step (else it stays the identity).
     pub color_matrix: bool,
@@ -445,7 +446,10 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
         }
     }
     let label_names: Vec<String> = basis.labels.iter().map(|l| l.name.clone()).collect();
-    let mut hold = if opts.hold.is_empty() { vec!["projector".to_string()] } else { opts.hold.clone() };
+    let has_projector = basis.flood.iter().any(|p| p.iter().any(|v| v.iter().any(|&c| c != 0.0)));
+    let has_ambient = basis.ambient.iter().any(|p| p.iter().any(|v| v.iter().any(|&c| c != 0.0)));
+    let default_hold = if has_projector { "projector" } else { "ambient" };
+    let mut hold = if opts.hold.is_empty() { vec![default_hold.to_string()] } else { opts.hold.clone() };
     hold.dedup();
     for hname in &hold {
         if !HOLD_NAMES.contains(&hname.as_str()) && !label_names.contains(hname) {
@@ -453,16 +457,20 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
         }
     }
     let held = |name: &str| hold.iter().any(|h| h == name);
-    if !held("projector") && !(held("gain") && label_names.iter().any(|l| held(l))) {
-        bail!("the fit needs a scale: hold the projector (--hold projector) or the gain and a reference label (--hold gain --hold {})", label_names[0]);
+    // ρ → sρ with P, A → P/s, A/s, and g → g t^(1/γ) with P, A → P/t, A/t leave the codes as they
+    // are: holding a light that is there, or the gain and a label, fixes both.
+    let scale_fixed = (has_projector && held("projector")) || (has_ambient && held("ambient")) || (held("gain") && label_names.iter().any(|l| held(l)));
+    if !scale_fixed {
+        bail!(
+            "the fit needs a scale: hold the {default_hold} (--hold {default_hold}) or the gain and a reference label (--hold gain --hold {})",
+            label_names[0]
+        );
     }
     let regions = regions(basis);
     let usable_px: usize = frames.iter().map(|f| (0..n_px).filter(|&i| usable(&regions, f, i, opts.saturation)).count()).sum();
     if usable_px == 0 {
         bail!("no photograph pixel sees a label without saturating");
     }
-    let has_projector = basis.flood.iter().any(|p| p.iter().any(|v| v.iter().any(|&c| c != 0.0)));
-    let has_ambient = basis.ambient.iter().any(|p| p.iter().any(|v| v.iter().any(|&c| c != 0.0)));
     let g = |i: usize| 3 * k + i;
     let mut resp: Vec<usize> = vec![];
     for (name, idx) in [("black_level", model::BLACK_LEVEL), ("gain", model::GAIN), ("gamma", model::GAMMA)] {

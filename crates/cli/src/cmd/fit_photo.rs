@@ -65,7 +65,7 @@ pub struct Args {
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub seed: Option<String>,
     /// Hold a parameter at its start: gain, black_level, gamma, projector, projector_black,
-    /// ambient, color, or a label's name; repeatable [default: projector].
+    /// ambient, color, or a label's name; repeatable [default: projector, or ambient without one].
     #[arg(long, value_name = "NAME")]
     pub hold: Vec<String>,
     /// Fit a white-preserving 3×3 colour matrix in the response step.
@@ -478,7 +478,7 @@ pub fn run(args: Args) -> Result<()> {
         "scene": args.scene.display().to_string(),
         "width": width, "height": height, "spp": spp, "seed": seed,
         "labels": label_names,
-        "hold": if args.hold.is_empty() { vec!["projector".to_string()] } else { args.hold.clone() },
+        "hold": if args.hold.is_empty() { vec![if psize.is_some() { "projector".to_string() } else { "ambient".to_string() }] } else { args.hold.clone() },
         "residual_variance": result.residual_variance,
         "params": summary["params"], "steps": steps,
         "verify": {"total": metrics_json(&verify_total), "frames": frames_json(&verify_metrics, &label_names)},
