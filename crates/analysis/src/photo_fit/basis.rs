@@ -221,6 +221,22 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
                 _ => blank(),
             });
         }
+        // A label's render also holds what the rest of the scene shows under the same light (the
+        // environment seen directly, non-label objects): the same samples (common random
+        // numbers) make subtracting the rest's render leave exactly the label's own reflection.
+        let k_rest = targets.len() - 1;
+        let minus_rest = |planes: &mut Vec<Plane>| {
+            let rest = planes[k_rest].clone();
+            for p in planes.iter_mut().take(k_rest) {
+                for (a, b) in p.iter_mut().zip(&rest) {
+                    for c in 0..3 {
+                        a[c] -= b[c];
+                    }
+                }
+            }
+        };
+        minus_rest(&mut ambient);
+        minus_rest(&mut flood);
         // Distinct patterns rendered so far, with their basis per target.
         let mut rendered: Vec<(Vec<f32>, Vec<Plane>)> = vec![];
         let mut frames = vec![];
@@ -259,6 +275,7 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
                 let skip_rest_projector = t == Target::Rest && !has_rest_objects;
                 per.push(if skip_rest_projector { blank() } else { render(scene, t, false, Some(img))? });
             }
+            minus_rest(&mut per);
             rendered.push((img.to_vec(), per.clone()));
             frames.push(per);
         }
