@@ -5,4 +5,5 @@
 pub mod compare;
 pub mod minimize;
 pub mod noise_cost;
+pub mod photo_fit;
 pub mod scene_fit;

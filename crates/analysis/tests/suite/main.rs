@@ -2,3 +2,4 @@
 
 mod compare;
 mod color_correct;
+mod photo_fit;

@@ -33,6 +33,8 @@ pub enum Which {
     McTable(McTableArgs),
     /// Analysis by synthesis: fit scene parameters to a reference photograph.
     Scene(super::fit_scene::Args),
+    /// Appearance fit on photographs: per-label albedos, lights and the camera response.
+    Photo(super::fit_photo::Args),
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -149,6 +151,7 @@ pub fn run(args: Args) -> Result<()> {
         Which::Particles(a) => run_particles(a),
         Which::McTable(a) => run_mc_table(a),
         Which::Scene(a) => super::fit_scene::run(a),
+        Which::Photo(a) => super::fit_photo::run(a),
     }
 }
 

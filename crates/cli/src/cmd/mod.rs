@@ -6,6 +6,7 @@ pub mod bench_support;
 pub mod bssrdf;
 pub mod compare;
 pub mod fit;
+pub mod fit_photo;
 pub mod fit_scene;
 pub mod format;
 pub mod medium;

@@ -9,6 +9,7 @@ mod distributed_examples;
 mod fit_cli;
 mod fit_roundtrip;
 mod fit_scene;
+mod fit_photo_cli;
 mod preview;
 mod render_cli;
 mod robustness_optics;

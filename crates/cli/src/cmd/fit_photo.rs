@@ -1,0 +1,501 @@
+//! `lucent fit photo SCENE.toml (--photo PHOTO [--pattern PATTERN] … | --capture DIR --patterns DIR)`:
+//! the appearance fit on photographs (`analysis::photo_fit`): per-label Lambertian albedos, the
+//! projector's scale and black level, the ambient light and the camera's response and colour
+//! correction, from all photographs at once, by Levenberg–Marquardt on basis renders with common
+//! random numbers, in the refinement steps response → albedo → light → joint; then a full render
+//! per photograph with the fitted values checks the fit, and `--predict` renders other scenes
+//! (other captures of the same materials) with it. Outputs and units: docs/digitization.md.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use analysis::compare::{compare, error_image, Mask};
+use analysis::photo_fit::basis::{average, projector_size, render_basis, scene_labels};
+use analysis::photo_fit::model::{self, Params};
+use analysis::photo_fit::{fit, frame_metrics, total, verify_renders, FitOptions, Frame, FrameMetrics, Metrics, PhotoFit};
+use analysis::scene_fit::side_by_side;
+use anyhow::{bail, Context, Result};
+use render::image_io::{read_image, write_atomic, write_image, Image};
+use render::light::projector::{read_projector_image, Response};
+use render::scene::Scene;
+use serde_json::{json, Value};
+
+use super::render::{finite_f64, positive_u64};
+
+/// Arguments of `lucent fit photo`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Scene (TOML) with the calibrated camera, objects whose materials are named `label*`
+    /// (Lambertian, the starting albedos), a projector and/or a constant environment.
+    #[arg(value_name = "SCENE.toml")]
+    pub scene: PathBuf,
+    /// A photograph (PNG/JPEG codes; repeatable). Its size must be the scene camera's.
+    #[arg(long, value_name = "PHOTO")]
+    pub photo: Vec<PathBuf>,
+    /// The projector image shown for each --photo, in the same order (default: the scene's own).
+    #[arg(long, value_name = "PATTERN")]
+    pub pattern: Vec<PathBuf>,
+    /// A capture folder of `graycode_NN.png` photographs (as `lucent scan decode` reads) …
+    #[arg(long, value_name = "DIR", conflicts_with = "photo")]
+    pub capture: Option<PathBuf>,
+    /// … and the folder of the `pattern_NN.png` images shown (`lucent scan patterns`).
+    #[arg(long, value_name = "DIR", requires = "capture")]
+    pub patterns: Option<PathBuf>,
+    /// Only these frame numbers of --capture, e.g. `0-39,40,41` [default: all].
+    #[arg(long, value_name = "LIST", requires = "capture")]
+    pub frames: Option<String>,
+    /// Of those frames, only these enter the fit (the others are predicted and compared after
+    /// each step) [default: all].
+    #[arg(long, value_name = "LIST", requires = "capture")]
+    pub fit_frames: Option<String>,
+    /// Another scene and capture of the same materials to predict with the fit (not fitted):
+    /// `SCENE.toml,CAPTURE_DIR`; repeatable; the capture's frames pair with --patterns.
+    #[arg(long, value_name = "SCENE.toml,DIR", requires = "capture")]
+    pub predict: Vec<String>,
+    /// Render width in pixels; the photographs are box-averaged down to it [default: the camera's].
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    pub width: Option<String>,
+    /// Render height in pixels [default: the camera's height × W / its width].
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    pub height: Option<String>,
+    /// Samples per pixel of the check renders and of the basis (two halves of N/2) [default: 16].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub spp: Option<String>,
+    /// Seed of the basis renders: two halves with seeds S and S + 1; the check renders use S + 2 [default: 0].
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub seed: Option<String>,
+    /// Hold a parameter at its start: gain, black_level, gamma, projector, projector_black,
+    /// ambient, color, or a label's name; repeatable [default: projector, or ambient without one].
+    #[arg(long, value_name = "NAME")]
+    pub hold: Vec<String>,
+    /// Fit a white-preserving 3×3 colour matrix in the response step.
+    #[arg(long)]
+    pub color_matrix: bool,
+    /// Starting camera gamma [default: 2.2].
+    #[arg(long, value_name = "G", allow_hyphen_values = true)]
+    pub gamma: Option<String>,
+    /// Starting (or, with --hold gain, known) camera gain [default: 1].
+    #[arg(long, value_name = "G", allow_hyphen_values = true)]
+    pub gain: Option<String>,
+    /// Starting camera black level, in codes of full scale 1 [default: 0].
+    #[arg(long, value_name = "B", allow_hyphen_values = true)]
+    pub black_level: Option<String>,
+    /// Most Levenberg–Marquardt steps per refinement step [default: 30].
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
+    pub max_iterations: Option<String>,
+    /// Fit on every S-th pixel of each row and column [default: 1].
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub stride: Option<String>,
+    /// Folder for fit.json and the images [default: fit-photo]; created if missing.
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
+    /// Print fit.json's summary (params, steps' totals, timing) on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress lines on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomic(path, |tmp| std::fs::write(tmp, text).with_context(|| format!("cannot write {}", tmp.display())))
+}
+
+/// Frame numbers from `0-39,41`.
+fn parse_frames(text: &str) -> Result<Vec<usize>> {
+    let mut out = vec![];
+    for part in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let num = |s: &str| s.trim().parse::<usize>().with_context(|| format!("--frames: `{s}` is not a frame number"));
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (num(a)?, num(b)?);
+                if a > b {
+                    bail!("--frames: range {part} runs backwards");
+                }
+                out.extend(a..=b);
+            }
+            None => out.push(num(part)?),
+        }
+    }
+    if out.is_empty() {
+        bail!("--frames: no frame given");
+    }
+    Ok(out)
+}
+
+/// `graycode_NN.png` (or .jpg) files of a capture folder by frame number.
+fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
+    let rd = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
+    let mut out = vec![];
+    for e in rd {
+        let p = e?.path();
+        let Some(name) = p.file_name().and_then(|n| n.to_str()) else { continue };
+        let Some(rest) = name.strip_prefix("graycode_") else { continue };
+        let Some((num, ext)) = rest.split_once('.') else { continue };
+        if !matches!(ext.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg") {
+            continue;
+        }
+        if let Ok(n) = num.parse::<usize>() {
+            if out.iter().any(|(m, _)| *m == n) {
+                bail!("{}: two files for frame {n}", dir.display());
+            }
+            out.push((n, p));
+        }
+    }
+    if out.is_empty() {
+        bail!("{}: no graycode_NN.png frames", dir.display());
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Pattern `pattern_NN.png` of frame `n` in `dir`.
+fn pattern_path(dir: &Path, n: usize) -> Result<PathBuf> {
+    for name in [format!("pattern_{n:02}.png"), format!("pattern_{n}.png")] {
+        let p = dir.join(name);
+        if p.exists() {
+            return Ok(p);
+        }
+    }
+    bail!("{}: no pattern_{n:02}.png for frame {n}", dir.display())
+}
+
+/// A photograph as codes (1 = full scale), box-averaged down to `w × h` (the photo must be the
+/// camera's size `cam`, an integer multiple of `w × h`). The average is taken of the codes
+/// decoded with the sRGB curve and re-encoded, so that a block straddling an edge averages light
+/// (as a larger sensor pixel would) rather than codes, exactly when the camera's response is the
+/// sRGB curve and approximately otherwise.
+fn read_photo(path: &Path, cam: (u32, u32), w: u32, h: u32) -> Result<Frame> {
+    let img = read_image(path)?;
+    if (img.width, img.height) != cam {
+        bail!("{}: photograph is {}×{} but the scene's camera is calibrated for {}×{}", path.display(), img.width, img.height, cam.0, cam.1);
+    }
+    if img.width % w != 0 || img.height % h != 0 || img.width / w != img.height / h {
+        bail!("{}: photograph {}×{} is not an integer multiple of the render size {w}×{h}", path.display(), img.width, img.height);
+    }
+    let s = img.width / w;
+    let mut codes = vec![[0.0f32; 3]; (w * h) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let mut acc = [0.0f64; 3];
+            for dy in 0..s {
+                for dx in 0..s {
+                    let p = img.get(x * s + dx, y * s + dy);
+                    for c in 0..3 {
+                        acc[c] += p[c] as f64;
+                    }
+                }
+            }
+            codes[(y * w + x) as usize] = acc.map(|v| optics::color::srgb_encode(v / (s * s) as f64) as f32);
+        }
+    }
+    let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("photo").to_string();
+    Ok(Frame { name, codes })
+}
+
+fn read_pattern(path: &Path, size: Option<(u32, u32)>) -> Result<Vec<f32>> {
+    let Some((pw, ph)) = size else { bail!("{}: a pattern was given but the scene has no projector", path.display()) };
+    let (w, h, v) = read_projector_image(path, Response::Srgb)?;
+    if (w, h) != (pw, ph) {
+        bail!("{}: pattern is {w}×{h} but the scene's projector is {pw}×{ph}", path.display());
+    }
+    Ok(v)
+}
+
+fn metrics_json(m: &Metrics) -> Value {
+    json!({"rmse": m.rmse, "rel_rmse": m.rel_rmse, "delta_e2000": m.delta_e2000, "pixels": m.pixels})
+}
+
+fn frames_json(frames: &[FrameMetrics], labels: &[String]) -> Value {
+    Value::Array(
+        frames
+            .iter()
+            .map(|f| {
+                let per: serde_json::Map<String, Value> = labels.iter().zip(&f.per_label).map(|(l, m)| (l.clone(), metrics_json(m))).collect();
+                json!({"name": f.name, "whole": metrics_json(&f.whole), "per_label": per})
+            })
+            .collect(),
+    )
+}
+
+fn codes_to_image(w: u32, h: u32, codes: impl Iterator<Item = [f64; 3]>) -> Image {
+    let rgb = codes.map(|c| c.map(|v| optics::color::srgb_decode(v.clamp(0.0, 1.0)) as f32)).collect();
+    Image { width: w, height: h, rgb }
+}
+
+fn params_json(p: &Params, fit: &PhotoFit, labels: &[String]) -> Value {
+    let se = |i: usize| fit.std_errors[i].map(Value::from).unwrap_or(Value::Null);
+    let mut albedo = serde_json::Map::new();
+    for (k, l) in labels.iter().enumerate() {
+        albedo.insert(l.clone(), json!({"rgb": p.albedo(k), "std_error": [se(3 * k), se(3 * k + 1), se(3 * k + 2)]}));
+    }
+    let g = |i: usize| json!({"value": p.get(i), "std_error": se(p.global(i))});
+    json!({
+        "albedo": albedo,
+        "projector_scale": g(model::PROJECTOR),
+        "projector_black": g(model::PROJECTOR_BLACK),
+        "ambient_scale": g(model::AMBIENT),
+        "black_level": g(model::BLACK_LEVEL),
+        "gain": g(model::GAIN),
+        "gamma": g(model::GAMMA),
+        "color_matrix": p.color_matrix(),
+    })
+}
+
+/// Runs `lucent fit photo`.
+pub fn run(args: Args) -> Result<()> {
+    let t_all = Instant::now();
+    let spp = args.spp.as_deref().map(|t| positive_u64("--spp", t)).transpose()?.unwrap_or(16);
+    let seed = match &args.seed {
+        Some(t) => t.trim().parse::<u64>().with_context(|| format!("--seed must be a whole number ≥ 0, got `{t}`"))?,
+        None => 0,
+    };
+    let max_iterations = args.max_iterations.as_deref().map(|t| positive_u64("--max-iterations", t)).transpose()?.unwrap_or(30) as usize;
+    let stride = args.stride.as_deref().map(|t| positive_u64("--stride", t)).transpose()?.unwrap_or(1) as usize;
+    let num = |name: &str, v: &Option<String>, d: f64| -> Result<f64> { v.as_deref().map(|t| finite_f64(name, t)).transpose().map(|o| o.unwrap_or(d)) };
+    let gamma = num("--gamma", &args.gamma, 2.2)?;
+    if !(0.3..=5.0).contains(&gamma) {
+        bail!("--gamma must lie in [0.3, 5], got {gamma}");
+    }
+    let gain = num("--gain", &args.gain, 1.0)?;
+    if !(gain > 0.0) {
+        bail!("--gain must be > 0, got {gain}");
+    }
+    let black_level = num("--black-level", &args.black_level, 0.0)?;
+    if !(-0.5..=0.5).contains(&black_level) {
+        bail!("--black-level must lie in [-0.5, 0.5], got {black_level}");
+    }
+    let quiet = args.quiet;
+    let say = |s: String| {
+        if !quiet {
+            eprintln!("lucent: {s}");
+        }
+    };
+
+    let mut scene = Scene::load(&args.scene)?;
+    let labels = scene_labels(&scene)?;
+    let label_names: Vec<String> = labels.iter().map(|l| l.name.clone()).collect();
+    let cam = scene.resolution();
+    let width = match &args.width {
+        Some(t) => u32::try_from(positive_u64("--width", t)?).context("--width is too large")?,
+        None => cam.0,
+    };
+    let height = match &args.height {
+        Some(t) => u32::try_from(positive_u64("--height", t)?).context("--height is too large")?,
+        None => ((cam.1 as u64 * width as u64 + cam.0 as u64 / 2) / cam.0 as u64).max(1) as u32,
+    };
+    let psize = projector_size(&scene);
+
+    // Photographs and their patterns.
+    let mut photo_paths: Vec<PathBuf> = vec![];
+    let mut pattern_paths: Vec<Option<PathBuf>> = vec![];
+    let mut frame_numbers: Vec<usize> = vec![];
+    if let Some(dir) = &args.capture {
+        let all = capture_frames(dir)?;
+        let chosen: Vec<(usize, PathBuf)> = match &args.frames {
+            Some(t) => parse_frames(t)?
+                .into_iter()
+                .map(|n| all.iter().find(|(m, _)| *m == n).cloned().with_context(|| format!("{}: no frame {n}", dir.display())))
+                .collect::<Result<_>>()?,
+            None => all,
+        };
+        for (n, p) in chosen {
+            pattern_paths.push(args.patterns.as_ref().map(|pd| pattern_path(pd, n)).transpose()?);
+            photo_paths.push(p);
+            frame_numbers.push(n);
+        }
+    } else {
+        if args.photo.is_empty() {
+            bail!("no photograph: give --photo PHOTO … or --capture DIR --patterns DIR");
+        }
+        if !args.pattern.is_empty() && args.pattern.len() != args.photo.len() {
+            bail!("{} --pattern for {} --photo: give one pattern per photograph, or none", args.pattern.len(), args.photo.len());
+        }
+        photo_paths = args.photo.clone();
+        pattern_paths = (0..photo_paths.len()).map(|i| args.pattern.get(i).cloned()).collect();
+    }
+    let patterns: Vec<Option<Vec<f32>>> = pattern_paths.iter().map(|p| p.as_deref().map(|p| read_pattern(p, psize)).transpose()).collect::<Result<_>>()?;
+    let frames: Vec<Frame> = photo_paths.iter().map(|p| read_photo(p, cam, width, height)).collect::<Result<_>>()?;
+    // Scenes to predict, checked before any rendering.
+    let mut predictions: Vec<(PathBuf, Scene, Vec<Frame>)> = vec![];
+    for spec in &args.predict {
+        let Some((s, d)) = spec.split_once(',') else { bail!("--predict {spec}: expected SCENE.toml,CAPTURE_DIR") };
+        let ps = Scene::load(Path::new(s))?;
+        let pl: Vec<String> = scene_labels(&ps)?.iter().map(|l| l.name.clone()).collect();
+        if pl != label_names {
+            bail!("--predict {s}: labels {pl:?} differ from the fitted scene's {label_names:?}");
+        }
+        if projector_size(&ps) != psize {
+            bail!("--predict {s}: its projector differs in size from the fitted scene's");
+        }
+        let all = capture_frames(Path::new(d))?;
+        let pf: Vec<Frame> = frame_numbers
+            .iter()
+            .map(|n| {
+                let p = all.iter().find(|(m, _)| m == n).map(|(_, p)| p.clone()).with_context(|| format!("--predict {d}: no frame {n}"))?;
+                read_photo(&p, ps.resolution(), width, height)
+            })
+            .collect::<Result<_>>()?;
+        predictions.push((PathBuf::from(d), ps, pf));
+    }
+    let out_dir = args.out_dir.clone().unwrap_or_else(|| PathBuf::from("fit-photo"));
+    std::fs::create_dir_all(&out_dir).with_context(|| format!("--out-dir {}: cannot create", out_dir.display()))?;
+
+    // Basis renders.
+    scene.set_resolution(width, height);
+    let t = Instant::now();
+    say(format!("rendering the basis: {} labels, {} frames, {width}×{height}, {spp} spp", labels.len(), frames.len()));
+    // Two independent halves (seeds S and S + 1, spp / 2 each) for the unbiased cross error.
+    let half = (spp / 2).max(1);
+    let half_a = render_basis(&mut scene, &patterns, half, seed)?;
+    let half_b = render_basis(&mut scene, &patterns, half, seed + 1)?;
+    let basis = average(&half_a, &half_b);
+    let basis_seconds = t.elapsed().as_secs_f64();
+    say(format!("{} basis renders in {basis_seconds:.2} s", basis.render_seconds.len()));
+
+    let mut start = Params::new(&labels.iter().map(|l| l.albedo).collect::<Vec<_>>(), gamma);
+    let (ig, ib) = (start.global(model::GAIN), start.global(model::BLACK_LEVEL));
+    start.x[ig] = gain;
+    start.x[ib] = black_level;
+    let fit_frames = match &args.fit_frames {
+        Some(t) => {
+            let list = parse_frames(t)?;
+            if let Some(n) = list.iter().find(|n| !frame_numbers.contains(n)) {
+                bail!("--fit-frames: frame {n} is not among the frames read");
+            }
+            Some(frame_numbers.iter().map(|n| list.contains(n)).collect())
+        }
+        None => None,
+    };
+    let opts = FitOptions {
+        hold: args.hold.clone(),
+        color_matrix: args.color_matrix,
+        gamma,
+        black_level,
+        gain,
+        max_iterations,
+        stride,
+        fit_frames,
+        ..FitOptions::default()
+    };
+    let result = fit(&basis, Some((&half_a, &half_b)), &frames, &start, &opts)?;
+    drop((half_a, half_b));
+    for s in &result.steps {
+        say(format!(
+            "step {:8}: rel. RMSE {:.5}, RMSE {:.5}, ΔE2000 {:.3} ({} LM steps, {:.2} s)",
+            s.name, s.total.rel_rmse, s.total.rmse, s.total.delta_e2000, s.iterations, s.seconds
+        ));
+    }
+    let p = &result.params;
+
+    // Check: full renders with the fitted values.
+    let t = Instant::now();
+    let (verify, verify_secs) = verify_renders(&mut scene, &labels, p, &patterns, spp, seed + 2)?;
+    let verify_seconds = t.elapsed().as_secs_f64();
+    let verify_metrics: Vec<FrameMetrics> =
+        verify.iter().zip(&frames).map(|(v, f)| frame_metrics(v, f, &result.regions, labels.len(), opts.saturation)).collect();
+    let verify_total = total(&verify_metrics);
+    say(format!("full renders with the fit: rel. RMSE {:.5}, ΔE2000 {:.3} ({:.2} s)", verify_total.rel_rmse, verify_total.delta_e2000, verify_seconds));
+
+    // Images: per frame render | photo | error, and the steps of the first frame.
+    let k = labels.len();
+    for (f, frame) in frames.iter().enumerate() {
+        let render = codes_to_image(width, height, verify[f].iter().cloned());
+        let photo = codes_to_image(width, height, frame.codes.iter().map(|c| c.map(|v| v as f64)));
+        let mask = Mask {
+            width,
+            height,
+            inside: (0..frame.codes.len()).map(|i| result.regions[i] >= 0 && frame.codes[i].iter().all(|&v| (v as f64) < opts.saturation)).collect(),
+        };
+        let err = match compare(&render, &photo, Some(&mask), false) {
+            Ok(c) => error_image(&c, 10.0),
+            Err(_) => Image::new(width, height),
+        };
+        write_image(&out_dir.join(format!("{}_render.png", frame.name)), &render, 0.0)?;
+        write_image(&out_dir.join(format!("{}_photo.png", frame.name)), &photo, 0.0)?;
+        write_image(&out_dir.join(format!("{}_error.png", frame.name)), &err, 0.0)?;
+        write_image(&out_dir.join(format!("{}_panel.png", frame.name)), &side_by_side(&[&photo, &render, &err]), 0.0)?;
+    }
+    if let Some(frame) = frames.first() {
+        let mut row: Vec<Image> = result
+            .steps
+            .iter()
+            .map(|s| codes_to_image(width, height, analysis::photo_fit::predict(&basis, &s.params, 0).into_iter()))
+            .collect();
+        row.push(codes_to_image(width, height, frame.codes.iter().map(|c| c.map(|v| v as f64))));
+        write_image(&out_dir.join(format!("{}_steps.png", frame.name)), &side_by_side(&row.iter().collect::<Vec<_>>()), 0.0)?;
+    }
+
+    // Predictions of other captures.
+    let mut predicted = vec![];
+    for (dir, ps, pf) in predictions.iter_mut() {
+        ps.set_resolution(width, height);
+        let pl = scene_labels(ps)?;
+        let t = Instant::now();
+        let (pred, _) = verify_renders(ps, &pl, p, &patterns, spp, seed + 2)?;
+        // Regions of that scene: from a basis-free rule, the pixels a label's surface covers.
+        let pbasis = render_basis(ps, &[], 1, seed)?;
+        let regions = analysis::photo_fit::regions(&pbasis);
+        let m: Vec<FrameMetrics> = pred.iter().zip(pf.iter()).map(|(v, f)| frame_metrics(v, f, &regions, k, opts.saturation)).collect();
+        let tot = total(&m);
+        say(format!("predicted {}: rel. RMSE {:.5}, ΔE2000 {:.3} ({:.2} s)", dir.display(), tot.rel_rmse, tot.delta_e2000, t.elapsed().as_secs_f64()));
+        let stem = dir.file_name().and_then(|s| s.to_str()).unwrap_or("predict").to_string();
+        if let Some(f0) = pf.first() {
+            let render = codes_to_image(width, height, pred[0].iter().cloned());
+            let photo = codes_to_image(width, height, f0.codes.iter().map(|c| c.map(|v| v as f64)));
+            write_image(&out_dir.join(format!("predict_{stem}_{}_panel.png", f0.name)), &side_by_side(&[&photo, &render]), 0.0)?;
+        }
+        predicted.push(json!({"capture": dir.display().to_string(), "total": metrics_json(&tot), "frames": frames_json(&m, &label_names)}));
+    }
+
+    let steps: Vec<Value> = result
+        .steps
+        .iter()
+        .map(|s| {
+            json!({
+                "name": s.name, "fitted": s.fitted, "iterations": s.iterations, "seconds": s.seconds,
+                "total": metrics_json(&s.total), "frames": frames_json(&s.frames, &label_names),
+                "params": params_json(&s.params, &result, &label_names),
+            })
+        })
+        .collect();
+    let timing = json!({
+        "basis_renders": basis.render_seconds.len(),
+        "basis_render_seconds": basis.render_seconds,
+        "basis_seconds": basis_seconds,
+        "fit_seconds": result.seconds,
+        "verify_render_seconds": verify_secs,
+        "total_seconds": t_all.elapsed().as_secs_f64(),
+    });
+    let summary = json!({
+        "params": params_json(p, &result, &label_names),
+        "steps": result.steps.iter().map(|s| json!({"name": s.name, "total": metrics_json(&s.total)})).collect::<Vec<_>>(),
+        "verify": metrics_json(&verify_total),
+        "predict": predicted.iter().map(|v| json!({"capture": v["capture"], "total": v["total"]})).collect::<Vec<_>>(),
+        "timing": timing,
+    });
+    let full = json!({
+        "scene": args.scene.display().to_string(),
+        "width": width, "height": height, "spp": spp, "seed": seed,
+        "labels": label_names,
+        "hold": if args.hold.is_empty() { vec![if psize.is_some() { "projector".to_string() } else { "ambient".to_string() }] } else { args.hold.clone() },
+        "residual_variance": result.residual_variance,
+        "params": summary["params"], "steps": steps,
+        "verify": {"total": metrics_json(&verify_total), "frames": frames_json(&verify_metrics, &label_names)},
+        "predict": predicted, "timing": summary["timing"],
+    });
+    write_text(&out_dir.join("fit.json"), &(serde_json::to_string_pretty(&full)? + "\n"))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        for (k, l) in label_names.iter().enumerate() {
+            let a = p.albedo(k);
+            println!("{l}: albedo {:.4} {:.4} {:.4}", a[0], a[1], a[2]);
+        }
+        for g in [model::PROJECTOR, model::PROJECTOR_BLACK, model::AMBIENT, model::BLACK_LEVEL, model::GAIN, model::GAMMA] {
+            println!("{}: {:.5}", model::GLOBAL_NAMES[g], p.get(g));
+        }
+        println!("rel. RMSE {:.5} -> {:.5}; outputs in {}", result.steps[0].total.rel_rmse, verify_total.rel_rmse, out_dir.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,57 @@
+//! `lucent fit photo` on bad input: one line naming the file or option, exit status ≠ 0.
+
+use super::common::{run, Scratch};
+use render::image_io::{write_image, Image};
+
+const SCENE: &str = r#"
+[camera]
+eye = [0, 0, 0]
+look_at = [0, 0, 1]
+vfov_deg = 40
+width = 16
+height = 12
+
+[materials.label0]
+type = "lambertian"
+albedo = 0.5
+
+[[objects]]
+name = "wall"
+material = "label0"
+quad = [[-2, -2, 3], [2, -2, 3], [2, 2, 3], [-2, 2, 3]]
+
+[[lights]]
+type = "environment"
+radiance = 0.2
+"#;
+
+fn setup(photo_w: u32, photo_h: u32) -> Scratch {
+    let dir = Scratch::new("fit-photo");
+    std::fs::write(dir.path("scene.toml"), SCENE).unwrap();
+    std::fs::write(dir.path("nolabel.toml"), SCENE.replace("label0", "paint")).unwrap();
+    let img = Image { width: photo_w, height: photo_h, rgb: vec![[0.1; 3]; (photo_w * photo_h) as usize] };
+    write_image(&dir.path("photo.png"), &img, 0.0).unwrap();
+    dir
+}
+
+fn fails_with(dir: &Scratch, args: &[&str], needle: &str) {
+    let out = run(&dir.0, args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert_eq!(err.trim().lines().count(), 1, "not one line: {err}");
+    assert!(err.contains(needle), "{args:?}: {err} lacks `{needle}`");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn fit_photo_refuses_bad_input_with_one_line() {
+    let dir = setup(32, 24);
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "-q"], "calibrated for 16×12");
+    let dir = setup(16, 12);
+    fails_with(&dir, &["fit", "photo", "nolabel.toml", "--photo", "photo.png", "-q"], "no material named label*");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--hold", "colour", "-q"], "--hold colour: unknown");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--hold", "gain", "-q"], "the fit needs a scale");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--width", "5", "-q"], "not an integer multiple");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--pattern", "photo.png", "-q"], "the scene has no projector");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "-q"], "no photograph");
+}
