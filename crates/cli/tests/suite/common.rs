@@ -39,3 +39,20 @@ impl Drop for Scratch {
 pub fn run(dir: &Path, args: &[&str]) -> Output {
     lucent().current_dir(dir).args(args).output().expect("cannot start lucent")
 }
+
+/// `lucent ARGS` must succeed; its stdout parsed as JSON.
+pub fn ok_json(args: &[&str]) -> serde_json::Value {
+    let out = lucent().args(args).output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", String::from_utf8_lossy(&out.stdout)))
+}
+
+/// `lucent ARGS` must fail with exit ≠ 0, one line on stderr and no panic; returns that line.
+pub fn fails_on_one_line(args: &[&str]) -> String {
+    let out = lucent().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}

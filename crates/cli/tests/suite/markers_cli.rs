@@ -4,23 +4,7 @@
 
 use scan::markers::synth::MarkerScene;
 
-use crate::common::{lucent, Scratch};
-
-fn ok_json(args: &[&str]) -> serde_json::Value {
-    let out = lucent().args(args).output().unwrap();
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", String::from_utf8_lossy(&out.stdout)))
-}
-
-/// Fails with exit ≠ 0 and one line on stderr; returns that line.
-fn fails_on_one_line(args: &[&str]) -> String {
-    let out = lucent().args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "{args:?} succeeded");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    err
-}
+use crate::common::{fails_on_one_line, ok_json, Scratch};
 
 /// The scene's two photographs, calibration and model in `s`.
 fn write_inputs(s: &Scratch, sc: &MarkerScene) {

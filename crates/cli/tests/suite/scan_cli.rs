@@ -4,26 +4,10 @@ use std::path::{Path, PathBuf};
 
 use render::image_io::read_image;
 
-use crate::common::{lucent, Scratch};
+use crate::common::{fails_on_one_line, lucent, ok_json, Scratch};
 
 fn sample_capture(i: usize) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../../shared/data/structured-light/procam-sample/capture_{i}"))
-}
-
-fn ok_json(args: &[&str]) -> serde_json::Value {
-    let out = lucent().args(args).output().unwrap();
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", String::from_utf8_lossy(&out.stdout)))
-}
-
-/// Fails with exit ≠ 0 and one line on stderr; returns that line.
-fn fails_on_one_line(args: &[&str]) -> String {
-    let out = lucent().args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "{args:?} succeeded");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    err
 }
 
 /// The patterns of a small projector written by `scan patterns`, renamed as a capture, decode to

@@ -5,7 +5,7 @@ use render::image_io::{write_image, Image};
 use render::shape::mesh::parse_ply;
 use scan::calib::{DeviceCalibration, ProcamCalibration};
 
-use crate::common::{lucent, Scratch};
+use crate::common::{fails_on_one_line, lucent, Scratch};
 
 fn calibration(w: u32, h: u32) -> ProcamCalibration {
     let dev = |width, height, f: f64| DeviceCalibration { width, height, fx: f, fy: f, cx: width as f64 / 2.0 - 0.5, cy: height as f64 / 2.0 - 0.5, distortion: vec![-0.05, 0.0, 0.0, 0.0, 0.0], rms_px: 0.0 };
@@ -37,15 +37,6 @@ fn inputs(name: &str) -> Inputs {
     write_image(&s.path("photo.png"), &Image { width: 64, height: 48, rgb }, 0.0).unwrap();
     std::fs::write(s.path("mesh.ply"), quad_ply(10.0)).unwrap();
     Inputs { s }
-}
-
-fn fails_on_one_line(args: &[&str]) -> String {
-    let out = lucent().args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "{args:?} succeeded");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    err
 }
 
 /// Two colour halves of a photo give two labels; the labelled PLY carries an `int label` per
