@@ -1,4 +1,4 @@
-//! Render the standard synthetic structured-light set (`scan::synth`): six board poses, a
+//! Render the standard synthetic structured-light set (`scan::synth`): ten board poses, a
 //! sphere and the bunny, as `graycode_NN.png` folders with `truth.json` and `calibration.json`.
 //!
 //! `cargo run --release -p scan --example synth_set -- OUT_DIR [SPP] [--ambient-spp N] [--full] [--only NAME,…]`

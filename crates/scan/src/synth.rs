@@ -657,7 +657,8 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     render::image_io::write_atomic(path, |tmp| std::fs::write(tmp, text.as_bytes()).with_context(|| format!("writing {}", path.display())))
 }
 
-/// The standard targets: six board poses (`board_0` … `board_5`), a 70-mm sphere and the bunny
+/// The standard targets: ten board poses (`board_0` … `board_5` in the middle of the images,
+/// `board_6` … `board_9` shifted towards their four corners), a 70-mm sphere and the bunny
 /// `mesh` scaled to about 135 mm tall, all 440–520 mm in front of the camera.
 pub fn standard_targets(mesh: &Path) -> Result<Vec<(String, Target)>> {
     let b = Board::standard();
@@ -674,6 +675,10 @@ pub fn standard_targets(mesh: &Path) -> Result<Vec<(String, Target)>> {
         ("board_3".to_string(), pose([0.08, -0.40, -0.05], [-5.0, 0.0, 460.0])),
         ("board_4".to_string(), pose([-0.22, -0.30, 0.12], [0.0, 8.0, 520.0])),
         ("board_5".to_string(), pose([0.25, 0.35, -0.10], [0.0, 0.0, 450.0])),
+        ("board_6".to_string(), pose([0.10, 0.30, 0.05], [48.0, 28.0, 480.0])),
+        ("board_7".to_string(), pose([-0.15, -0.30, -0.06], [-48.0, -28.0, 480.0])),
+        ("board_8".to_string(), pose([0.30, -0.10, 0.10], [48.0, -28.0, 480.0])),
+        ("board_9".to_string(), pose([-0.30, 0.12, -0.08], [-48.0, 28.0, 480.0])),
     ];
     v.push(("sphere".to_string(), Target::Sphere { centre_mm: [0.0, 0.0, 440.0], radius_mm: 70.0, albedo: 0.8 }));
     v.push(("bunny".to_string(), Target::Mesh { path: mesh.to_path_buf(), matrix: bunny_matrix(mesh)?, albedo: 0.8 }));
