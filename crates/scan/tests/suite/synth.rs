@@ -517,13 +517,13 @@ fn round_trip() {
     assert!(fails.is_empty(), "round trip misses: {fails:#?}");
 }
 
-/// The scan targets the round trip does not reach at 4 samples per pixel: the sphere's RMS
-/// distance to its fit ≤ 0.1 % of the radius (measured 0.23 %: the refined decoding errs by 0.26
-/// projector pixels RMS, from each pixel's 4 random samples locating the stripe edges; 0.16 px at
-/// 16 spp), and the bunny's median distance to the true mesh through the recovered calibration
-/// ≤ 0.1 % of its diagonal (measured 0.091 % with ten boards; 0.049 % through the true calibration).
+/// The scan targets: the sphere's RMS distance to its fit ≤ 0.1 % of the radius (0.094 % with the
+/// sphere's frames at 64 samples per pixel; 0.23 % at 4, where the refined decoding errs by 0.26
+/// projector pixels RMS from each pixel's 4 random samples locating the stripe edges), and the
+/// bunny's median distance to the true mesh through the recovered calibration ≤ 0.1 % of its
+/// diagonal (0.091 % with ten boards; 0.049 % through the true calibration).
 #[test]
-#[ignore = "misses the sphere's spread on the 4-spp full-size set (0.23 % of r; the bunny passes at 0.091 %); needs LUCENT_SYNTH_SET"]
+#[ignore = "needs the full-size set with the sphere rendered at 64 spp (docs/scanning.md, Synthetic round trip: 0.094 % of r; 0.23 % at 4 spp); LUCENT_SYNTH_SET=DIR"]
 fn round_trip_scan_targets() {
     let set = full_set();
     let cal = calibrate_set(set);
