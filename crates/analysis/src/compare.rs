@@ -185,29 +185,7 @@ pub fn luminance(rgb: [f64; 3]) -> f64 {
     LINEAR_SRGB_TO_XYZ[1][0] * rgb[0] + LINEAR_SRGB_TO_XYZ[1][1] * rgb[1] + LINEAR_SRGB_TO_XYZ[1][2] * rgb[2]
 }
 
-/// Linear sRGB (D65) → CIE 1976 L*a*b* relative to the D65 white of Y = 1 (RGB (1,1,1) ↦ L* = 100).
-pub fn linear_srgb_to_lab(rgb: [f64; 3]) -> [f64; 3] {
-    let m = &LINEAR_SRGB_TO_XYZ;
-    let xyz: [f64; 3] = std::array::from_fn(|r| m[r][0] * rgb[0] + m[r][1] * rgb[1] + m[r][2] * rgb[2]);
-    let white: [f64; 3] = std::array::from_fn(|r| m[r][0] + m[r][1] + m[r][2]);
-    xyz_to_lab(xyz, white)
-}
-
-/// CIE XYZ → CIE 1976 L*a*b* relative to `white_xyz` (CIE 15:2004 formulas).
-pub fn xyz_to_lab(xyz: [f64; 3], white_xyz: [f64; 3]) -> [f64; 3] {
-    const DELTA: f64 = 6.0 / 29.0;
-    let f = |t: f64| {
-        if t > DELTA * DELTA * DELTA {
-            t.cbrt()
-        } else {
-            t / (3.0 * DELTA * DELTA) + 4.0 / 29.0
-        }
-    };
-    let fx = f(xyz[0] / white_xyz[0]);
-    let fy = f(xyz[1] / white_xyz[1]);
-    let fz = f(xyz[2] / white_xyz[2]);
-    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
-}
+pub use optics::color::{linear_srgb_to_lab, xyz_to_lab};
 
 /// CIEDE2000 colour difference ΔE00 of two L*a*b* colours with kL = kC = kH = 1
 /// (CIE 142-2001; implementation notes of Sharma, Wu & Dalal, Color Res. Appl. 30, 21–30, 2005:

@@ -55,12 +55,12 @@ fn candidates() -> Vec<String> {
             return vec![p];
         }
     }
-    let ext = if cfg!(target_os = "macos") { "dylib" } else { "so" };
-    if ext == "dylib" {
-        vec!["libOpenImageDenoise.2.dylib".into(), "libOpenImageDenoise.1.dylib".into(), "libOpenImageDenoise.dylib".into()]
+    let names: [&str; 3] = if cfg!(target_os = "macos") {
+        ["libOpenImageDenoise.2.dylib", "libOpenImageDenoise.1.dylib", "libOpenImageDenoise.dylib"]
     } else {
-        vec!["libOpenImageDenoise.so.2".into(), "libOpenImageDenoise.so.1".into(), "libOpenImageDenoise.so".into()]
-    }
+        ["libOpenImageDenoise.so.2", "libOpenImageDenoise.so.1", "libOpenImageDenoise.so"]
+    };
+    names.map(String::from).to_vec()
 }
 
 fn last_dl_error() -> String {

@@ -144,6 +144,30 @@ pub fn linear_srgb_to_xyz(rgb: [f64; 3]) -> [f64; 3] {
     mul3(SRGB_TO_XYZ, rgb)
 }
 
+/// Linear sRGB (D65) → CIE 1976 L*a*b* relative to the D65 white of Y = 1 (RGB (1,1,1) ↦ L* = 100).
+pub fn linear_srgb_to_lab(rgb: [f64; 3]) -> [f64; 3] {
+    let m = &SRGB_TO_XYZ;
+    let xyz: [f64; 3] = std::array::from_fn(|r| m[r][0] * rgb[0] + m[r][1] * rgb[1] + m[r][2] * rgb[2]);
+    let white: [f64; 3] = std::array::from_fn(|r| m[r][0] + m[r][1] + m[r][2]);
+    xyz_to_lab(xyz, white)
+}
+
+/// CIE XYZ → CIE 1976 L*a*b* relative to `white_xyz` (CIE 15:2004 formulas).
+pub fn xyz_to_lab(xyz: [f64; 3], white_xyz: [f64; 3]) -> [f64; 3] {
+    const DELTA: f64 = 6.0 / 29.0;
+    let f = |t: f64| {
+        if t > DELTA * DELTA * DELTA {
+            t.cbrt()
+        } else {
+            t / (3.0 * DELTA * DELTA) + 4.0 / 29.0
+        }
+    };
+    let fx = f(xyz[0] / white_xyz[0]);
+    let fy = f(xyz[1] / white_xyz[1]);
+    let fz = f(xyz[2] / white_xyz[2]);
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
 /// Chromaticity (x, y) = (X, Y)/(X + Y + Z); (0, 0) for black.
 pub fn xyz_to_xy(xyz: [f64; 3]) -> [f64; 2] {
     let s = xyz[0] + xyz[1] + xyz[2];

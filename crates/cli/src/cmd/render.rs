@@ -260,10 +260,9 @@ pub(crate) fn check_denoise(denoise: bool) -> Result<()> {
 
 /// `--denoise` needs the albedo and normal AOVs as guides: the layout with them added.
 pub(crate) fn with_denoise_guides(layout: Option<FilmLayout>) -> FilmLayout {
-    let layout = layout.unwrap_or_default();
-    let mut aovs = layout.aovs.clone();
+    let FilmLayout { mut aovs, bins } = layout.unwrap_or_default();
     aovs.extend([Aov::Albedo, Aov::Normal]);
-    FilmLayout::new(aovs, layout.bins.clone())
+    FilmLayout::new(aovs, bins)
 }
 
 /// The denoised image when `--denoise` is on (a build with the `denoise` feature).
@@ -566,10 +565,7 @@ pub fn run(args: Args) -> Result<()> {
     // ---- Save: checkpoint first (the work, written by the job), then the images, even if the
     // checkpoint failed. ----
     let denoised = denoised_image(args.denoise, &film);
-    let written = match &denoised {
-        Ok(d) => write_outputs_with(&film, d.as_ref(), &outs, exposure),
-        Err(e) => Err(anyhow::anyhow!("{e:#}")),
-    };
+    let written = denoised.and_then(|d| write_outputs_with(&film, d.as_ref(), &outs, exposure));
     let stopped_by_page = preview.stop_requested() && !ctrl_c.load(Ordering::SeqCst);
     let end = match (was_interrupted, stopped_by_page) {
         (false, _) => preview::End::Finished,

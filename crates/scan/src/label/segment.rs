@@ -387,15 +387,6 @@ pub fn watershed(gradient: &[f32], w: usize, h: usize, markers: &[i32]) -> Vec<i
     lab
 }
 
-/// CIE L*a*b* (D65 white) of linear sRGB.
-pub fn lab(rgb: [f64; 3]) -> [f64; 3] {
-    let xyz = optics::color::linear_srgb_to_xyz(rgb);
-    let white = optics::color::linear_srgb_to_xyz([1.0, 1.0, 1.0]);
-    let f = |t: f64| if t > (6.0f64 / 29.0).powi(3) { t.cbrt() } else { t / (3.0 * (6.0f64 / 29.0).powi(2)) + 4.0 / 29.0 };
-    let (fx, fy, fz) = (f(xyz[0] / white[0]), f(xyz[1] / white[1]), f(xyz[2] / white[2]));
-    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
-}
-
 fn d2(a: [f64; 3], b: [f64; 3]) -> f64 {
     (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)
 }
@@ -513,7 +504,7 @@ pub fn segment_with_barriers(photo: &Photo, opts: &SegmentOptions, barrier: Opti
         }
     }
     let mean: Vec<[f64; 3]> = sum.iter().zip(&count).map(|(s, &c)| s.map(|v| v / c.max(1) as f64)).collect();
-    let points: Vec<[f64; 3]> = mean.iter().map(|&m| lab(m)).collect();
+    let points: Vec<[f64; 3]> = mean.iter().map(|&m| optics::color::linear_srgb_to_lab(m)).collect();
     let weights: Vec<f64> = count.iter().map(|&c| c as f64).collect();
     let assign = match opts.labels {
         Some(k) => kmeans(&points, &weights, k).0,
