@@ -32,7 +32,7 @@ checks the radiance scale.
     # Mitsuba 3.9.1 with an LLVM backend (Debian's LLVM 14/15 aborts the JIT; Rust's works)
     export DRJIT_LIBLLVM_PATH=$(ls ~/.rustup/toolchains/stable-*/lib/libLLVM.so.*)
     /tmp/pyvenv/bin/python benches-peers/mitsuba_milk_sphere.py [--lucent target/release/lucent]
-        [--spp 64] [--mitsuba-spp 4096] [--exact-mitsuba-spp 16] [--threads 2] [--variant llvm_ad_spectral]
+        [--spp 64] [--mitsuba-spp 256] [--exact-mitsuba-spp 4] [--threads 2] [--variant llvm_ad_spectral]
         [--mitsuba-rr-depth 5] [--no-similarity] [--save DIR] [--json]
     python3 benches-peers/mitsuba_milk_sphere.py --write-table   # regenerate the medium table
 """
@@ -229,7 +229,7 @@ def mitsuba_runs(variant, desc, table, spp, threads, seeds, rr_depth, save):
     imgs, cpu, wall = [], [], []
     for s in seeds:
         t0, c0 = time.perf_counter(), self_cpu()
-        img = mi.render(scene, seed=s)
+        img = mi.render(scene, seed=s, spp=spp)  # spp given again: the warm-up's spp=1 sticks to the sampler
         dr.eval(img)
         dr.sync_thread()
         wall.append(time.perf_counter() - t0)
@@ -273,11 +273,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lucent", help="lucent binary (default: $LUCENT, else target/release/lucent)")
     ap.add_argument("--spp", type=int, default=64, help="lucent samples per pixel per render")
-    ap.add_argument("--mitsuba-spp", type=int, default=4096)
+    ap.add_argument("--mitsuba-spp", type=int, default=256)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--variant", default="llvm_ad_spectral")
     ap.add_argument("--mitsuba-rr-depth", type=int, default=5)
-    ap.add_argument("--exact-mitsuba-spp", type=int, default=16,
+    ap.add_argument("--exact-mitsuba-spp", type=int, default=4,
                     help="spp of the Mitsuba reference without Russian roulette (rr_depth = 10^9) that checks the "
                          "mean; 0 skips it")
     ap.add_argument("--seeds", default="1,2", help="two seeds, comma-separated")

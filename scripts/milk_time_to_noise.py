@@ -2,7 +2,7 @@
 """Time to noise of the three milks of scenes/milk-glass.toml at its full size (480x240).
 
 usage (from the repository root; python3 with numpy, e.g. /tmp/pyvenv/bin/python):
-    scripts/milk_time_to_noise.py [--spp 4,8,16] [--threads 2] [--lucent BIN] [--scene FILE]
+    scripts/milk_time_to_noise.py [--spp 4,16,64] [--threads 2] [--lucent BIN] [--scene FILE]
         [--similarity] [--save DIR] [--json]
 
 1. Masks. The scene is rewritten three times with one milk body made an emitter of constant
@@ -20,7 +20,9 @@ usage (from the repository root; python3 with numpy, e.g. /tmp/pyvenv/bin/python
    * cpu_to_5pct: the CPU seconds for one render to reach noise 0.05, extrapolated from this
      point with noise ~ 1/sqrt(CPU) (an extrapolation, not a measurement).
 With --similarity every milk medium gets `similarity = true` (the opt-in approximation).
-LUCENT=BIN works like --lucent. Outputs are read from a temporary folder (kept with --save).
+LUCENT=BIN works like --lucent. Outputs are read from a temporary folder (kept with --save,
+which also writes masks.png: the first render (gamma 2.2) with each body's mask tinted red, green,
+blue in the order of the scene's objects).
 """
 
 import argparse
@@ -116,6 +118,23 @@ def read_pfm(path):
     return a[::-1].astype(np.float64)
 
 
+def write_png(path, rgb):
+    """8-bit RGB PNG (stdlib zlib), written to a temporary name and renamed."""
+    import struct
+    import zlib
+    a = (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+    h, w, _ = a.shape
+    raw = b"".join(b"\x00" + a[y].tobytes() for y in range(h))
+
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+
+    with open(path + ".tmp", "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+                chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+    os.replace(path + ".tmp", path)
+
+
 def child_cpu():
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
@@ -128,13 +147,14 @@ def render(lucent, scene, out, args):
     wall, cpu = time.perf_counter() - t0, child_cpu() - c0
     if r.returncode != 0:
         sys.exit(f"{' '.join(cmd)}: {r.stderr.strip()}")
-    return read_pfm(out) @ LUMA, cpu, wall
+    rgb = read_pfm(out)
+    return rgb @ LUMA, cpu, wall, rgb
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default=os.path.join(ROOT, "scenes", "milk-glass.toml"))
-    ap.add_argument("--spp", default="4,8,16", help="comma-separated sample counts")
+    ap.add_argument("--spp", default="4,16,64", help="comma-separated sample counts")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--lucent", default=os.environ.get("LUCENT", os.path.join(ROOT, "target", "release", "lucent")))
     ap.add_argument("--similarity", action="store_true", help="similarity = true on every milk medium")
@@ -161,7 +181,7 @@ def main():
         sc = os.path.join(work, f"mask-{b}.toml")
         with open(sc, "w") as f:
             f.write(toml_dump(mask_scene(desc, b)))
-        y, _, _ = render(a.lucent, sc, os.path.join(work, f"mask-{b}.pfm"), ["--spp", "16", "--seed", "7",
+        y, _, _, _ = render(a.lucent, sc, os.path.join(work, f"mask-{b}.pfm"), ["--spp", "16", "--seed", "7",
                                                                           "--threads", str(a.threads)])
         ys[b] = y
     masks = {}
@@ -175,8 +195,13 @@ def main():
     for spp in spps:
         ys, cpus, walls = [], [], []
         for seed in (1, 2):
-            y, cpu, wall = render(a.lucent, sc, os.path.join(work, f"render-{spp}spp-seed{seed}.pfm"),
-                                  ["--spp", str(spp), "--seed", str(seed), "--threads", str(a.threads)])
+            y, cpu, wall, rgb = render(a.lucent, sc, os.path.join(work, f"render-{spp}spp-seed{seed}.pfm"),
+                                       ["--spp", str(spp), "--seed", str(seed), "--threads", str(a.threads)])
+            if a.save and spp == spps[0] and seed == 1:
+                over = np.clip(rgb, 0, 1) ** (1 / 2.2)
+                for k, b in enumerate(bodies):
+                    over[masks[b]] = 0.5 * over[masks[b]] + 0.5 * np.eye(3)[k % 3]
+                write_png(os.path.join(work, "masks.png"), over)
             ys.append(y)
             cpus.append(cpu)
             walls.append(wall)
