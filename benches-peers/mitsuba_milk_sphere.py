@@ -290,9 +290,14 @@ def main():
     lucent = lucent_binary(a.lucent)
     if a.write_table:
         return write_table(lucent)
-    seeds = [int(s) for s in a.seeds.split(",")]
-    if len(seeds) != 2:
-        sys.exit("--seeds: give exactly two seeds, e.g. 1,2")
+    try:
+        seeds = [int(s) for s in a.seeds.split(",")]
+    except ValueError:
+        seeds = []
+    if len(seeds) != 2 or seeds[0] == seeds[1]:
+        sys.exit(f"--seeds: expected two different integer seeds, e.g. 1,2, got {a.seeds!r}")
+    if not os.access(lucent, os.X_OK):
+        sys.exit(f"{lucent}: not an executable lucent (build it with `cargo build --release -p lucent`)")
     with open(SCENE, "rb") as f:
         desc = tomllib.load(f)
     table = read_table()

@@ -80,8 +80,11 @@ def toml_dump(desc):
 
 
 def load_scene(path):
-    with open(path, "rb") as f:
-        desc = tomllib.load(f)
+    try:
+        with open(path, "rb") as f:
+            desc = tomllib.load(f)
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        sys.exit(f"{path}: {e}")
     base = os.path.dirname(os.path.abspath(path))
     for o in desc.get("objects", []):  # the rewritten scenes live elsewhere: absolute mesh paths
         if "mesh" in o:
@@ -93,7 +96,10 @@ def load_scene(path):
 
 
 def milk_bodies(desc):
-    return [o["name"] for o in desc["objects"] if "medium" in o]
+    names = [o.get("name") for o in desc["objects"] if "medium" in o]
+    if None in names:
+        sys.exit("scene: every object with a medium needs a `name` (its mask render makes it a light)")
+    return names
 
 
 def mask_scene(desc, body):
@@ -102,9 +108,9 @@ def mask_scene(desc, body):
     d["materials"]["mask_black"] = {"type": "black"}
     glass = {n for n, m in d["materials"].items() if m.get("type") in ("dielectric", "rough_dielectric")}
     for o in d["objects"]:
-        o.pop("medium", None)
-        if "medium" in next(x for x in desc["objects"] if x["name"] == o["name"]) or o["material"] not in glass:
+        if "medium" in o or o["material"] not in glass:
             o["material"] = "mask_black"
+        o.pop("medium", None)
     d["lights"] = [{"type": "area", "object": body, "radiance": 1.0, "two_sided": True}]
     return d
 
@@ -161,7 +167,13 @@ def main():
     ap.add_argument("--save", help="keep the scenes and images in this folder")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
-    spps = [int(s) for s in a.spp.split(",")]
+    try:
+        spps = [int(s) for s in a.spp.split(",")]
+        assert all(n > 0 for n in spps)
+    except (ValueError, AssertionError):
+        sys.exit(f"--spp: expected positive integers separated by commas, got {a.spp!r}")
+    if not os.access(a.lucent, os.X_OK):
+        sys.exit(f"{a.lucent}: not an executable lucent (build it with `cargo build --release -p lucent`)")
     desc = load_scene(a.scene)
     bodies = milk_bodies(desc)
     if not bodies:
