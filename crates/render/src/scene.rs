@@ -46,6 +46,9 @@ pub struct Scene {
     /// Per medium, the free-flight distance bounds over its bounding objects (`volpath` skips ray
     /// casts for collisions closer than them); `None` for the global medium and pure absorbers.
     pub medium_grids: Vec<Option<crate::medium::FreeFlightGrid>>,
+    /// Area lights as `volpath` aims at them through a smooth dielectric boundary from inside a
+    /// medium ([`crate::light::refracted`]); `None` when off or when no light qualifies.
+    pub refracted_lights: Option<crate::light::refracted::RefractedLights>,
     /// Index into `media` of the medium filling space outside every medium-bounding object
     /// (the camera's medium), if any.
     pub global_medium: Option<u32>,

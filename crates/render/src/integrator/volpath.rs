@@ -45,6 +45,18 @@
 //! Media that do not scatter at any wavelength (pure absorbers) are not sampled at all: the
 //! Beer–Lambert transmittance e^{−σ_a t} multiplies the throughput deterministically.
 //!
+//! Refraction guiding: inside a medium whose boundary is a smooth dielectric, next-event
+//! estimation is blocked, and light is found only by directions that leave towards a light by
+//! chance. At a collision within a few mean free paths of the boundary (a probe ray towards the
+//! lights finds where it leaves), the new direction is drawn from a defensive mixture of the phase
+//! function and [`crate::light::refracted`]'s proposal — towards a point on an area light,
+//! refracted through the tangent plane of the boundary there — with probability
+//! α = α_max e^{−σ_t d} for the proposal (d: distance to the plane; α_max is the scene's
+//! `refraction_guiding`, 0 turns it off). The path then goes on as any other: the real boundary
+//! is traced (with its Fresnel choice of reflection or refraction) and an emitter it reaches is
+//! counted with weight 1, so the plane only shapes the variance. The direction's weight is
+//! p_j/m₀ with mixture density m_j = (1 − α_j) p_j + α_j q, and its spectral-MIS ratio m_j/m₀.
+//!
 //! Next-event estimation at surface and medium vertices: one light sample; the shadow ray passes
 //! index-matched boundaries, switching media and accumulating the transmittance of every medium
 //! it crosses; any other surface (including dielectric boundaries, as in pbrt) blocks it. From
@@ -64,6 +76,7 @@ use crate::interaction::{offset_origin, shadow_t_max};
 use crate::material::Material;
 use crate::medium::{HomogeneousMedium, MediumLanes};
 use crate::interaction::Shading;
+use crate::light::refracted::{RefractedLights, RefractingPlane};
 use crate::math::sampling::{power_heuristic, Pcg32};
 use crate::scene::Scene;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
@@ -140,6 +153,17 @@ fn mis_divisor(r_u: Vec4, wl: &SampledWavelengths) -> f32 {
 #[inline]
 fn spectral_balance(r_u: Vec4, r_l: Vec4, light_pdf: f32, wl: &SampledWavelengths) -> f32 {
     let d = mis_divisor(r_u + r_l * light_pdf, wl);
+    if !(d > 0.0) || !d.is_finite() {
+        return 0.0;
+    }
+    mis_divisor(r_u, wl) / d
+}
+
+/// [`spectral_balance`] with a light-technique density that differs between the lanes (had lane
+/// j been the hero, the technique would have had density `lp[j]`).
+#[inline]
+fn spectral_balance_lanes(r_u: Vec4, r_l: Vec4, lp: Vec4, wl: &SampledWavelengths) -> f32 {
+    let d = mis_divisor(r_u + r_l * lp, wl);
     if !(d > 0.0) || !d.is_finite() {
         return 0.0;
     }
@@ -230,6 +254,87 @@ fn shadow_transmittance(scene: &Scene, mut o: Vec3, d: Vec3, dist: f32, mut medi
     None
 }
 
+/// Optical depth (in the carried wavelengths' smallest extinction) within which a medium vertex
+/// aims part of its directions at the lights beyond a smooth dielectric boundary.
+const GUIDE_REACH: f32 = 6.0;
+
+/// Probability per lane (had that lane been the hero) that a vertex at `p` in `medium`
+/// (extinction `sigma_t` per lane, m⁻¹) plays the refracted branch: α_max e^{−σ_t d}, d the
+/// medium's free-distance bound at `p` (a lower bound of the distance to its boundary); `None`
+/// beyond [`GUIDE_REACH`] optical depths (in the smallest extinction, the same for every hero).
+fn guide_probability(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Option<u32>, sigma_t: Vec4) -> Option<Vec4> {
+    let s_min = sigma_t.min_element();
+    if !(s_min > 0.0) {
+        return None;
+    }
+    let d = match medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()) {
+        Some(g) => g.free_distance(p).max(0.0),
+        None => 0.0,
+    };
+    if d * s_min > GUIDE_REACH {
+        return None;
+    }
+    Some(rl.alpha_max * (-sigma_t * d).exp())
+}
+
+/// The plane through which the refracted proposal aims from `p` (extinction `sigma_t` per lane,
+/// m⁻¹): a probe ray towards the lights' target finds where it leaves the medium; that surface's
+/// tangent plane, if it is a smooth dielectric within [`GUIDE_REACH`] optical depths. The same
+/// whichever lane is the hero, as spectral MIS requires.
+fn exit_plane(scene: &Scene, rl: &RefractedLights, p: Vec3, sigma_t: Vec4) -> Option<RefractingPlane> {
+    let s_min = sigma_t.min_element();
+    if !(s_min > 0.0) {
+        return None;
+    }
+    let d = (rl.target - p).normalize_or_zero();
+    if d == Vec3::ZERO {
+        return None;
+    }
+    let probe = Ray { o: p, d, t_min: 0.0, t_max: GUIDE_REACH / s_min };
+    let h = scene.accel.intersect(&probe)?;
+    let obj = &scene.objects[h.object as usize];
+    let Material::Dielectric { ior, distrib, roughness: None, .. } = &scene.materials[obj.material as usize] else { return None };
+    if !distrib.effectively_smooth() {
+        return None;
+    }
+    let sp = scene.accel.surface_point(&probe, &h);
+    // Leaving the object through its back face: index inside / outside is its ior; entering
+    // another object through its front: the inverse.
+    let leaving = sp.ng.dot(d) > 0.0;
+    let normal = if leaving { sp.ng } else { -sp.ng };
+    let ior = ior.eval(GUIDE_LAMBDA_NM);
+    let eta = if leaving { ior } else { 1.0 / ior };
+    if !(normal.dot(sp.p - p) > 0.0) || !(eta > 0.0) || !eta.is_finite() {
+        return None;
+    }
+    Some(RefractingPlane { point: sp.p, normal, eta })
+}
+
+/// A medium vertex whose phase-sampled direction `w` competes with a refracted branch: what the
+/// main path needs to weigh emission it reaches along the branch's chain.
+#[derive(Clone, Copy)]
+struct GuidedVertex<'a> {
+    rl: &'a RefractedLights,
+    p: Vec3,
+    w: Vec3,
+    alpha: Vec4,
+    sigma_t: Vec4,
+}
+
+impl GuidedVertex<'_> {
+    /// The branch's density per lane for `w` (α_j q(w)); the probe ray is cast only now.
+    fn density(&self, scene: &Scene) -> Vec4 {
+        match exit_plane(scene, self.rl, self.p, self.sigma_t) {
+            Some(plane) => self.alpha * self.rl.pdf(&plane, self.p, self.w),
+            None => Vec4::ZERO,
+        }
+    }
+}
+
+/// Wavelength (nm) at which the refracted proposal takes the boundary's index (the proposal's
+/// plane must not depend on which lane is the hero).
+const GUIDE_LAMBDA_NM: f32 = 550.0;
+
 /// Radiance along `ray` by volumetric path tracing (see the module documentation). `wl` may lose
 /// its secondary wavelengths (dispersion): convert the result with `wl` as it is on return.
 pub fn li_volpath(scene: &Scene, settings: &IntegratorSettings, ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
@@ -258,6 +363,11 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     // Real collisions so far, and the count at which the next event-count roulette is played.
     let mut events = 0u32;
     let mut next_event_rr = options.event_rr_start;
+    // After a phase-sampled direction at a vertex that also played a refracted branch: the
+    // branch's direction density per lane (α_j q), while the path stays on the branch's chain of
+    // pass-throughs and delta interfaces (at most `GUIDE_STEPS` surfaces).
+    let mut guide_at: Option<GuidedVertex> = None;
+    let mut guide_steps = 0u32;
     loop {
         // Free flight in the current medium.
         let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
@@ -307,22 +417,40 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 if can_nee {
                     l += beta * medium_light_sample(scene, mm, p, ray.d, medium, r_u, wl, rng);
                 }
+                // The refracted branch (module documentation): played with probability α_j, which
+                // depends only on the vertex (not on the plane a probe ray finds), so the main
+                // path finds its own MIS weight by probing only if it reaches an emitter.
+                let guide = if can_nee { None } else { scene.refracted_lights.as_ref().and_then(|rl| guide_probability(scene, rl, p, medium, sigma_t).map(|alpha| (rl, alpha))) };
+                if let Some((rl, alpha)) = guide {
+                    if rng.next_f32() < alpha.x {
+                        let (uc, u2) = (rng.next_f32(), rng.next_2d());
+                        if let Some(plane) = exit_plane(scene, rl, p, sigma_t) {
+                            if let Some((w, q)) = rl.sample(&plane, p, uc, u2) {
+                                let f = mm.phase_eval(wl, ray.d.dot(w));
+                                l += beta * refracted_branch(scene, p, w, medium, f, r_u, alpha * q, wl, rng);
+                            }
+                        }
+                    }
+                }
                 let uc = rng.next_f32();
                 let Some(ps) = mm.phase_sample_lanes(&lanes.1, ray.d, uc, rng.next_2d()) else { break };
                 // The phase functions differ between the carried wavelengths: p_j(μ)/p₀(μ) is
                 // both lane j's weight and the ratio of the direction densities had λ_j been the
                 // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
-                r_l = if can_nee { r_u / ps.pdf } else { Vec4::ZERO };
+                r_l = if can_nee || guide.is_some() { r_u / ps.pdf } else { Vec4::ZERO };
+                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, w: ps.wi, alpha, sigma_t });
+                guide_steps = 0;
                 beta *= ps.weight;
                 r_u *= ps.weight;
+                let (wi, pdf) = (ps.wi, ps.pdf);
                 if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
                     break;
                 }
-                prev_pdf = ps.pdf;
+                prev_pdf = pdf;
                 prev_no_mis = !can_nee;
                 prev_medium_mis = can_nee;
                 prev_p = p;
-                ray = Ray { o: p, d: ps.wi, t_min: 0.0, t_max: f32::INFINITY };
+                ray = Ray { o: p, d: wi, t_min: 0.0, t_max: f32::INFINITY };
                 crossings = 0;
                 if !roulette(&mut beta, depth, settings, wl, rng) {
                     break;
@@ -348,7 +476,9 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         }
         depth += 1;
         let Some(hit) = hit else {
-            if prev_medium_mis {
+            if let Some(g) = &guide_at {
+                l += environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl) * spectral_balance_lanes(r_u, r_l, g.density(scene), wl);
+            } else if prev_medium_mis {
                 let e = environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl);
                 if let Some(ei) = scene.environment {
                     let lp = scene.light_pmf[ei as usize] * scene.lights[ei as usize].pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO);
@@ -367,11 +497,19 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         let (ng, frame) = (sp.ng, sp.frame);
         let wo = -ray.d;
         let obj = &scene.objects[sp.object as usize];
+        if guide_at.is_some() {
+            guide_steps += 1;
+            if guide_steps > GUIDE_STEPS {
+                guide_at = None;
+            }
+        }
         if let Some(li_idx) = obj.light {
             let light = &scene.lights[li_idx as usize];
             let le = light.le(sp.ng_raw, wo, || sp.uv(scene), wl);
             if le != Vec4::ZERO {
-                let w = if prev_medium_mis {
+                let w = if let Some(g) = &guide_at {
+                    spectral_balance_lanes(r_u, r_l, g.density(scene), wl)
+                } else if prev_medium_mis {
                     let lp = nee::area_light_pdf(scene, li_idx, prev_p, ray.d, sp.p, sp.ng_raw);
                     spectral_balance(r_u, r_l, lp, wl)
                 } else if prev_no_mis {
@@ -399,7 +537,12 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         if depth >= settings.max_depth {
             break;
         }
+        let terminated = wl.secondary_terminated();
         let bsdf = material.bsdf_at(wl, front, || sp.uv(scene));
+        if !bsdf.is_delta() || wl.secondary_terminated() != terminated {
+            // Off the refracted branch's chain (see `refracted_branch`).
+            guide_at = None;
+        }
         if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
             break;
         }
@@ -493,4 +636,108 @@ fn medium_light_sample(scene: &Scene, mm: &HomogeneousMedium, p: Vec3, d: Vec3, 
         return Vec4::ZERO;
     }
     f * ls.li * tr / denom
+}
+
+/// Most surfaces a refracted branch follows; the main path weights emission against the branch
+/// only up to as many surfaces after the vertex.
+const GUIDE_STEPS: u32 = 16;
+
+/// The refracted branch from medium vertex `p` in direction `w` (drawn from the refracted
+/// proposal): the continuation the main path would follow — free flight in the current medium
+/// (a collision ends the branch), pass-through boundaries, smooth non-dispersive interfaces
+/// sampled as the main path samples them — up to the first surface that is neither, at most
+/// `GUIDE_STEPS` surfaces. Emission it meets (area lights, the environment) is counted with the
+/// balance heuristic against the main path's phase sampling over the 2 × 4 techniques: with
+/// `f` the phase function per lane at `w`, `r_u` the prefix density ratios and `lp` the branch's
+/// density per lane (α_j q), it returns f · (downstream weights) · L_e / mean(r_u · D · (f + lp)),
+/// D the downstream density ratios (to be multiplied by the path throughput). The main path
+/// gives the same paths the complementary weight (`guide_at` in [`li_volpath_with`]).
+#[allow(clippy::too_many_arguments)]
+fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f: Vec4, r_u: Vec4, lp: Vec4, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+    let mut num = f;
+    let mut den = r_u * (f + lp);
+    let mut l = Vec4::ZERO;
+    let mut ray = Ray { o: p, d: w, t_min: 0.0, t_max: f32::INFINITY };
+    let mut steps = 0u32;
+    let add = |l: &mut Vec4, num: Vec4, den: Vec4, le: Vec4| {
+        let d = mis_divisor(den, wl);
+        if d > 0.0 && d.is_finite() {
+            *l += num * le / d;
+        }
+    };
+    loop {
+        let mut t_coll = f32::INFINITY;
+        let mut coeffs = None;
+        if let Some(m) = medium {
+            let mm = &scene.media[m as usize];
+            let (_, sigma_t) = mm.coefficients(wl);
+            if !mm.pure_absorber && sigma_t.x > 0.0 {
+                t_coll = -(1.0 - rng.next_f32()).ln() / sigma_t.x;
+            }
+            coeffs = Some((mm.pure_absorber, sigma_t));
+        }
+        ray.t_max = t_coll;
+        let hit = scene.accel.intersect(&ray);
+        if let Some((pure, sigma_t)) = coeffs {
+            if hit.is_none() && t_coll.is_finite() {
+                return l;
+            }
+            let seg = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+            if pure {
+                num *= transmittance(sigma_t, seg);
+            } else {
+                let a = relative_transmittance(sigma_t, seg);
+                num *= a;
+                den *= a;
+            }
+            if num == Vec4::ZERO {
+                return l;
+            }
+        }
+        let Some(hit) = hit else {
+            if let Some(ei) = scene.environment {
+                let le = scene.lights[ei as usize].le(Vec3::ZERO, -ray.d, || glam::Vec2::ZERO, wl);
+                add(&mut l, num, den, le);
+            }
+            return l;
+        };
+        steps += 1;
+        if steps > GUIDE_STEPS {
+            return l;
+        }
+        ray.t_max = f32::INFINITY;
+        let sp = Shading::at(scene, &ray, &hit);
+        let front = sp.ng_raw.dot(ray.d) < 0.0;
+        let (ng, frame) = (sp.ng, sp.frame);
+        let wo = -ray.d;
+        let obj = &scene.objects[sp.object as usize];
+        if let Some(li_idx) = obj.light {
+            let le = scene.lights[li_idx as usize].le(sp.ng_raw, wo, || sp.uv(scene), wl);
+            if le != Vec4::ZERO {
+                add(&mut l, num, den, le);
+            }
+        }
+        let material = &scene.materials[obj.material as usize];
+        if index_matched(material) {
+            medium = cross(scene, sp.object, front, medium);
+            ray = Ray { o: sp.p - ng * scene.ray_epsilon_m, d: ray.d, t_min: 0.0, t_max: f32::INFINITY };
+            continue;
+        }
+        let b = material.bsdf_with(wl, || sp.uv(scene));
+        if !b.is_delta() || b.is_black() || b.terminates_secondary() {
+            return l;
+        }
+        let bsdf = if front { b } else { b.from_inside() };
+        let uc = rng.next_f32();
+        let Some(bs) = bsdf.sample(frame.to_local(wo), uc, rng.next_2d()) else { return l };
+        let wi = frame.to_world(bs.wi);
+        if (wi.dot(ng) > 0.0) == bs.transmission || bs.terminate_secondary {
+            return l;
+        }
+        num *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if bs.transmission {
+            medium = cross(scene, sp.object, front, medium);
+        }
+        ray = Ray { o: offset_origin(sp.p, ng, wi, scene.ray_epsilon_m), d: wi, t_min: 0.0, t_max: f32::INFINITY };
+    }
 }

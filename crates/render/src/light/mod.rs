@@ -18,6 +18,7 @@
 
 pub mod envmap;
 pub mod projector;
+pub mod refracted;
 
 use crate::math::sampling::{sample_cdf, uniform_cone, uniform_sphere, uniform_triangle, Frame, UNIFORM_SPHERE_PDF};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};

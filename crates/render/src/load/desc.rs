@@ -73,6 +73,7 @@ pub(crate) struct IntegratorDesc {
     pub(crate) max_depth: Option<u32>,
     pub(crate) rr_depth: Option<u32>,
     pub(crate) ao_distance: Option<f64>,
+    pub(crate) refraction_guiding: Option<f64>,
 }
 
 #[derive(Deserialize)]

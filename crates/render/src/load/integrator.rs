@@ -1,4 +1,5 @@
-//! `[integrator]`: type (named by [`crate::integrator::settings`]), max_depth, rr_depth, ao_distance.
+//! `[integrator]`: type (named by [`crate::integrator::settings`]), max_depth, rr_depth, ao_distance,
+//! refraction_guiding.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
@@ -8,11 +9,17 @@ use crate::load::desc::SceneDesc;
 use crate::load::error::{quote, Cx};
 use anyhow::Result;
 
-/// The integrator settings and the ambient-occlusion distance in metres (infinite by default).
-pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(IntegratorSettings, f32)> {
+/// Default of `refraction_guiding`: the largest fraction of `volpath`'s medium vertices near a
+/// smooth dielectric boundary whose direction is aimed at the lights beyond it.
+pub const DEFAULT_REFRACTION_GUIDING: f32 = 0.3;
+
+/// The integrator settings, the ambient-occlusion distance in metres (infinite by default) and
+/// the refraction-guiding fraction (0: off).
+pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(IntegratorSettings, f32, f32)> {
     let to_m = |x: f64| (x * unit_m) as f32;
     let mut integrator = IntegratorSettings::default();
     let mut ao_distance_m = f32::INFINITY;
+    let mut guiding = DEFAULT_REFRACTION_GUIDING;
     if let Some(i) = &desc.integrator {
         let span = i.span();
         let i = i.get_ref();
@@ -37,6 +44,12 @@ pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(Inte
             }
             ao_distance_m = to_m(d);
         }
+        if let Some(g) = i.refraction_guiding {
+            if !(0.0..0.95).contains(&g) {
+                return Err(cx.err(&span, "integrator.refraction_guiding", format!("must be in [0, 0.95), got {g}")));
+            }
+            guiding = g as f32;
+        }
     }
-    Ok((integrator, ao_distance_m))
+    Ok((integrator, ao_distance_m, guiding))
 }
