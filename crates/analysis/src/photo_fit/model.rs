@@ -227,7 +227,10 @@ pub fn camera_response(p: &Params, x: [f64; 3], dx: Option<(&[Vec<f64>; 3], &mut
         let uc = u[c].max(U_MIN);
         pow[c] = uc.powf(inv);
         y[c] = b + g * pow[c];
-        dy_du[c] = if u[c] > U_MIN { g * inv * pow[c] / uc } else { 0.0 };
+        // Below U_MIN the curve is clamped flat; its slope there is taken at U_MIN instead of 0,
+        // so that a label whose albedo a step pushed to 0 (its pixels then black) still has a
+        // derivative that brings it back.
+        dy_du[c] = g * inv * pow[c] / uc;
     }
     if let Some((dx, jac)) = dx {
         let n = p.len();
