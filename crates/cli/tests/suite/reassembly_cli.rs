@@ -2,23 +2,26 @@
 //! three commands as a user runs them: `lucent scan markers` registers a sphere model onto the
 //! markers it finds in two calibrated views, `lucent scan label` labels the registered sphere and
 //! the board from the white-frame photograph, and `lucent fit photo` fits the labelled scene to
-//! the photographs under seven projector patterns (docs/digitization.md, "Synthetic round trip
-//! of the whole chain").
+//! the photographs under five projector patterns (docs/digitization.md, "Synthetic round trip of
+//! the whole chain", has the measured values).
 //!
 //! The scene (the geometry of `scan::markers::synth::MarkerScene::standard`, in millimetres,
 //! view A's camera frame): a 60-mm sphere 420 mm in front of camera A (400 × 320, barrel and
-//! tangential distortion) painted a known yellow and carrying four printed 7-mm discs of dark ink,
-//! in front of a board of three grey Lambertian stripes 520 mm away that fills A's view; camera B
-//! (the second view of the markers) 180 mm to the side; a 64 × 48 OpenCV projector 15 mm above
-//! camera A as the light, and a constant ambient environment. The printed discs are spherical
-//! caps of the ink material 0.02 mm above the sphere: their rims are planar circles (a sphere
-//! meets a sphere in a circle), so the markers' centres are the centres of those circles, and
-//! nothing stands off the surface to cast a shadow beside a rim (a flat disc tangent to the
-//! sphere would: docs/markers.md).
+//! tangential distortion), painted grey (albedo 0.42, the reference of known albedo) and carrying
+//! four printed 10-mm discs of dark ink (0.01), in front of a board of three grey Lambertian
+//! stripes (0.2, 0.45, 0.8) 520 mm away that fills A's view; camera B (the markers' second view)
+//! 180 mm to the side; a 64 × 48 OpenCV projector 5 mm above camera A as the light, and a constant
+//! ambient environment. The printed discs are spherical caps of the ink 0.02 mm above the
+//! sphere: their rims are planar circles (a sphere meets a sphere in a circle), whose centres are
+//! the markers' centres, and nothing stands off the surface to cast a shadow beside a rim (a flat
+//! disc tangent to the sphere would: docs/markers.md).
 //!
-//! Photographs are lucent renders (`direct` integrator, 32 samples per pixel; the basis model of
-//! the photo fit has no interreflection either) with Gaussian sensor noise, the camera response
-//! y = b + g·x^(1/γ) and 8-bit codes; a second set with other seeds is the noise floor.
+//! Photographs are lucent renders (`direct` integrator, as the photo fit's basis model, which has
+//! no interreflection) with Gaussian sensor noise, the camera response y = b + g·x^(1/γ) and
+//! 8-bit codes: the white frames that the markers and the labelling use at 32 samples per pixel,
+//! the fit's five frames at 8, and a second set of those with other seeds for the noise floor.
+//! `REASSEMBLY_KEEP=DIR` keeps every file (photographs, meshes, the labelled scene, the fit's
+//! images) in DIR.
 
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
@@ -33,22 +36,22 @@ use scan::synth::Device;
 
 use crate::common::{ok_json, Scratch};
 
-/// Board: three vertical stripes at z = BOARD_Z (mm), boundaries at x = ±STRIPE_X.
-const BOARD_Z: f64 = 520.0;
-const STRIPE_X: f64 = 62.0;
-const BOARD_HALF: [f64; 2] = [300.0, 240.0];
+/// Board: three vertical stripes at z = BOARD_Z_MM (mm), boundaries at x = ±STRIPE_X_MM.
+const BOARD_Z_MM: f64 = 520.0;
+const STRIPE_X_MM: f64 = 62.0;
+const BOARD_HALF_MM: [f64; 2] = [300.0, 240.0];
 const BOARD_ALBEDO: [f64; 3] = [0.2, 0.45, 0.8];
 /// The sphere's paint (the reference of known albedo) and the markers' ink (linear RGB).
 const PAINT: [f64; 3] = [0.42, 0.42, 0.42];
 const INK: f64 = 0.01;
 /// Radius of the printed markers (mm).
-const MARKER_RADIUS: f64 = 10.0;
+const MARKER_RADIUS_MM: f64 = 10.0;
 /// Height of the printed caps above the sphere (mm).
-const INK_LIFT: f64 = 0.02;
+const INK_LIFT_MM: f64 = 0.02;
 /// Projector: size, focal length (pixels), centre in view A (mm), intensity (per pixel of value 1).
 const PW: u32 = 64;
 const PH: u32 = 48;
-const PROJECTOR_Y: f64 = -5.0;
+const PROJECTOR_Y_MM: f64 = -5.0;
 /// 0.8 × the start that `lucent scan label` writes, π·z² for the board's depth z = 520 mm (the
 /// median depth of the labelled micropolygons).
 const INTENSITY: f64 = 0.8 * std::f64::consts::PI * 520.0 * 520.0;
@@ -81,7 +84,7 @@ fn procam(sc: &MarkerScene) -> ProcamCalibration {
         camera: sc.cameras[0].calibration(),
         projector: projector(),
         rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        translation: [0.0, -PROJECTOR_Y, 0.0],
+        translation: [0.0, -PROJECTOR_Y_MM, 0.0],
         rms_px: 0.0,
         captures: Vec::new(),
     }
@@ -95,11 +98,11 @@ struct Print {
 }
 
 fn prints(sc: &MarkerScene) -> Vec<Print> {
-    let (c, r) = (sc.sphere_centre_mm, sc.sphere_radius_mm + INK_LIFT);
+    let (c, r) = (sc.sphere_centre_mm, sc.sphere_radius_mm + INK_LIFT_MM);
     sc.discs
         .iter()
         .map(|d| {
-            let a = (MARKER_RADIUS / r).asin();
+            let a = (MARKER_RADIUS_MM / r).asin();
             let n = d.normal;
             Print { n, centre: [0, 1, 2].map(|k| c[k] + r * a.cos() * n[k]), half_angle: a }
         })
@@ -108,7 +111,7 @@ fn prints(sc: &MarkerScene) -> Vec<Print> {
 
 /// The ink caps as one mesh (rings of 128 vertices on the lifted sphere).
 fn caps_mesh(sc: &MarkerScene) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let (c, r) = (sc.sphere_centre_mm, sc.sphere_radius_mm + INK_LIFT);
+    let (c, r) = (sc.sphere_centre_mm, sc.sphere_radius_mm + INK_LIFT_MM);
     let (rings, m) = (24usize, 128usize);
     let (mut pos, mut tri) = (vec![], vec![]);
     for p in prints(sc) {
@@ -170,9 +173,9 @@ fn uv_sphere(r: f64, n: usize, q: [[f64; 3]; 3]) -> (Vec<[f64; 3]>, Vec<[u32; 3]
 }
 
 fn stripe_quad(k: usize) -> [[f64; 3]; 4] {
-    let xs = [-BOARD_HALF[0], -STRIPE_X, STRIPE_X, BOARD_HALF[0]];
-    let (x0, x1, y) = (xs[k], xs[k + 1], BOARD_HALF[1]);
-    [[x0, -y, BOARD_Z], [x1, -y, BOARD_Z], [x1, y, BOARD_Z], [x0, y, BOARD_Z]]
+    let xs = [-BOARD_HALF_MM[0], -STRIPE_X_MM, STRIPE_X_MM, BOARD_HALF_MM[0]];
+    let (x0, x1, y) = (xs[k], xs[k + 1], BOARD_HALF_MM[1]);
+    [[x0, -y, BOARD_Z_MM], [x1, -y, BOARD_Z_MM], [x1, y, BOARD_Z_MM], [x0, y, BOARD_Z_MM]]
 }
 
 fn camera_toml(d: &Device, r: [[f64; 3]; 3], t: [f64; 3]) -> String {
@@ -390,9 +393,9 @@ fn reassembly_markers_labels_and_appearance_fit_on_one_scene() {
             let d = sub(p, c);
             let d = d.map(|v| v / norm(d));
             if pr.iter().any(|m| dot(d, m.n) > m.half_angle.cos()) { 4 } else { 3 }
-        } else if p[0] < -STRIPE_X {
+        } else if p[0] < -STRIPE_X_MM {
             0
-        } else if p[0] < STRIPE_X {
+        } else if p[0] < STRIPE_X_MM {
             1
         } else {
             2
