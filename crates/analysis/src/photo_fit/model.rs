@@ -291,6 +291,33 @@ mod tests {
         (labels, PixelBasis { pattern: [0.0; 3], flood: [0.0; 3], ambient: [0.01, 0.012, 0.011] })
     }
 
+    /// A label at albedo 0 in a pixel lit by nothing else: its codes' derivative in that albedo
+    /// is the response's slope at U_MIN times its basis (positive, in the direction that raising
+    /// the albedo moves the code), and raising the albedo from 0 by h raises the code by more
+    /// than that slope times h (the curve is concave), so a fit step can bring the albedo back.
+    #[test]
+    fn albedo_at_zero_keeps_a_positive_derivative() {
+        let (labels, _) = pixel();
+        let rest = PixelBasis { pattern: [0.0; 3], flood: [0.0; 3], ambient: [0.0; 3] };
+        let p = Params::new(&[[0.0; 3], [0.0; 3]], 2.2);
+        let n = p.len();
+        let mut dx: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        let mut jy: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        let x = linear_render(&p, &labels, &rest, Some(&mut dx));
+        assert_eq!(x, [0.0; 3]);
+        let y0 = camera_response(&p, x, Some((&dx, &mut jy)));
+        for c in 0..3 {
+            let slope = (1.0 / 2.2) * U_MIN.powf(1.0 / 2.2 - 1.0);
+            assert!((jy[c][c] - slope * dx[c][c]).abs() < 1e-9 * jy[c][c], "channel {c}: {} vs {}", jy[c][c], slope * dx[c][c]);
+            assert!(jy[c][c] > 0.0);
+            let h = 1e-3;
+            let mut q = p.clone();
+            q.x[c] = h;
+            let y1 = camera_response(&q, linear_render(&q, &labels, &rest, None), None);
+            assert!(y1[c] - y0[c] > 0.0 && y1[c] - y0[c] < jy[c][c] * h, "channel {c}: code rises by {}", y1[c] - y0[c]);
+        }
+    }
+
     /// The analytic derivatives of the codes equal central differences for every parameter.
     #[test]
     fn jacobian_matches_central_differences() {
