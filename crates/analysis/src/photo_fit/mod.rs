@@ -61,11 +61,14 @@ pub struct FitOptions {
     pub stride: usize,
     /// Which frames enter the fit (None: all); every frame is evaluated after each step.
     pub fit_frames: Option<Vec<bool>>,
+    /// Pixels within this many pixels (square neighbourhood) of another label's region or of an
+    /// unlabelled pixel are left out of the fit and its errors ([`interior`]; 0: none).
+    pub edge_px: usize,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { hold: vec![], color_matrix: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None }
+        FitOptions { hold: vec![], color_matrix: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None, edge_px: 0 }
     }
 }
 
@@ -186,6 +189,35 @@ pub fn regions(basis: &Basis) -> Vec<i32> {
                 }
             }
             best.0
+        })
+        .collect()
+}
+
+/// `regions` (row-major, `width` wide) with every pixel set to −1 that has a pixel of another
+/// region (or an unlabelled one) within `px` pixels in x and y. A pixel at a label boundary mixes
+/// two labels in a proportion that the labelled micropolygons (about a pixel each) know only to
+/// a fraction of a pixel, and a pixel at an object's outline depends on the registration to a
+/// fraction of a pixel; leaving a band of `px` pixels out keeps those errors out of the fit.
+pub fn interior(regions: &[i32], width: usize, height: usize, px: usize) -> Vec<i32> {
+    if px == 0 {
+        return regions.to_vec();
+    }
+    let r = px as isize;
+    (0..regions.len())
+        .map(|i| {
+            let (x, y) = ((i % width) as isize, (i / width) as isize);
+            let own = regions[i];
+            let same = (-r..=r).all(|dy| {
+                (-r..=r).all(|dx| {
+                    let (u, v) = (x + dx, y + dy);
+                    u < 0 || v < 0 || u >= width as isize || v >= height as isize || regions[(v * width as isize + u) as usize] == own
+                })
+            });
+            if same {
+                own
+            } else {
+                -1
+            }
         })
         .collect()
 }
@@ -466,7 +498,7 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
             label_names[0]
         );
     }
-    let regions = regions(basis);
+    let regions = interior(&regions(basis), basis.width as usize, basis.height as usize, opts.edge_px);
     let usable_px: usize = frames.iter().map(|f| (0..n_px).filter(|&i| usable(&regions, f, i, opts.saturation)).count()).sum();
     if usable_px == 0 {
         bail!("no photograph pixel sees a label without saturating");

@@ -227,7 +227,10 @@ pub fn camera_response(p: &Params, x: [f64; 3], dx: Option<(&[Vec<f64>; 3], &mut
         let uc = u[c].max(U_MIN);
         pow[c] = uc.powf(inv);
         y[c] = b + g * pow[c];
-        dy_du[c] = if u[c] > U_MIN { g * inv * pow[c] / uc } else { 0.0 };
+        // Below U_MIN the curve is clamped flat; its slope there is taken at U_MIN instead of 0,
+        // so that a label whose albedo a step pushed to 0 (its pixels then black) still has a
+        // derivative that brings it back.
+        dy_du[c] = g * inv * pow[c] / uc;
     }
     if let Some((dx, jac)) = dx {
         let n = p.len();
@@ -286,6 +289,33 @@ mod tests {
             PixelBasis { pattern: [0.1, 0.12, 0.09], flood: [0.2, 0.22, 0.21], ambient: [0.02, 0.02, 0.03] },
         ];
         (labels, PixelBasis { pattern: [0.0; 3], flood: [0.0; 3], ambient: [0.01, 0.012, 0.011] })
+    }
+
+    /// A label at albedo 0 in a pixel lit by nothing else: its codes' derivative in that albedo
+    /// is the response's slope at U_MIN times its basis (positive, in the direction that raising
+    /// the albedo moves the code), and raising the albedo from 0 by h raises the code by more
+    /// than that slope times h (the curve is concave), so a fit step can bring the albedo back.
+    #[test]
+    fn albedo_at_zero_keeps_a_positive_derivative() {
+        let (labels, _) = pixel();
+        let rest = PixelBasis { pattern: [0.0; 3], flood: [0.0; 3], ambient: [0.0; 3] };
+        let p = Params::new(&[[0.0; 3], [0.0; 3]], 2.2);
+        let n = p.len();
+        let mut dx: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        let mut jy: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        let x = linear_render(&p, &labels, &rest, Some(&mut dx));
+        assert_eq!(x, [0.0; 3]);
+        let y0 = camera_response(&p, x, Some((&dx, &mut jy)));
+        for c in 0..3 {
+            let slope = (1.0 / 2.2) * U_MIN.powf(1.0 / 2.2 - 1.0);
+            assert!((jy[c][c] - slope * dx[c][c]).abs() < 1e-9 * jy[c][c], "channel {c}: {} vs {}", jy[c][c], slope * dx[c][c]);
+            assert!(jy[c][c] > 0.0);
+            let h = 1e-3;
+            let mut q = p.clone();
+            q.x[c] = h;
+            let y1 = camera_response(&q, linear_render(&q, &labels, &rest, None), None);
+            assert!(y1[c] - y0[c] > 0.0 && y1[c] - y0[c] < jy[c][c] * h, "channel {c}: code rises by {}", y1[c] - y0[c]);
+        }
     }
 
     /// The analytic derivatives of the codes equal central differences for every parameter.

@@ -215,3 +215,24 @@ fn synthetic_round_trip_recovers_albedos_light_and_gamma_and_reaches_the_noise_f
     }
     assert!(worst <= 1.5, "final render's relative RMSE is {worst:.3}× the noise floor");
 }
+
+/// `interior` on a 9 × 6 map of two regions split at x = 4 with one unlabelled pixel: with a band
+/// of 1 pixel every pixel next to the split or to the hole is left out, every other keeps its
+/// region (predicted pixel by pixel); a band of 0 changes nothing.
+#[test]
+fn interior_leaves_out_a_band_at_region_boundaries() {
+    let (w, h) = (9usize, 6usize);
+    let mut r: Vec<i32> = (0..w * h).map(|i| if i % w < 4 { 0 } else { 1 }).collect();
+    let hole = (1, 7);
+    r[hole.0 * w + hole.1] = -1;
+    assert_eq!(analysis::photo_fit::interior(&r, w, h, 0), r);
+    let out = analysis::photo_fit::interior(&r, w, h, 1);
+    for y in 0..h {
+        for x in 0..w {
+            let near_split = x == 3 || x == 4;
+            let near_hole = y.abs_diff(hole.0) <= 1 && x.abs_diff(hole.1) <= 1;
+            let want = if near_split || near_hole { -1 } else { r[y * w + x] };
+            assert_eq!(out[y * w + x], want, "pixel ({x}, {y})");
+        }
+    }
+}

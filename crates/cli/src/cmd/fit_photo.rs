@@ -35,6 +35,11 @@ pub struct Args {
     /// The projector image shown for each --photo, in the same order (default: the scene's own).
     #[arg(long, value_name = "PATTERN")]
     pub pattern: Vec<PathBuf>,
+    /// A second photograph of each --photo's frame (another exposure of the same scene and
+    /// pattern), in the same order: their relative RMSE over the compared pixels is the noise
+    /// floor that the check renders are measured against (fit.json `noise_floor`).
+    #[arg(long, value_name = "PHOTO", requires = "photo")]
+    pub repeat: Vec<PathBuf>,
     /// A capture folder of `graycode_NN.png` photographs (as `lucent scan decode` reads) …
     #[arg(long, value_name = "DIR", conflicts_with = "photo")]
     pub capture: Option<PathBuf>,
@@ -83,6 +88,10 @@ pub struct Args {
     /// Most Levenberg–Marquardt steps per refinement step [default: 30].
     #[arg(long, value_name = "K", allow_hyphen_values = true)]
     pub max_iterations: Option<String>,
+    /// Leave out pixels within N pixels of another label's region or of an unlabelled pixel (they
+    /// mix labels in proportions known only to a fraction of a pixel) [default: 0].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub edge_px: Option<String>,
     /// Fit on every S-th pixel of each row and column [default: 1].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub stride: Option<String>,
@@ -252,6 +261,10 @@ pub fn run(args: Args) -> Result<()> {
     };
     let max_iterations = args.max_iterations.as_deref().map(|t| positive_u64("--max-iterations", t)).transpose()?.unwrap_or(30) as usize;
     let stride = args.stride.as_deref().map(|t| positive_u64("--stride", t)).transpose()?.unwrap_or(1) as usize;
+    let edge_px = match &args.edge_px {
+        Some(t) => t.trim().parse::<usize>().ok().filter(|&n| n <= 1000).with_context(|| format!("--edge-px must be a whole number of pixels from 0 to 1000, got `{t}`"))?,
+        None => 0,
+    };
     let num = |name: &str, v: &Option<String>, d: f64| -> Result<f64> { v.as_deref().map(|t| finite_f64(name, t)).transpose().map(|o| o.unwrap_or(d)) };
     let gamma = num("--gamma", &args.gamma, 2.2)?;
     if !(0.3..=5.0).contains(&gamma) {
@@ -311,11 +324,15 @@ pub fn run(args: Args) -> Result<()> {
         if !args.pattern.is_empty() && args.pattern.len() != args.photo.len() {
             bail!("{} --pattern for {} --photo: give one pattern per photograph, or none", args.pattern.len(), args.photo.len());
         }
+        if !args.repeat.is_empty() && args.repeat.len() != args.photo.len() {
+            bail!("{} --repeat for {} --photo: give one repeat per photograph, or none", args.repeat.len(), args.photo.len());
+        }
         photo_paths = args.photo.clone();
         pattern_paths = (0..photo_paths.len()).map(|i| args.pattern.get(i).cloned()).collect();
     }
     let patterns: Vec<Option<Vec<f32>>> = pattern_paths.iter().map(|p| p.as_deref().map(|p| read_pattern(p, psize)).transpose()).collect::<Result<_>>()?;
     let frames: Vec<Frame> = photo_paths.iter().map(|p| read_photo(p, cam, width, height)).collect::<Result<_>>()?;
+    let repeats: Vec<Frame> = args.repeat.iter().map(|p| read_photo(p, cam, width, height)).collect::<Result<_>>()?;
     // Scenes to predict, checked before any rendering.
     let mut predictions: Vec<(PathBuf, Scene, Vec<Frame>)> = vec![];
     for spec in &args.predict {
@@ -376,6 +393,7 @@ pub fn run(args: Args) -> Result<()> {
         max_iterations,
         stride,
         fit_frames,
+        edge_px,
         ..FitOptions::default()
     };
     let result = fit(&basis, Some((&half_a, &half_b)), &frames, &start, &opts)?;
@@ -396,6 +414,19 @@ pub fn run(args: Args) -> Result<()> {
         verify.iter().zip(&frames).map(|(v, f)| frame_metrics(v, f, &result.regions, labels.len(), opts.saturation)).collect();
     let verify_total = total(&verify_metrics);
     say(format!("full renders with the fit: rel. RMSE {:.5}, ΔE2000 {:.3} ({:.2} s)", verify_total.rel_rmse, verify_total.delta_e2000, verify_seconds));
+    // The noise floor: each repeat photograph against its photograph, over the same pixels.
+    let floor_metrics: Vec<FrameMetrics> = repeats
+        .iter()
+        .zip(&frames)
+        .map(|(r, f)| {
+            let codes: Vec<[f64; 3]> = r.codes.iter().map(|c| c.map(|v| v as f64)).collect();
+            frame_metrics(&codes, f, &result.regions, labels.len(), opts.saturation)
+        })
+        .collect();
+    let floor_total = (!floor_metrics.is_empty()).then(|| total(&floor_metrics));
+    if let Some(t) = &floor_total {
+        say(format!("noise floor (repeat photographs): rel. RMSE {:.5}; the full renders are at {:.3}× it", t.rel_rmse, verify_total.rel_rmse / t.rel_rmse));
+    }
 
     // Images: per frame render | photo | error, and the steps of the first frame.
     let k = labels.len();
@@ -471,6 +502,7 @@ pub fn run(args: Args) -> Result<()> {
         "params": params_json(p, &result, &label_names),
         "steps": result.steps.iter().map(|s| json!({"name": s.name, "total": metrics_json(&s.total)})).collect::<Vec<_>>(),
         "verify": metrics_json(&verify_total),
+        "noise_floor": floor_total.as_ref().map(metrics_json),
         "predict": predicted.iter().map(|v| json!({"capture": v["capture"], "total": v["total"]})).collect::<Vec<_>>(),
         "timing": timing,
     });
@@ -482,6 +514,8 @@ pub fn run(args: Args) -> Result<()> {
         "residual_variance": result.residual_variance,
         "params": summary["params"], "steps": steps,
         "verify": {"total": metrics_json(&verify_total), "frames": frames_json(&verify_metrics, &label_names)},
+        "noise_floor": floor_total.as_ref().map(|t| json!({"total": metrics_json(t), "frames": frames_json(&floor_metrics, &label_names)})),
+        "edge_px": edge_px,
         "predict": predicted, "timing": summary["timing"],
     });
     write_text(&out_dir.join("fit.json"), &(serde_json::to_string_pretty(&full)? + "\n"))?;

@@ -54,4 +54,6 @@ fn fit_photo_refuses_bad_input_with_one_line() {
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--width", "5", "-q"], "not an integer multiple");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--pattern", "photo.png", "-q"], "the scene has no projector");
     fails_with(&dir, &["fit", "photo", "scene.toml", "-q"], "no photograph");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--repeat", "photo.png", "--repeat", "photo.png", "-q"], "2 --repeat for 1 --photo");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--edge-px", "-1", "-q"], "--edge-px must be a whole number");
 }

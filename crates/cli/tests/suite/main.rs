@@ -17,3 +17,4 @@ mod robustness_render;
 mod scan_cli;
 mod markers_cli;
 mod scan_label_cli;
+mod reassembly_cli;

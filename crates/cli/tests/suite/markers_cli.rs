@@ -57,6 +57,21 @@ fn markers_detect_match_triangulate_and_register() {
         }
     }
     assert!(v["rms"].as_f64().unwrap() < 0.2, "{}", v["rms"]);
+    // The model's mesh moved by the registration: a mesh through three model markers and the
+    // model's origin lands on the true markers and the sphere's centre.
+    let mm = sc.model_markers();
+    let verts = [mm[0], mm[1], mm[2], [0.0; 3]];
+    scan::label::io::write_ply(&s.path("model_mesh.ply"), &verts, &[[0, 1, 2], [0, 2, 3]], None).unwrap();
+    let v = ok_json(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json"), "--model-mesh", &s.arg("model_mesh.ply"), "--registered", &s.arg("registered.ply"), "--json"]);
+    assert_eq!(v["registered"]["faces"].as_u64(), Some(2), "{v}");
+    let moved = scan::label::io::read_mesh(&s.path("registered.ply")).unwrap();
+    let truth = [sc.discs[0].centre_mm, sc.discs[1].centre_mm, sc.discs[2].centre_mm, sc.sphere_centre_mm];
+    for (p, t) in moved.positions.iter().zip(&truth) {
+        let e = ((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2) + (p[2] - t[2]).powi(2)).sqrt();
+        assert!(e < 1e-3 * 2.0 * sc.sphere_radius_mm, "registered vertex {p:?} is {e} mm from {t:?}");
+    }
+    let e = fails_on_one_line(&["scan", "markers", "--radius-px", "3:40", &a, &b, "--calibration", &s.arg("calib.json"), "--model", &s.arg("model.json"), "--model-mesh", &s.arg("model_mesh.ply"), "--registered", &s.arg("registered.obj")]);
+    assert!(e.contains("registered.obj") && e.contains("PLY"), "{e}");
     // A similarity: the model given in centimetres comes back with scale 10.
     let cm: Vec<[f64; 3]> = sc.model_markers().iter().map(|p| p.map(|x| x / 10.0)).collect();
     std::fs::write(s.path("model_cm.json"), serde_json::json!({ "markers": cm }).to_string()).unwrap();

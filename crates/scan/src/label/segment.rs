@@ -392,7 +392,9 @@ fn d2(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 /// Weighted k-means of `points` into `k` clusters: (assignment, weighted RMS distance to the
-/// centres). Deterministic: farthest-point start from the heaviest point.
+/// centres). Deterministic: farthest-point start from the heaviest point, each further centre
+/// the point farthest from those chosen whose cluster (the points nearer to it than to them)
+/// weighs at least 1 % of the heaviest point.
 pub fn kmeans(points: &[[f64; 3]], weights: &[f64], k: usize) -> (Vec<usize>, f64) {
     let n = points.len();
     if n == 0 || k == 0 {
@@ -403,10 +405,14 @@ pub fn kmeans(points: &[[f64; 3]], weights: &[f64], k: usize) -> (Vec<usize>, f6
     let mut centres = vec![points[heaviest]];
     let mut near: Vec<f64> = points.iter().map(|&p| d2(p, centres[0])).collect();
     while centres.len() < k {
-        // The farthest point, among those of some weight (at least 1 % of the heaviest).
+        // The farthest point whose cluster would have some weight: the points nearer to it than
+        // to every centre so far must weigh at least 1 % of the heaviest point. A colour shown by
+        // several small regions (printed markers) gets a centre of its own; a lone speck does not.
         let wmin = 0.01 * weights[heaviest];
-        let next = (0..n).filter(|&i| weights[i] >= wmin).max_by(|&a, &b| near[a].total_cmp(&near[b]).then(b.cmp(&a)));
-        let Some(next) = next.filter(|&i| near[i] > 0.0) else { break };
+        let mut order: Vec<usize> = (0..n).filter(|&i| near[i] > 0.0).collect();
+        order.sort_by(|&a, &b| near[b].total_cmp(&near[a]).then(a.cmp(&b)));
+        let cell = |i: usize| -> f64 { (0..n).filter(|&j| d2(points[j], points[i]) < near[j]).map(|j| weights[j]).sum() };
+        let Some(next) = order.into_iter().find(|&i| weights[i] >= wmin || cell(i) >= wmin) else { break };
         centres.push(points[next]);
         for (d, &p) in near.iter_mut().zip(points) {
             *d = d.min(d2(p, points[next]));

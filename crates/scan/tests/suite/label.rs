@@ -135,6 +135,30 @@ fn markers_are_eroded_components() {
     assert_eq!(m[w + 1], 0);
 }
 
+/// k-means gives a colour shown only by several small regions (four printed markers, each under
+/// 1 % of the heaviest region's pixels, together above) a cluster of its own, and no cluster to
+/// a lone speck farther away (0.3 % of the heaviest region).
+#[test]
+fn kmeans_seeds_a_colour_of_several_small_regions_but_not_a_speck() {
+    let mut rng = Pcg::new(5);
+    let (mut pts, mut wts, mut truth) = (Vec::new(), Vec::new(), Vec::new());
+    for (c, (centre, w, n)) in [([50.0, 0.0, 0.0], 100.0, 20), ([80.0, -30.0, 30.0], 50.0, 20), ([10.0, 0.0, 0.0], 0.4, 4)].into_iter().enumerate() {
+        for _ in 0..n {
+            pts.push(centre.map(|v: f64| v + 2.0 * rng.normal()));
+            wts.push(w);
+            truth.push(c);
+        }
+    }
+    pts.push([0.0, 80.0, 0.0]);
+    wts.push(0.3);
+    let (a, _) = kmeans(&pts, &wts, 3);
+    for i in 0..truth.len() {
+        for j in 0..truth.len() {
+            assert_eq!(a[i] == a[j], truth[i] == truth[j], "points {i} and {j}: {a:?}");
+        }
+    }
+}
+
 /// k-means on three well-separated weighted clusters finds them, with the heaviest first.
 #[test]
 fn kmeans_finds_separated_clusters() {

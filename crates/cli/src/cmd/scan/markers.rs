@@ -35,6 +35,13 @@ pub struct Args {
     /// Fit a uniform scale too (a similarity instead of a rigid transform).
     #[arg(long, requires = "model")]
     pub scale: bool,
+    /// The model's surface (PLY or OBJ, in the marker model's frame and units) to move by the
+    /// registration and write to --registered, in view A's frame.
+    #[arg(long, value_name = "MESH.ply", requires_all = ["model", "registered"])]
+    pub model_mesh: Option<PathBuf>,
+    /// Where the registered model mesh is written (binary PLY, view A's frame, calibration units).
+    #[arg(long, value_name = "REGISTERED.ply", requires = "model_mesh")]
+    pub registered: Option<PathBuf>,
     /// Radius range of the markers looked for (pixels).
     #[arg(long, default_value = "3:60", value_name = "MIN:MAX", value_parser = parse_range)]
     pub radius_px: (f64, f64),
@@ -114,6 +121,13 @@ pub fn run(args: Args) -> Result<()> {
         None => None,
     };
     let model = args.model.as_deref().map(read_model).transpose()?;
+    if let Some(out) = &args.registered {
+        if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("ply".into()) {
+            bail!("--registered {}: the registered mesh is written as PLY (.ply)", out.display());
+        }
+    }
+    // Read before any detection, so that a bad mesh fails fast.
+    let model_mesh = args.model_mesh.as_deref().map(scan::label::io::read_mesh).transpose()?;
     let settings = DetectSettings {
         hough: HoughSettings { radius_min_px: args.radius_px.0, radius_max_px: args.radius_px.1, ..Default::default() },
         edge_halfwidth_px: args.edge_halfwidth_px,
@@ -179,6 +193,17 @@ pub fn run(args: Args) -> Result<()> {
             out["inliers"] = json!(reg.pairs.iter().map(|p| json!({ "model": p.0, "point": p.1, "residual": p.2 })).collect::<Vec<_>>());
             out["outliers"] = json!(reg.outliers);
             out["inlier_distance"] = json!(reg.inlier_distance);
+            if let (Some(mesh), Some(path)) = (&model_mesh, &args.registered) {
+                let (s, r) = (reg.transform.scale, reg.transform.rotation);
+                let moved: Vec<[f64; 3]> = mesh
+                    .positions
+                    .iter()
+                    .map(|p| std::array::from_fn(|i| s * (r[(i, 0)] * p[0] + r[(i, 1)] * p[1] + r[(i, 2)] * p[2]) + t[i]))
+                    .collect();
+                scan::label::io::write_ply(path, &moved, &mesh.triangles, None).with_context(|| format!("writing {}", path.display()))?;
+                out["registered"] = json!({ "path": path.display().to_string(), "vertices": moved.len(), "faces": mesh.triangles.len() });
+                text.push(format!("wrote {} ({} faces, the model mesh in view A's frame)", path.display(), mesh.triangles.len()));
+            }
             text.push(format!(
                 "registration: {} inliers, rms {:.4}, scale {:.6}, translation [{:.4}, {:.4}, {:.4}]",
                 reg.pairs.len(),
