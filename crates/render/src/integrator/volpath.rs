@@ -47,15 +47,19 @@
 //!
 //! Refraction guiding: inside a medium whose boundary is a smooth dielectric, next-event
 //! estimation is blocked, and light is found only by directions that leave towards a light by
-//! chance. At a collision within a few mean free paths of the boundary (a probe ray towards the
-//! lights finds where it leaves), the new direction is drawn from a defensive mixture of the phase
-//! function and [`crate::light::refracted`]'s proposal — towards a point on an area light,
-//! refracted through the tangent plane of the boundary there — with probability
-//! α = α_max e^{−σ_t d} for the proposal (d: distance to the plane; α_max is the scene's
-//! `refraction_guiding`, 0 turns it off). The path then goes on as any other: the real boundary
-//! is traced (with its Fresnel choice of reflection or refraction) and an emitter it reaches is
-//! counted with weight 1, so the plane only shapes the variance. The direction's weight is
-//! p_j/m₀ with mixture density m_j = (1 − α_j) p_j + α_j q, and its spectral-MIS ratio m_j/m₀.
+//! chance. At a collision near the boundary a second, short *refracted branch* is played with
+//! probability α = α_max e^{−σ_t d₀} (d₀: the medium's free-distance bound, a lower bound of the
+//! distance to the boundary; α_max is the scene's `refraction_guiding`, 0 turns it off). A probe
+//! ray towards the lights finds where the boundary is left; the branch's direction comes from
+//! [`crate::light::refracted`]'s proposal — towards a point on an area light, refracted through
+//! the tangent plane there — and it follows what the main path would do from there (free
+//! flight, the real boundary's Fresnel choices, pass-through interfaces) up to the first other
+//! surface, counting any emission it meets. The main path continues with its phase-sampled
+//! direction as before. Both count the same paths, so each is weighted by the balance heuristic
+//! over the 2 × 4 techniques (phase or branch, each lane the hero; the branch's density per lane
+//! is α_j q): the main path's emission reached along the branch's chain gets
+//! mean(r_u)/mean(r_u + r_l α q), the probe being cast again only then. The plane only shapes
+//! the variance; the expected image is unchanged (tests in `tests/suite/volpath.rs`).
 //!
 //! Next-event estimation at surface and medium vertices: one light sample; the shadow ray passes
 //! index-matched boundaries, switching media and accumulating the transmittance of every medium
