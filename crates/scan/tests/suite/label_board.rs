@@ -155,8 +155,9 @@ fn smoothed_normals_of_a_sphere_are_radial() {
 
 /// Depth smoothing along the normal keeps a tilted plane exactly (every vertex within 1e-9),
 /// and lowers a noisy plane's depth scatter (σ = 0.1) by more than 5× in the interior after 100
-/// passes (the mean of about 100 independent depths would lower it 10×) without moving any
-/// vertex sideways (x and y stay, since the normal is z there to the smoothed normals' tilt).
+/// passes (the mean of about 100 independent depths would lower it 10×), moving no vertex
+/// sideways by more than a tenth of the spacing (the moves are along the smoothed normals, whose
+/// tilt is small: the sampling stays).
 #[test]
 fn depth_smoothing_keeps_a_plane_and_lowers_depth_noise() {
     use scan::label::normals::smooth_depth;
@@ -186,5 +187,5 @@ fn depth_smoothing_keeps_a_plane_and_lowers_depth_noise() {
     let (before, after) = (rms(&noisy.positions), rms(&p));
     assert!(after < before / 5.0, "depth scatter {before} → {after}");
     let sideways = p.iter().zip(&noisy.positions).map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs())).fold(0.0, f64::max);
-    assert!(sideways < 0.1 * 0.1, "moved sideways by {sideways}");
+    assert!(sideways < 0.1, "moved sideways by {sideways}");
 }
