@@ -269,8 +269,11 @@ pub fn verify_renders(
     patterns: &[Option<Vec<f32>>],
     spp: u64,
     seed: u64,
-    size: (usize, usize),
 ) -> Result<(Vec<Vec<[f64; 3]>>, Vec<f64>)> {
+    let size = {
+        let (w, h) = scene.resolution();
+        (w as usize, h as usize)
+    };
     let saved = (scene.materials.clone(), scene.lights.clone());
     let albedo: Vec<[f64; 3]> = (0..labels.len()).map(|k| params.albedo(k)).collect();
     basis::apply_fit(scene, labels, &albedo, params.get(model::PROJECTOR), params.get(model::AMBIENT));

@@ -397,7 +397,7 @@ pub fn run(args: Args) -> Result<()> {
 
     // Check: full renders with the fitted values.
     let t = Instant::now();
-    let (verify, verify_secs) = verify_renders(&mut scene, &labels, p, &patterns, spp, seed + 2, (width as usize, height as usize))?;
+    let (verify, verify_secs) = verify_renders(&mut scene, &labels, p, &patterns, spp, seed + 2)?;
     let verify_seconds = t.elapsed().as_secs_f64();
     let verify_metrics: Vec<FrameMetrics> =
         verify.iter().zip(&frames).map(|(v, f)| frame_metrics(v, f, &result.regions, labels.len(), opts.saturation)).collect();
@@ -439,7 +439,7 @@ pub fn run(args: Args) -> Result<()> {
         ps.set_resolution(width, height);
         let pl = scene_labels(ps)?;
         let t = Instant::now();
-        let (pred, _) = verify_renders(ps, &pl, p, &patterns, spp, seed + 2, (width as usize, height as usize))?;
+        let (pred, _) = verify_renders(ps, &pl, p, &patterns, spp, seed + 2)?;
         // Regions of that scene: from a basis-free rule, the pixels a label's surface covers.
         let pbasis = render_basis(ps, &[], 1, seed)?;
         let regions = analysis::photo_fit::regions(&pbasis);
