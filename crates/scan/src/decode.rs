@@ -352,3 +352,85 @@ pub fn write_map(path: &Path, map: &DecodeMap) -> Result<()> {
     let image = Image::from_rgb(map.width as u32, map.height as u32, rgb)?;
     write_image(path, &image, 0.0)
 }
+
+/// Fills the undecided pixels of `map` inside a decoded surface: a pixel without a code whose
+/// (2·`radius` + 1)² window holds decoded pixels in all four quadrants around it (so it lies
+/// between them, not beyond an outline), at least `min_fraction` of the window, takes the
+/// column and row of the least-squares affine fit (col, row = a + b x + c y) to them, provided
+/// that fit's RMS residual is at most `max_rms_px` projector pixels (a smooth surface, not a
+/// depth step where the projector coordinate jumps). The projector coordinate is smooth over a
+/// surface, so an affine fit over a few pixels is exact to its curvature; the filled pixels then
+/// triangulate on their own camera rays. Returns the map and the number of pixels filled. Only
+/// pixels decoded in `map` enter the fits (one pass).
+pub fn fill_holes(map: &DecodeMap, radius: usize, min_fraction: f64, max_rms_px: f64) -> (DecodeMap, usize) {
+    let (w, h) = (map.width, map.height);
+    let r = radius as i64;
+    let fills: Vec<Option<(f32, f32)>> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            if map.col[i].is_finite() && map.row[i].is_finite() {
+                return None;
+            }
+            let (x0, y0) = ((i % w) as i64, (i / w) as i64);
+            // Sums for the normal equations of a + b dx + c dy (dx, dy relative to the pixel).
+            let mut s = [0.0f64; 6]; // n, Σdx, Σdy, Σdx², Σdxdy, Σdy²
+            let mut sc = [0.0f64; 3];
+            let mut sr = [0.0f64; 3];
+            let mut quad = [false; 4];
+            let mut vals = Vec::new();
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (x, y) = (x0 + dx, y0 + dy);
+                    if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
+                        continue;
+                    }
+                    let j = y as usize * w + x as usize;
+                    let (c, rw) = (map.col[j], map.row[j]);
+                    if !(c.is_finite() && rw.is_finite()) {
+                        continue;
+                    }
+                    let (fx, fy) = (dx as f64, dy as f64);
+                    s[0] += 1.0;
+                    s[1] += fx;
+                    s[2] += fy;
+                    s[3] += fx * fx;
+                    s[4] += fx * fy;
+                    s[5] += fy * fy;
+                    for (acc, v) in [(&mut sc, c as f64), (&mut sr, rw as f64)] {
+                        acc[0] += v;
+                        acc[1] += v * fx;
+                        acc[2] += v * fy;
+                    }
+                    quad[usize::from(dx >= 0) + 2 * usize::from(dy >= 0)] |= dx != 0 || dy != 0;
+                    vals.push((fx, fy, c as f64, rw as f64));
+                }
+            }
+            let window = ((2 * r + 1) * (2 * r + 1)) as f64;
+            if !quad.iter().all(|&q| q) || s[0] < min_fraction * window || s[0] < 3.0 {
+                return None;
+            }
+            let m = nalgebra::Matrix3::new(s[0], s[1], s[2], s[1], s[3], s[4], s[2], s[4], s[5]);
+            let inv = m.try_inverse()?;
+            let ac = inv * nalgebra::Vector3::from(sc);
+            let ar = inv * nalgebra::Vector3::from(sr);
+            let mut se = 0.0;
+            for &(fx, fy, c, rw) in &vals {
+                se += (ac[0] + ac[1] * fx + ac[2] * fy - c).powi(2) + (ar[0] + ar[1] * fx + ar[2] * fy - rw).powi(2);
+            }
+            if (se / (2.0 * vals.len() as f64)).sqrt() > max_rms_px {
+                return None;
+            }
+            Some((ac[0] as f32, ar[0] as f32))
+        })
+        .collect();
+    let mut out = map.clone();
+    let mut n = 0;
+    for (i, f) in fills.iter().enumerate() {
+        if let Some((c, r)) = f {
+            out.col[i] = *c;
+            out.row[i] = *r;
+            n += 1;
+        }
+    }
+    (out, n)
+}

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use basis::Basis;
 use lm::{levenberg_marquardt, standard_errors, LmResult, Normal};
-use model::{camera_response, linear_render, Params, PixelBasis};
+use model::{camera_response, linear_render, radius2, Params, PixelBasis};
 
 /// One photograph: code values (1 = full scale; an 8-bit code / 255) per pixel and channel, at
 /// the basis' resolution.
@@ -42,11 +42,14 @@ pub struct Frame {
 #[derive(Clone, Debug)]
 pub struct FitOptions {
     /// Parameters held at their starting values: `gain`, `black_level`, `gamma`, `projector`,
-    /// `projector_black`, `ambient`, `color` or a label's name. Empty: hold the projector (the
+    /// `projector_black`, `ambient`, `color`, `vignetting` or a label's name. Empty: hold the projector (the
     /// ambient light in a scene without one).
     pub hold: Vec<String>,
     /// Fit the colour matrix in the response step (else it stays the identity).
     pub color_matrix: bool,
+    /// Fit the radial vignetting V(r) = 1 + v₂ r² + v₄ r⁴ in the response and joint steps (else
+    /// it stays 1).
+    pub vignetting: bool,
     /// Starting gamma of the camera response.
     pub gamma: f64,
     /// Starting black level (codes) and gain.
@@ -68,7 +71,7 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { hold: vec![], color_matrix: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None, edge_px: 0 }
+        FitOptions { hold: vec![], color_matrix: false, vignetting: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None, edge_px: 0 }
     }
 }
 
@@ -232,13 +235,13 @@ fn pixel_basis(basis: &Basis, f: usize, i: usize, out: &mut Vec<PixelBasis>) {
 
 /// Predicted codes of frame `f` under `params`, every pixel.
 pub fn predict(basis: &Basis, params: &Params, f: usize) -> Vec<[f64; 3]> {
-    let n = basis.width as usize * basis.height as usize;
+    let (w, h) = (basis.width as usize, basis.height as usize);
     let k = basis.labels.len();
-    (0..n)
+    (0..w * h)
         .into_par_iter()
         .map_init(Vec::new, |buf, i| {
             pixel_basis(basis, f, i, buf);
-            camera_response(params, linear_render(params, &buf[..k], &buf[k], None), None)
+            camera_response(params, linear_render(params, &buf[..k], &buf[k], None), radius2(i, w, h), None)
         })
         .collect()
 }
@@ -299,6 +302,10 @@ pub fn verify_renders(
     spp: u64,
     seed: u64,
 ) -> Result<(Vec<Vec<[f64; 3]>>, Vec<f64>)> {
+    let size = {
+        let (w, h) = scene.resolution();
+        (w as usize, h as usize)
+    };
     let saved = (scene.materials.clone(), scene.lights.clone());
     let albedo: Vec<[f64; 3]> = (0..labels.len()).map(|k| params.albedo(k)).collect();
     basis::apply_fit(scene, labels, &albedo, params.get(model::PROJECTOR), params.get(model::AMBIENT));
@@ -310,7 +317,8 @@ pub fn verify_renders(
         match basis::render_frame(scene, pat.as_deref(), params.get(model::PROJECTOR_BLACK), spp, seed) {
             Ok(lin) => {
                 secs.push(t.elapsed().as_secs_f64());
-                out.push(lin.par_iter().map(|x| camera_response(params, x.map(|v| v as f64), None)).collect());
+                let (w, h) = size;
+                out.push(lin.par_iter().enumerate().map(|(i, x)| camera_response(params, x.map(|v| v as f64), radius2(i, w, h), None)).collect());
             }
             Err(e) => {
                 result = Err(e);
@@ -353,6 +361,7 @@ struct Acc {
 /// Codes of pixel `i` of frame `f` and, with `jac`, their derivatives (into `a.jy` or `a.jy2`).
 fn pixel_codes(basis: &Basis, f: usize, i: usize, params: &Params, a: &mut Acc, jac: bool, second: bool) -> [f64; 3] {
     let k = basis.labels.len();
+    let r2 = radius2(i, basis.width as usize, basis.height as usize);
     pixel_basis(basis, f, i, &mut a.buf);
     if jac {
         for c in 0..3 {
@@ -360,9 +369,9 @@ fn pixel_codes(basis: &Basis, f: usize, i: usize, params: &Params, a: &mut Acc, 
         }
         let xl = linear_render(params, &a.buf[..k], &a.buf[k], Some(&mut a.dx));
         let out = if second { &mut a.jy2 } else { &mut a.jy };
-        camera_response(params, xl, Some((&a.dx, out)))
+        camera_response(params, xl, r2, Some((&a.dx, out)))
     } else {
-        camera_response(params, linear_render(params, &a.buf[..k], &a.buf[k], None), None)
+        camera_response(params, linear_render(params, &a.buf[..k], &a.buf[k], None), r2, None)
     }
 }
 
@@ -455,7 +464,7 @@ fn normal_equations(
 }
 
 /// Names a `--hold` may take besides the labels.
-pub const HOLD_NAMES: [&str; 7] = ["gain", "black_level", "gamma", "projector", "projector_black", "ambient", "color"];
+pub const HOLD_NAMES: [&str; 8] = ["gain", "black_level", "gamma", "projector", "projector_black", "ambient", "color", "vignetting"];
 
 /// Fits `frames` (one per basis frame, in order) from `start`. Errors on an unknown hold, on
 /// frames of another size, when no pixel is usable, and when the held parameters leave the
@@ -524,8 +533,10 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
     if has_ambient && !held("ambient") {
         light.push(g(model::AMBIENT));
     }
+    let vignetting: Vec<usize> = if opts.vignetting && !held("vignetting") { vec![g(model::VIGNETTING), g(model::VIGNETTING + 1)] } else { vec![] };
+    resp.extend(&vignetting);
     let mut joint: Vec<usize> = albedo.iter().chain(&light).cloned().collect();
-    joint.extend(resp.iter().cloned().filter(|&i| i < g(model::COLOR)));
+    joint.extend(resp.iter().cloned().filter(|&i| i < g(model::COLOR) || vignetting.contains(&i)));
     joint.sort();
 
     let names: Vec<String> = (0..start.len()).map(|i| start.name(i, &label_names)).collect();

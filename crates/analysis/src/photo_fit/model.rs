@@ -22,11 +22,15 @@
 //! The camera then maps linear sRGB to codes in [0, 1] (code / 255 for 8 bits):
 //!
 //! ```text
-//! u = M x,   M = I + off-diagonal terms with each row summing to 1 (white is preserved),
+//! V(r) = 1 + v₂ r² + v₄ r⁴,
+//! u = V(r) · M x,   M = I + off-diagonal terms with each row summing to 1 (white is preserved),
 //! y_c = b + g · max(u_c, 0)^(1/γ)
 //! ```
 //!
-//! with black level b, gain g and gamma γ. Scale is not observable from photographs alone:
+//! with black level b, gain g and gamma γ, and a radial vignetting V of the pixel's distance r
+//! from the image centre (r = 1 at the corners, [`radius2`]): the smooth fall-off of a real lens
+//! (and, over a flat target, of a projector's) that the renders do not have, as the even
+//! polynomial of the usual radial vignetting models (e.g. Goldman, IEEE TPAMI 32(12), 2010). Scale is not observable from photographs alone:
 //! multiplying every ρ by s and P, A by 1/s, or g by t^(1/γ) and P, A by 1/t, leaves every y
 //! unchanged, so a fit holds either the projector's scale P or the gain together with one label's
 //! albedo (a reference of known reflectance). With grey lights, M and the per-label RGB albedos
@@ -47,12 +51,23 @@ pub const GAIN: usize = 4;
 pub const GAMMA: usize = 5;
 /// Index (after the albedos) of the first of the six off-diagonal colour-matrix terms.
 pub const COLOR: usize = 6;
+/// Index (after the albedos) of the vignetting's r² coefficient v₂ (v₄ follows).
+pub const VIGNETTING: usize = 12;
 /// Number of parameters after the albedos.
-pub const N_GLOBAL: usize = 12;
+pub const N_GLOBAL: usize = 14;
 
 /// Names of the parameters after the albedos, in order.
 pub const GLOBAL_NAMES: [&str; N_GLOBAL] =
-    ["projector_scale", "projector_black", "ambient_scale", "black_level", "gain", "gamma", "m01", "m02", "m10", "m12", "m20", "m21"];
+    ["projector_scale", "projector_black", "ambient_scale", "black_level", "gain", "gamma", "m01", "m02", "m10", "m12", "m20", "m21", "vignetting_r2", "vignetting_r4"];
+
+/// Squared distance of pixel `i` (row-major) of a `width` × `height` image from the image
+/// centre, in units of the half-diagonal (0 at the centre, 1 at the corners; pixel centres at
+/// half-integers), the r² of the vignetting V(r).
+pub fn radius2(i: usize, width: usize, height: usize) -> f64 {
+    let (x, y) = ((i % width) as f64 + 0.5, (i / width) as f64 + 0.5);
+    let (hx, hy) = (0.5 * width as f64, 0.5 * height as f64);
+    ((x - hx).powi(2) + (y - hy).powi(2)) / (hx * hx + hy * hy)
+}
 
 /// (row, column) of each off-diagonal colour-matrix term, in parameter order.
 pub const OFFDIAG: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)];
@@ -71,10 +86,10 @@ pub struct Params {
 
 impl Params {
     /// Starting parameters: the given albedos, the scene's lights (P = A = 1, β = 0), the camera
-    /// response y = u^(1/γ) with `gamma`, and no colour correction.
+    /// response y = u^(1/γ) with `gamma`, no colour correction and no vignetting.
     pub fn new(albedo: &[[f64; 3]], gamma: f64) -> Params {
         let mut x: Vec<f64> = albedo.iter().flat_map(|a| a.iter().cloned()).collect();
-        x.extend_from_slice(&[1.0, 0.0, 1.0, 0.0, 1.0, gamma, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        x.extend_from_slice(&[1.0, 0.0, 1.0, 0.0, 1.0, gamma, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         Params { labels: albedo.len(), x }
     }
 
@@ -112,6 +127,11 @@ impl Params {
         }
     }
 
+    /// The vignetting V at squared radius `r2` ([`radius2`]).
+    pub fn vignetting(&self, r2: f64) -> f64 {
+        1.0 + self.get(VIGNETTING) * r2 + self.get(VIGNETTING + 1) * r2 * r2
+    }
+
     /// The colour matrix M (rows), each row summing to 1.
     pub fn color_matrix(&self) -> [[f64; 3]; 3] {
         let mut m = [[0.0; 3]; 3];
@@ -125,7 +145,8 @@ impl Params {
     }
 
     /// Clamps every parameter into its physical range: albedos [0, 1], scales ≥ 0, β ∈ [0, 0.5],
-    /// b ∈ [−0.5, 0.5], g ≥ 10⁻⁶, γ ∈ [0.3, 5], off-diagonal colour terms ∈ [−0.5, 0.5].
+    /// b ∈ [−0.5, 0.5], g ≥ 10⁻⁶, γ ∈ [0.3, 5], off-diagonal colour terms ∈ [−0.5, 0.5],
+    /// vignetting v₂, v₄ ∈ [−1, 1] (V stays within [−1, 3] over the image).
     pub fn clamp(&mut self) {
         let k3 = 3 * self.labels;
         for v in &mut self.x[..k3] {
@@ -144,6 +165,8 @@ impl Params {
             (-0.5, 0.5),
             (-0.5, 0.5),
             (-0.5, 0.5),
+            (-1.0, 1.0),
+            (-1.0, 1.0),
         ];
         for (g, (lo, hi)) in bounds.iter().enumerate() {
             let v = &mut self.x[k3 + g];
@@ -210,14 +233,18 @@ pub fn linear_render(p: &Params, labels: &[PixelBasis], rest: &PixelBasis, dx: O
     x
 }
 
-/// The camera: codes y (1 = full scale) from linear sRGB `x`, and with `jac` the derivatives
-/// `jac[c][i]` = ∂y_c/∂θ_i given `dx` = ∂x/∂θ (from [`linear_render`]); `jac` is overwritten.
-pub fn camera_response(p: &Params, x: [f64; 3], dx: Option<(&[Vec<f64>; 3], &mut [Vec<f64>; 3])>) -> [f64; 3] {
+/// The camera: codes y (1 = full scale) from linear sRGB `x` at a pixel of squared radius `r2`
+/// ([`radius2`]), and with `jac` the derivatives `jac[c][i]` = ∂y_c/∂θ_i given `dx` = ∂x/∂θ
+/// (from [`linear_render`]); `jac` is overwritten.
+pub fn camera_response(p: &Params, x: [f64; 3], r2: f64, dx: Option<(&[Vec<f64>; 3], &mut [Vec<f64>; 3])>) -> [f64; 3] {
     let m = p.color_matrix();
     let (b, g, gamma) = (p.get(BLACK_LEVEL), p.get(GAIN), p.get(GAMMA));
+    let v = p.vignetting(r2);
+    let mut mx = [0.0f64; 3];
     let mut u = [0.0f64; 3];
     for r in 0..3 {
-        u[r] = m[r][0] * x[0] + m[r][1] * x[1] + m[r][2] * x[2];
+        mx[r] = m[r][0] * x[0] + m[r][1] * x[1] + m[r][2] * x[2];
+        u[r] = v * mx[r];
     }
     let inv = 1.0 / gamma;
     let mut y = [0.0f64; 3];
@@ -237,7 +264,7 @@ pub fn camera_response(p: &Params, x: [f64; 3], dx: Option<(&[Vec<f64>; 3], &mut
         for c in 0..3 {
             let row = &mut jac[c];
             for i in 0..n {
-                let du = m[c][0] * dx[0][i] + m[c][1] * dx[1][i] + m[c][2] * dx[2][i];
+                let du = v * (m[c][0] * dx[0][i] + m[c][1] * dx[1][i] + m[c][2] * dx[2][i]);
                 row[i] = dy_du[c] * du;
             }
             row[p.global(BLACK_LEVEL)] = 1.0;
@@ -246,17 +273,22 @@ pub fn camera_response(p: &Params, x: [f64; 3], dx: Option<(&[Vec<f64>; 3], &mut
             row[p.global(GAMMA)] = -g * pow[c] * uc.ln() * inv * inv;
             for (t, &(r, col)) in OFFDIAG.iter().enumerate() {
                 // m[r][col] = θ, m[r][r] = 1 − Σ: ∂u_r/∂θ = x_col − x_r.
-                row[p.global(COLOR + t)] = if r == c { dy_du[c] * (x[col] - x[r]) } else { 0.0 };
+                row[p.global(COLOR + t)] = if r == c { dy_du[c] * v * (x[col] - x[r]) } else { 0.0 };
             }
+            // u_c = V · (M x)_c with V = 1 + v₂ r² + v₄ r⁴.
+            row[p.global(VIGNETTING)] = dy_du[c] * mx[c] * r2;
+            row[p.global(VIGNETTING + 1)] = dy_du[c] * mx[c] * r2 * r2;
         }
     }
     y
 }
 
-/// Inverse of the camera response for display: linear sRGB that gives codes `y` (M inverted).
-pub fn inverse_response(p: &Params, y: [f64; 3]) -> [f64; 3] {
+/// Inverse of the camera response for display: linear sRGB that gives codes `y` at squared
+/// radius `r2` (V and M inverted).
+pub fn inverse_response(p: &Params, y: [f64; 3], r2: f64) -> [f64; 3] {
     let (b, g, gamma) = (p.get(BLACK_LEVEL), p.get(GAIN), p.get(GAMMA));
-    let u = y.map(|v| ((v - b) / g).max(0.0).powf(gamma));
+    let v = p.vignetting(r2);
+    let u = y.map(|c| ((c - b) / g).max(0.0).powf(gamma) / v);
     let m = p.color_matrix();
     match invert3(&m) {
         Some(mi) => std::array::from_fn(|r| mi[r][0] * u[0] + mi[r][1] * u[1] + mi[r][2] * u[2]),
@@ -332,23 +364,38 @@ mod tests {
         for t in 0..6 {
             p.x[g + COLOR + t] = 0.01 * (t as f64 + 1.0) * if t % 2 == 0 { 1.0 } else { -1.0 };
         }
+        p.x[g + VIGNETTING] = -0.3;
+        p.x[g + VIGNETTING + 1] = 0.08;
+        // A pixel off centre, so that the vignetting acts (r² = 0.61).
+        let r2 = 0.61;
         let n = p.len();
         let mut dx: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
         let mut jy: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
         let x = linear_render(&p, &labels, &rest, Some(&mut dx));
-        camera_response(&p, x, Some((&dx, &mut jy)));
+        camera_response(&p, x, r2, Some((&dx, &mut jy)));
         for i in 0..n {
             let h = 1e-6;
             let (mut a, mut b) = (p.clone(), p.clone());
             a.x[i] += h;
             b.x[i] -= h;
-            let ya = camera_response(&a, linear_render(&a, &labels, &rest, None), None);
-            let yb = camera_response(&b, linear_render(&b, &labels, &rest, None), None);
+            let ya = camera_response(&a, linear_render(&a, &labels, &rest, None), r2, None);
+            let yb = camera_response(&b, linear_render(&b, &labels, &rest, None), r2, None);
             for c in 0..3 {
                 let fd = (ya[c] - yb[c]) / (2.0 * h);
                 assert!((fd - jy[c][i]).abs() < 1e-7 * (1.0 + fd.abs()), "∂y{c}/∂{}: analytic {} vs {fd}", p.name(i, &["l0".into(), "l1".into()]), jy[c][i]);
             }
         }
+    }
+
+    /// The vignetting's r² is 0 at the image centre and 1 at the corners, and is symmetric.
+    #[test]
+    fn radius2_is_normalised_at_the_corners() {
+        let (w, h) = (8usize, 6usize);
+        // Pixel (0, 0) has its centre at (0.5, 0.5): (3.5² + 2.5²) / (4² + 3²).
+        assert!((radius2(0, w, h) - (3.5f64.powi(2) + 2.5f64.powi(2)) / 25.0).abs() < 1e-15);
+        assert_eq!(radius2(0, w, h), radius2(w * h - 1, w, h));
+        assert_eq!(radius2(w - 1, w, h), radius2((h - 1) * w, w, h));
+        assert!((radius2(3 * w + 3, w, h) - 0.5f64.powi(2) * 2.0 / 25.0).abs() < 1e-15);
     }
 
     /// The inverse response undoes the response.
@@ -359,9 +406,11 @@ mod tests {
         p.x[3 + GAIN] = 0.9;
         p.x[3 + COLOR] = 0.05;
         p.x[3 + COLOR + 3] = -0.04;
+        p.x[3 + VIGNETTING] = -0.25;
+        p.x[3 + VIGNETTING + 1] = 0.05;
         let x = [0.2, 0.3, 0.25];
-        let y = camera_response(&p, x, None);
-        let back = inverse_response(&p, y);
+        let y = camera_response(&p, x, 0.8, None);
+        let back = inverse_response(&p, y, 0.8);
         for c in 0..3 {
             assert!((back[c] - x[c]).abs() < 1e-12, "{back:?} vs {x:?}");
         }

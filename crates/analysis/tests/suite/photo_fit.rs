@@ -147,7 +147,7 @@ fn photographs(scene: &mut Scene, truth: &Params, pats: &[Option<Vec<f32>>], see
                 .iter()
                 .map(|x| {
                     let noisy = x.map(|v| (v + SENSOR_SIGMA * gauss()).max(0.0));
-                    camera_response(truth, noisy, None).map(|y| ((y.clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
+                    camera_response(truth, noisy, 0.0, None).map(|y| ((y.clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
                 })
                 .collect(),
         })

@@ -70,12 +70,16 @@ pub struct Args {
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub seed: Option<String>,
     /// Hold a parameter at its start: gain, black_level, gamma, projector, projector_black,
-    /// ambient, color, or a label's name; repeatable [default: projector, or ambient without one].
+    /// ambient, color, vignetting, or a label's name; repeatable [default: projector, or ambient without one].
     #[arg(long, value_name = "NAME")]
     pub hold: Vec<String>,
     /// Fit a white-preserving 3×3 colour matrix in the response step.
     #[arg(long)]
     pub color_matrix: bool,
+    /// Fit a radial vignetting V(r) = 1 + v2 r² + v4 r⁴ of the camera (r = 1 at the image
+    /// corners) in the response and joint steps.
+    #[arg(long)]
+    pub vignetting: bool,
     /// Starting camera gamma [default: 2.2].
     #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gamma: Option<String>,
@@ -248,6 +252,8 @@ fn params_json(p: &Params, fit: &PhotoFit, labels: &[String]) -> Value {
         "gain": g(model::GAIN),
         "gamma": g(model::GAMMA),
         "color_matrix": p.color_matrix(),
+        "vignetting_r2": g(model::VIGNETTING),
+        "vignetting_r4": g(model::VIGNETTING + 1),
     })
 }
 
@@ -387,6 +393,7 @@ pub fn run(args: Args) -> Result<()> {
     let opts = FitOptions {
         hold: args.hold.clone(),
         color_matrix: args.color_matrix,
+        vignetting: args.vignetting,
         gamma,
         black_level,
         gain,

@@ -112,3 +112,82 @@ fn label_bad_input_is_one_line() {
     assert!(e.contains("missing.ply"), "{e}");
     assert!(!s.path("o.ply").exists());
 }
+
+/// With `--board-capture 0` only the surface on that capture's board plane (z = 10) is
+/// labelled, not a wall 1.5 behind it; `--scene-for-capture 1,…` writes the same labels with
+/// the move from board pose 0 to board pose 1, which takes a board point to R₁X + t₁; the
+/// label meshes carry shading normals turned towards the camera. Bad board input is one line.
+#[test]
+fn label_keeps_the_board_plane_and_moves_it_to_another_capture() {
+    let i = inputs("label-board");
+    let s = &i.s;
+    let mut calib = calibration(64, 48);
+    let pose = |name: &str, rvec: [f64; 3], tvec: [f64; 3]| scan::calib::CapturePose { name: name.into(), rvec, tvec, rms_px: 0.0 };
+    calib.captures = vec![pose("c0", [0.0, 0.0, 0.0], [0.0, 0.0, 10.0]), pose("c1", [0.0, 0.3, 0.0], [1.0, 0.5, 12.0])];
+    std::fs::write(s.path("calib.json"), serde_json::to_string(&calib).unwrap()).unwrap();
+    // The board: the left half of the view at z = 10; the wall: the right half at z = 11.5.
+    let (x, y) = (0.7 * 10.0, 0.5 * 10.0);
+    let (xw, yw) = (0.7 * 11.5, 0.5 * 11.5);
+    let ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n\
+         {} {} 10\n0 {} 10\n0 {y} 10\n{} {y} 10\n0 {} 11.5\n{xw} {} 11.5\n{xw} {yw} 11.5\n0 {yw} 11.5\n3 0 1 2\n3 0 2 3\n3 4 5 6\n3 4 6 7\n",
+        -x, -y, -y, -x, -yw, -yw
+    );
+    std::fs::write(s.path("mesh.ply"), ply).unwrap();
+    let out = lucent()
+        .args([
+            "scan", "label", &s.arg("mesh.ply"), &s.arg("photo.png"), "--calibration", &s.arg("calib.json"), "--out", &s.arg("lab.ply"),
+            "--scene", &s.arg("scene0.toml"), "--board-capture", "0", "--board-distance", "0.5", "--scene-for-capture", &format!("1,{}", s.arg("scene1.toml")), "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["unlabelled"]["off_board"].as_u64().unwrap() > 1000, "{v}");
+    assert_eq!(v["board_distance"].as_f64(), Some(0.5));
+    let lab = parse_ply(&std::fs::read(s.path("lab.ply")).unwrap()).unwrap();
+    let mut kept = 0;
+    let bytes = std::fs::read(s.path("lab_label0.ply")).unwrap();
+    let m = parse_ply(&bytes).unwrap();
+    for p in &m.positions {
+        assert!((p.z as f64 - 10.0).abs() < 1e-4, "a labelled vertex off the board: {p:?}");
+        kept += 1;
+    }
+    assert!(kept > 0 && lab.indices.len() > m.indices.len());
+    // Shading normals of the board face the camera: (0, 0, −1).
+    let normals = m.normals.as_ref().expect("shading normals");
+    assert_eq!(normals.len(), m.positions.len());
+    for n in normals {
+        assert!((n.z as f64 + 1.0).abs() < 1e-5, "{n:?}");
+    }
+    // Capture 1's scene: its transform takes the board point (0, 0, 0) (at t₀) to t₁ and the
+    // board point X = (1, 0, 0) to R₁X + t₁ = (cos 0.3, 0, −sin 0.3) + t₁.
+    let scene1 = render::scene::Scene::load(&s.path("scene1.toml")).unwrap();
+    assert_eq!(scene1.resolution(), (64, 48));
+    let text = std::fs::read_to_string(s.path("scene1.toml")).unwrap();
+    let line = text.lines().find(|l| l.starts_with("transform = { matrix = ")).expect("a transform");
+    let nums: Vec<f64> = line.trim_start_matches("transform = { matrix = ").trim_end_matches(" }").replace(['[', ']'], "").split(',').map(|t| t.trim().parse().unwrap()).collect();
+    let mul = |p: [f64; 3]| -> [f64; 3] { std::array::from_fn(|r| nums[4 * r] * p[0] + nums[4 * r + 1] * p[1] + nums[4 * r + 2] * p[2] + nums[4 * r + 3]) };
+    let (c, sn) = (0.3f64.cos(), 0.3f64.sin());
+    for (p, want) in [([0.0, 0.0, 10.0], [1.0, 0.5, 12.0]), ([1.0, 0.0, 10.0], [1.0 + c, 0.5, 12.0 - sn])] {
+        let got = mul(p);
+        for k in 0..3 {
+            assert!((got[k] - want[k]).abs() < 1e-12, "{p:?} → {got:?}, want {want:?}");
+        }
+    }
+    assert!(!std::fs::read_to_string(s.path("scene0.toml")).unwrap().contains("transform"));
+    // Bad board input.
+    let base = vec!["scan".to_string(), "label".into(), s.arg("mesh.ply"), s.arg("photo.png"), "--calibration".into(), s.arg("calib.json"), "--out".into(), s.arg("o.ply")];
+    let run = |extra: &[&str]| {
+        let mut a = base.clone();
+        a.extend(extra.iter().map(|t| t.to_string()));
+        fails_on_one_line(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let e = run(&["--board-capture", "5"]);
+    assert!(e.contains("--board-capture 5") && e.contains("2 board poses"), "{e}");
+    let e = run(&["--scene-for-capture", "1,x.toml"]);
+    assert!(e.contains("needs --board-capture"), "{e}");
+    let e = run(&["--board-capture", "0", "--scene", &s.arg("z.toml"), "--scene-for-capture", "one"]);
+    assert!(e.contains("J,SCENE.toml"), "{e}");
+    assert!(!s.path("o.ply").exists());
+}

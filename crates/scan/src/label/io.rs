@@ -34,11 +34,15 @@ pub fn read_photo(path: &Path) -> Result<Photo> {
     Ok(Photo { width: img.width as usize, height: img.height as usize, rgb: img.rgb })
 }
 
-fn header(vertices: usize, faces: usize, label: bool) -> String {
+fn header(vertices: usize, faces: usize, label: bool, normals: bool) -> String {
     let mut h = format!(
         "ply\nformat binary_little_endian 1.0\ncomment lucent scan label: camera coordinates (x right, y down, z forward), the calibration's length unit\n\
-         element vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\n"
+         element vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\n"
     );
+    if normals {
+        h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+    }
+    h.push_str(&format!("element face {faces}\nproperty list uchar int vertex_indices\n"));
     if label {
         h.push_str("property int label\n");
     }
@@ -49,13 +53,24 @@ fn header(vertices: usize, faces: usize, label: bool) -> String {
 /// Writes a binary little-endian PLY of `positions` and `triangles`, with `labels` (one per
 /// triangle) as the face property `int label` when given.
 pub fn write_ply(path: &Path, positions: &[[f64; 3]], triangles: &[[u32; 3]], labels: Option<&[i32]>) -> Result<()> {
+    write_ply_normals(path, positions, None, triangles, labels)
+}
+
+/// [`write_ply`] with per-vertex shading normals (`float nx, ny, nz`) when `normals` is given
+/// (one per position).
+pub fn write_ply_normals(path: &Path, positions: &[[f64; 3]], normals: Option<&[[f64; 3]]>, triangles: &[[u32; 3]], labels: Option<&[i32]>) -> Result<()> {
     write_atomic(path, |tmp| {
         let file = std::fs::File::create(tmp).with_context(|| format!("{}: cannot create", tmp.display()))?;
         let mut out = std::io::BufWriter::new(file);
-        out.write_all(header(positions.len(), triangles.len(), labels.is_some()).as_bytes())?;
-        for p in positions {
+        out.write_all(header(positions.len(), triangles.len(), labels.is_some(), normals.is_some()).as_bytes())?;
+        for (i, p) in positions.iter().enumerate() {
             for v in p {
                 out.write_all(&(*v as f32).to_le_bytes())?;
+            }
+            if let Some(n) = normals {
+                for v in n[i] {
+                    out.write_all(&(v as f32).to_le_bytes())?;
+                }
             }
         }
         for (f, t) in triangles.iter().enumerate() {
@@ -75,7 +90,13 @@ pub fn write_ply(path: &Path, positions: &[[f64; 3]], triangles: &[[u32; 3]], la
 
 /// The faces of label `k` as a mesh of their own (vertices renumbered).
 pub fn label_mesh(l: &Labelled, k: i32) -> Mesh {
+    label_mesh_indexed(l, k).0
+}
+
+/// [`label_mesh`] and, per vertex of it, its index in `l.mesh`.
+pub fn label_mesh_indexed(l: &Labelled, k: i32) -> (Mesh, Vec<u32>) {
     let mut map = vec![u32::MAX; l.mesh.positions.len()];
+    let mut from = Vec::new();
     let mut out = Mesh::default();
     for (t, &lab) in l.mesh.triangles.iter().zip(&l.face_label) {
         if lab != k {
@@ -85,12 +106,13 @@ pub fn label_mesh(l: &Labelled, k: i32) -> Mesh {
             if map[v as usize] == u32::MAX {
                 map[v as usize] = out.positions.len() as u32;
                 out.positions.push(l.mesh.positions[v as usize]);
+                from.push(v);
             }
             map[v as usize]
         });
         out.triangles.push(t);
     }
-    out
+    (out, from)
 }
 
 /// `<stem>_label<k>.ply` beside `labelled`.
@@ -131,6 +153,12 @@ pub struct SceneParts<'a> {
     pub projector_intensity: f64,
     /// Starting ambient radiance (W·m⁻²·sr⁻¹·nm⁻¹, flat).
     pub ambient_radiance: f64,
+    /// A camera-frame transform applied to every label's mesh (rows of a 4 × 4 matrix acting on
+    /// column vectors), e.g. the move of a board from one capture's pose to another's
+    /// ([`super::board::BoardPose::move_to`]); `None` leaves the meshes where they are.
+    pub transform: Option<[[f64; 4]; 4]>,
+    /// A comment line naming what the scene shows (written after the header), if any.
+    pub note: Option<&'a str>,
 }
 
 fn num(x: f64) -> String {
@@ -143,7 +171,11 @@ fn num(x: f64) -> String {
 pub fn scene_toml(p: &SceneParts) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Labelled scan (lucent scan label): the camera frame of the calibration, in its length unit.");
-    let _ = writeln!(s, "# Albedos are each label's mean photo colour (linear RGB), a starting guess for `lucent fit`.\n");
+    let _ = writeln!(s, "# Albedos are each label's mean photo colour (linear RGB), a starting guess for `lucent fit`.");
+    if let Some(n) = p.note {
+        let _ = writeln!(s, "# {n}");
+    }
+    let _ = writeln!(s);
     let _ = writeln!(s, "[camera]\ncalibration = {:?}\n", p.calibration);
     let _ = writeln!(s, "[integrator]\ntype = \"path\"\nmax_depth = 3\n");
     for (k, _, rgb) in p.labels {
@@ -151,7 +183,12 @@ pub fn scene_toml(p: &SceneParts) -> String {
         let _ = writeln!(s, "[materials.label{k}]\ntype = \"lambertian\"\nalbedo = {{ rgb = [{}, {}, {}] }}\n", num(c[0]), num(c[1]), num(c[2]));
     }
     for (k, mesh, _) in p.labels {
-        let _ = writeln!(s, "[[objects]]\nname = \"label{k}\"\nmaterial = \"label{k}\"\nmesh = {mesh:?}\n");
+        let _ = write!(s, "[[objects]]\nname = \"label{k}\"\nmaterial = \"label{k}\"\nmesh = {mesh:?}\n");
+        if let Some(m) = &p.transform {
+            let rows: Vec<String> = m.iter().map(|r| format!("[{}]", r.iter().map(|&v| num(v)).collect::<Vec<_>>().join(", "))).collect();
+            let _ = writeln!(s, "transform = {{ matrix = [{}] }}", rows.join(", "));
+        }
+        let _ = writeln!(s);
     }
     if let Some(img) = p.projector_image {
         let _ = writeln!(

@@ -12,7 +12,9 @@
 //! convention (integer coordinates at pixel centres).
 
 pub mod backproject;
+pub mod board;
 pub mod io;
+pub mod normals;
 pub mod segment;
 pub mod subdivide;
 

@@ -244,3 +244,53 @@ fn bad_capture_folders_name_the_file() {
     let e = err(&scratch("empty").join("nope"));
     assert!(e.contains("nope"), "{e}");
 }
+
+/// Hole filling against a known map: camera pixels see a plane whose projector coordinates are
+/// affine in the pixel (col = 3 + 0.8 x + 0.1 y, row = 5 − 0.05 x + 0.9 y) left of x = 40 and
+/// jump by 200 projector pixels right of it (a depth step). With 30 % of the pixels undecided at
+/// random, every filled pixel left of the step is exact (affine data, affine fit), no pixel whose
+/// window straddles the step is filled (the fit's residual is far above 1 px), and nothing
+/// beyond the decoded area's outline (the border band left undecided) is filled.
+#[test]
+fn fill_holes_restores_an_affine_map_and_stops_at_steps_and_outlines() {
+    use scan::decode::{fill_holes, DecodeMap};
+    let (w, h) = (80usize, 60usize);
+    let truth = |x: usize, y: usize| -> (f32, f32) {
+        let (fx, fy) = (x as f64, y as f64);
+        let jump = if x >= 40 { 200.0 } else { 0.0 };
+        ((3.0 + 0.8 * fx + 0.1 * fy + jump) as f32, (5.0 - 0.05 * fx + 0.9 * fy) as f32)
+    };
+    let mut rng = crate::common::Pcg::new(3);
+    let mut map = DecodeMap { width: w, height: h, col: vec![f32::NAN; w * h], row: vec![f32::NAN; w * h], white: vec![200.0; w * h], black: vec![5.0; w * h] };
+    let border = |x: usize, y: usize| x < 6 || y < 6 || x >= w - 6 || y >= h - 6;
+    for y in 0..h {
+        for x in 0..w {
+            if !border(x, y) && rng.uniform() > 0.3 {
+                let (c, r) = truth(x, y);
+                map.col[y * w + x] = c;
+                map.row[y * w + x] = r;
+            }
+        }
+    }
+    let (filled, n) = fill_holes(&map, 3, 0.25, 1.0);
+    assert!(n > 300, "{n} filled");
+    let mut exact = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            if map.col[i].is_finite() {
+                assert_eq!((filled.col[i], filled.row[i]), (map.col[i], map.row[i]));
+                continue;
+            }
+            if !filled.col[i].is_finite() {
+                continue;
+            }
+            assert!(!border(x, y), "filled beyond the outline at ({x}, {y})");
+            assert!(!(x + 3 >= 40 && x < 43), "filled across the step at ({x}, {y})");
+            let (c, r) = truth(x, y);
+            assert!((filled.col[i] - c).abs() < 1e-3 && (filled.row[i] - r).abs() < 1e-3, "({x}, {y}): {} {} vs {c} {r}", filled.col[i], filled.row[i]);
+            exact += 1;
+        }
+    }
+    assert_eq!(exact, n);
+}

@@ -9,5 +9,6 @@ mod eval;
 mod graycode;
 mod markers;
 mod label;
+mod label_board;
 mod synth;
 mod triangulate;

@@ -43,8 +43,14 @@ pub struct Args {
     /// footprints at their depth.
     #[arg(long, default_value_t = DEFAULT_MAX_EDGE_PIXELS, value_name = "PIXELS")]
     pub max_edge: f64,
+    /// Fill undecided pixels between decoded ones: a pixel whose (2R + 1)² window has decoded
+    /// pixels in all four quadrants, at least a quarter of the window, takes the affine fit of
+    /// their projector coordinates when it fits to 1 projector pixel RMS (scan::decode::fill_holes);
+    /// 0: no filling.
+    #[arg(long, default_value_t = 0, value_name = "R")]
+    pub fill_holes: usize,
     /// Print a JSON summary on stdout (keys points, bbox {min, max}, median_ray_gap; triangles
-    /// with --mesh).
+    /// with --mesh; filled with --fill-holes).
     #[arg(long)]
     pub json: bool,
 }
@@ -75,6 +81,7 @@ pub fn run(args: Args) -> Result<()> {
     let capture = capture?;
     progress.set_message("decoding");
     let (map, _) = decode(&capture, &patterns, &settings)?;
+    let (map, filled) = if args.fill_holes > 0 { scan::decode::fill_holes(&map, args.fill_holes, 0.25, 1.0) } else { (map, 0) };
     progress.finish();
     let progress = Progress::new(map.height as u64, "rows triangulated");
     let range = triangulate_map(&map, &rig, &|| progress.inc()).with_context(|| format!("{} with {}", args.capture.display(), args.calibration.display()))?;
@@ -97,6 +104,9 @@ pub fn run(args: Args) -> Result<()> {
         });
         if args.mesh.is_some() {
             v["triangles"] = serde_json::json!(cloud.triangles.len());
+        }
+        if args.fill_holes > 0 {
+            v["filled"] = serde_json::json!(filled);
         }
         println!("{v}");
     } else {
