@@ -337,7 +337,7 @@ mod tests {
         let mut jy: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
         let x = linear_render(&p, &labels, &rest, Some(&mut dx));
         assert_eq!(x, [0.0; 3]);
-        let y0 = camera_response(&p, x, Some((&dx, &mut jy)));
+        let y0 = camera_response(&p, x, 0.0, Some((&dx, &mut jy)));
         for c in 0..3 {
             let slope = (1.0 / 2.2) * U_MIN.powf(1.0 / 2.2 - 1.0);
             assert!((jy[c][c] - slope * dx[c][c]).abs() < 1e-9 * jy[c][c], "channel {c}: {} vs {}", jy[c][c], slope * dx[c][c]);
@@ -345,7 +345,7 @@ mod tests {
             let h = 1e-3;
             let mut q = p.clone();
             q.x[c] = h;
-            let y1 = camera_response(&q, linear_render(&q, &labels, &rest, None), None);
+            let y1 = camera_response(&q, linear_render(&q, &labels, &rest, None), 0.0, None);
             assert!(y1[c] - y0[c] > 0.0 && y1[c] - y0[c] < jy[c][c] * h, "channel {c}: code rises by {}", y1[c] - y0[c]);
         }
     }

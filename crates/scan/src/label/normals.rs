@@ -98,9 +98,11 @@ pub fn smooth_depth(mesh: &Mesh, keep: &[bool], normals: &[[f64; 3]], iterations
                 for &u in list {
                     let q = cur[u as usize];
                     for k in 0..3 {
-                        m[k] += q[k] / list.len() as f64;
+                        m[k] += q[k];
                     }
                 }
+                let inv = 1.0 / list.len() as f64;
+                let m = m.map(|x| x * inv);
                 let n = normals[v];
                 let d = (m[0] - p[0]) * n[0] + (m[1] - p[1]) * n[1] + (m[2] - p[2]) * n[2];
                 [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]]
