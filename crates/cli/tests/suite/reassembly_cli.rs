@@ -238,7 +238,7 @@ fn photograph(lin: &[[f32; 3]], seed: u64, stream: u64) -> Vec<u8> {
     lin.iter()
         .flat_map(|x| {
             let noisy = x.map(|v| (v as f64 + SENSOR_SIGMA * gauss()).max(0.0));
-            camera_response(&truth, noisy, None).map(|y| (y.clamp(0.0, 1.0) * 255.0).round() as u8)
+            camera_response(&truth, noisy, 0.0, None).map(|y| (y.clamp(0.0, 1.0) * 255.0).round() as u8)
         })
         .collect()
 }
