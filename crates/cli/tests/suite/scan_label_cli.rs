@@ -116,7 +116,7 @@ fn label_bad_input_is_one_line() {
 /// With `--board-capture 0` only the surface on that capture's board plane (z = 10) is
 /// labelled, not a wall 1.5 behind it; `--scene-for-capture 1,…` writes the same labels with
 /// the move from board pose 0 to board pose 1, which takes a board point to R₁X + t₁; the
-/// label meshes carry shading normals turned towards the camera. Bad board input is one line.
+/// label meshes (with `--surface-smoothing`) carry shading normals turned towards the camera. Bad board input is one line.
 #[test]
 fn label_keeps_the_board_plane_and_moves_it_to_another_capture() {
     let i = inputs("label-board");
@@ -137,7 +137,7 @@ fn label_keeps_the_board_plane_and_moves_it_to_another_capture() {
     let out = lucent()
         .args([
             "scan", "label", &s.arg("mesh.ply"), &s.arg("photo.png"), "--calibration", &s.arg("calib.json"), "--out", &s.arg("lab.ply"),
-            "--scene", &s.arg("scene0.toml"), "--board-capture", "0", "--board-distance", "0.5", "--scene-for-capture", &format!("1,{}", s.arg("scene1.toml")), "--json",
+            "--scene", &s.arg("scene0.toml"), "--board-capture", "0", "--board-distance", "0.5", "--scene-for-capture", &format!("1,{}", s.arg("scene1.toml")), "--surface-smoothing", "100", "--json",
         ])
         .output()
         .unwrap();
