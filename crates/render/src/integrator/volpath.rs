@@ -156,11 +156,7 @@ fn mis_divisor(r_u: Vec4, wl: &SampledWavelengths) -> f32 {
 /// sampling with every wavelength as the hero, mean(r_u) / mean(r_u + light_pdf · r_l).
 #[inline]
 fn spectral_balance(r_u: Vec4, r_l: Vec4, light_pdf: f32, wl: &SampledWavelengths) -> f32 {
-    let d = mis_divisor(r_u + r_l * light_pdf, wl);
-    if !(d > 0.0) || !d.is_finite() {
-        return 0.0;
-    }
-    mis_divisor(r_u, wl) / d
+    spectral_balance_lanes(r_u, r_l, Vec4::splat(light_pdf), wl)
 }
 
 /// [`spectral_balance`] with a light-technique density that differs between the lanes (had lane
