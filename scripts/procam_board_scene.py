@@ -2,6 +2,7 @@
 
 Usage: python3 scripts/procam_board_scene.py CALIB.json CAPTURE_INDEX OUT_DIR
        [--corners 9x7] [--square 75] [--margin 0.4] [--first black|white] [--pattern PNG]
+       [--reference I]
 
 CALIB.json is what `lucent scan calibrate` writes (lengths in the unit of its `--square`, which
 `--square` here must repeat); the board
@@ -18,7 +19,10 @@ camera coordinates (square units), as the labelling tool's `<stem>_label<k>.ply`
 (OUT_DIR/scene<i>.toml) has the calibration's camera, the projector as a light (its calibration
 with matrix_node = "projector", showing `--pattern`, default a white image written beside), a
 constant environment as the ambient term (both D65 white, linear sRGB (1, 1, 1)), and starting albedos 0.05 / 0.7 / 0.7. The projector
-intensity is chosen so that an albedo of 0.7 at the board centre would read about 0.5 linear.
+intensity is chosen so that an albedo of 0.7 at the board centre of capture `--reference`
+(default 0) would read about 0.5 linear; it is the same for every CAPTURE_INDEX of one
+calibration, since one projector lit every capture (a scene of another capture predicts it only
+with the same light).
 """
 import json, math, os, sys, struct, zlib
 
@@ -44,7 +48,7 @@ def write_white_png(path, w, h):
 
 def main(argv):
     args = [a for a in argv]
-    opts = {'--corners': '9x7', '--square': '75', '--margin': '0.4', '--first': 'black', '--pattern': None}
+    opts = {'--corners': '9x7', '--square': '75', '--margin': '0.4', '--first': 'black', '--pattern': None, '--reference': '0'}
     pos = []
     i = 0
     while i < len(args):
@@ -97,7 +101,9 @@ def main(argv):
     # Projector centre in camera coordinates: -R^T T.
     Rp, T = calib['rotation'], calib['translation']
     cp = [-(Rp[0][r] * T[0] + Rp[1][r] * T[1] + Rp[2][r] * T[2]) for r in range(3)]
-    centre = to_cam(cols / 2 - 0.5, rows / 2 - 0.5)
+    ref = calib['captures'][int(opts['--reference'])]
+    Rr, tr = rodrigues(ref['rvec']), ref['tvec']
+    centre = [Rr[r][0] * (cols / 2 - 0.5) * sq + Rr[r][1] * (rows / 2 - 0.5) * sq + tr[r] for r in range(3)]
     r2 = sum((centre[r] - cp[r]) ** 2 for r in range(3))
     intensity = 0.5 * math.pi * r2 / 0.7
     pw, ph = calib['projector']['width'], calib['projector']['height']

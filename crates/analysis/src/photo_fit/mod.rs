@@ -24,7 +24,7 @@ use anyhow::{bail, Result};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use basis::Basis;
+use basis::{Basis, Plane};
 use lm::{levenberg_marquardt, standard_errors, LmResult, Normal};
 use model::{camera_response, linear_render, radius2, Params, PixelBasis};
 
@@ -67,11 +67,14 @@ pub struct FitOptions {
     /// Pixels within this many pixels (square neighbourhood) of another label's region or of an
     /// unlabelled pixel are left out of the fit and its errors ([`interior`]; 0: none).
     pub edge_px: usize,
+    /// Pixels where more than this share of the light comes from outside the labels are left
+    /// out ([`regions`]; default [`MAX_BACKGROUND`]).
+    pub max_background: f64,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { hold: vec![], color_matrix: false, vignetting: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None, edge_px: 0 }
+        FitOptions { hold: vec![], color_matrix: false, vignetting: false, gamma: 2.2, black_level: 0.0, gain: 1.0, max_iterations: 100, saturation: 0.99, stride: 1, fit_frames: None, edge_px: 0, max_background: MAX_BACKGROUND }
     }
 }
 
@@ -176,12 +179,28 @@ pub struct PhotoFit {
     pub seconds: f64,
 }
 
-/// Per-pixel region (dominant label by the luminance of its white-projector and ambient basis; −1
-/// where no label is seen).
-pub fn regions(basis: &Basis) -> Vec<i32> {
+/// Default of [`FitOptions::max_background`]: a pixel is compared only where no sample of its
+/// basis renders left the labelled surfaces (the share of 10⁻³ tolerates rounding, not a sample).
+pub const MAX_BACKGROUND: f64 = 1e-3;
+
+/// Per-pixel region: the dominant label by the luminance of its white-projector and ambient
+/// basis, or −1 where no label is seen or where more than `max_background` of the pixel's light
+/// comes from the rest of the scene (objects that are not labels, the environment seen
+/// directly). Such a pixel is only partly covered by the labels: through a hole of a scanned
+/// mesh it shows the constant environment, which a photograph shows as whatever lies behind,
+/// and the share the labels cover is known only to the micropolygons' accuracy. The share is
+/// taken from the ambient basis when the scene has an environment (labels and a directly seen
+/// environment are then of the same order), else from the projector basis; 1 (or more) keeps
+/// every pixel a label reaches.
+pub fn regions(basis: &Basis, max_background: f64) -> Vec<i32> {
     let n = basis.width as usize * basis.height as usize;
     let k = basis.labels.len();
     let y = |p: [f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+    let share_of = |planes: &[Plane], i: usize| -> Option<f64> {
+        let rest = y(planes[k][i]);
+        let all: f64 = (0..k).map(|l| y(planes[l][i])).sum::<f64>() + rest;
+        (all > 0.0).then(|| rest / all)
+    };
     (0..n)
         .map(|i| {
             let mut best = (-1i32, 1e-12f64);
@@ -189,6 +208,12 @@ pub fn regions(basis: &Basis) -> Vec<i32> {
                 let v = y(basis.flood[l][i]) + y(basis.ambient[l][i]);
                 if v > best.1 {
                     best = (l as i32, v);
+                }
+            }
+            if best.0 >= 0 && max_background < 1.0 {
+                let share = share_of(&basis.ambient, i).or_else(|| share_of(&basis.flood, i)).unwrap_or(0.0);
+                if share > max_background {
+                    return -1;
                 }
             }
             best.0
@@ -302,10 +327,23 @@ pub fn verify_renders(
     spp: u64,
     seed: u64,
 ) -> Result<(Vec<Vec<[f64; 3]>>, Vec<f64>)> {
-    let size = {
+    let (w, h) = {
         let (w, h) = scene.resolution();
         (w as usize, h as usize)
     };
+    let (lin, secs) = verify_linear(scene, labels, params, patterns, spp, seed)?;
+    Ok((lin.iter().map(|l| codes(params, l, 1.0, w, h)).collect(), secs))
+}
+
+/// The renders of [`verify_renders`] before the camera: linear sRGB per frame.
+pub fn verify_linear(
+    scene: &mut render::scene::Scene,
+    labels: &[basis::Label],
+    params: &Params,
+    patterns: &[Option<Vec<f32>>],
+    spp: u64,
+    seed: u64,
+) -> Result<(Vec<Plane>, Vec<f64>)> {
     let saved = (scene.materials.clone(), scene.lights.clone());
     let albedo: Vec<[f64; 3]> = (0..labels.len()).map(|k| params.albedo(k)).collect();
     basis::apply_fit(scene, labels, &albedo, params.get(model::PROJECTOR), params.get(model::AMBIENT));
@@ -317,8 +355,7 @@ pub fn verify_renders(
         match basis::render_frame(scene, pat.as_deref(), params.get(model::PROJECTOR_BLACK), spp, seed) {
             Ok(lin) => {
                 secs.push(t.elapsed().as_secs_f64());
-                let (w, h) = size;
-                out.push(lin.par_iter().enumerate().map(|(i, x)| camera_response(params, x.map(|v| v as f64), radius2(i, w, h), None)).collect());
+                out.push(lin);
             }
             Err(e) => {
                 result = Err(e);
@@ -329,6 +366,44 @@ pub fn verify_renders(
     scene.materials = saved.0;
     scene.lights = saved.1;
     result.map(|_| (out, secs))
+}
+
+/// Codes of the linear render `lin` (`w × h`) scaled by `exposure` through the camera of `params`.
+pub fn codes(params: &Params, lin: &Plane, exposure: f64, w: usize, h: usize) -> Vec<[f64; 3]> {
+    lin.par_iter().enumerate().map(|(i, x)| camera_response(params, x.map(|v| exposure * v as f64), radius2(i, w, h), None)).collect()
+}
+
+/// The exposure factor s (linear radiance × s before the camera, in [1/8, 8]) that minimises the
+/// relative RMSE of `lin`'s codes against `frames` over `regions`, by golden-section search in
+/// ln s; with the metrics per frame at that s. A diagnostic of a prediction: how much of its
+/// error one factor common to every pixel and frame (the camera's exposure, the light's output)
+/// would take, which a fit on another capture cannot know.
+pub fn exposure_match(params: &Params, lin: &[Plane], frames: &[Frame], regions: &[i32], labels: usize, saturation: f64, w: usize, h: usize) -> (f64, Vec<FrameMetrics>) {
+    let eval = |ln_s: f64| -> (f64, Vec<FrameMetrics>) {
+        let m: Vec<FrameMetrics> = lin.iter().zip(frames).map(|(l, f)| frame_metrics(&codes(params, l, ln_s.exp(), w, h), f, regions, labels, saturation)).collect();
+        (total(&m).rel_rmse, m)
+    };
+    let (mut a, mut b) = ((1.0f64 / 8.0).ln(), 8.0f64.ln());
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
+    let (mut fc, mut fd) = (eval(c).0, eval(d).0);
+    while b - a > 1e-4 {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - r * (b - a);
+            fc = eval(c).0;
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + r * (b - a);
+            fd = eval(d).0;
+        }
+    }
+    let ln_s = 0.5 * (a + b);
+    (ln_s.exp(), eval(ln_s).1)
 }
 
 /// Pixel-count-weighted combination of frame metrics (RMSE and relative RMSE recombined from
@@ -507,7 +582,7 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
             label_names[0]
         );
     }
-    let regions = interior(&regions(basis), basis.width as usize, basis.height as usize, opts.edge_px);
+    let regions = interior(&regions(basis, opts.max_background), basis.width as usize, basis.height as usize, opts.edge_px);
     let usable_px: usize = frames.iter().map(|f| (0..n_px).filter(|&i| usable(&regions, f, i, opts.saturation)).count()).sum();
     if usable_px == 0 {
         bail!("no photograph pixel sees a label without saturating");

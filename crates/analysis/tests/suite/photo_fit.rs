@@ -236,3 +236,41 @@ fn interior_leaves_out_a_band_at_region_boundaries() {
         }
     }
 }
+
+/// `regions` on a hand-made basis of two labels and four pixels: a pixel that only labels light
+/// keeps the brighter label; one where the rest of the scene (the environment seen through a
+/// hole) brings 1/3 of the ambient light, or brings all of it, is left out; a share of 10⁻⁴ (below
+/// the default 10⁻³) is kept; with a limit of 1 every pixel a label reaches is kept.
+#[test]
+fn regions_leave_out_pixels_that_see_the_background() {
+    use analysis::photo_fit::basis::{Basis, Label};
+    let label = |k: usize| Label { name: format!("label{k}"), material: k, albedo: [0.5; 3] };
+    let g = |v: f32| [v; 3];
+    // Per label, then the rest; pixels 0..4.
+    let ambient = vec![vec![g(1.0), g(0.0), g(1.0), g(0.0)], vec![g(0.2), g(1.0), g(0.0), g(0.0)], vec![g(0.0), g(0.5), g(1e-4), g(1.0)]];
+    let flood = vec![vec![g(2.0), g(0.0), g(2.0), g(0.0)], vec![g(0.5), g(2.0), g(0.0), g(0.0)], vec![g(0.0); 4]];
+    let basis = Basis { width: 4, height: 1, labels: vec![label(0), label(1)], ambient, flood, frames: vec![], render_seconds: vec![] };
+    assert_eq!(analysis::photo_fit::regions(&basis, analysis::photo_fit::MAX_BACKGROUND), vec![0, -1, 0, -1]);
+    assert_eq!(analysis::photo_fit::regions(&basis, 1.0), vec![0, 1, 0, -1]);
+}
+
+/// `exposure_match` on "photographs" made from a render through a known camera at exposure 0.8:
+/// it finds 0.8 and leaves no error.
+#[test]
+fn exposure_match_recovers_a_known_exposure() {
+    let (w, h) = (16usize, 8usize);
+    let mut p = Params::new(&[[0.5; 3]], 1.8);
+    p.x[3 + model::BLACK_LEVEL] = 0.02;
+    p.x[3 + model::GAIN] = 0.9;
+    let lin: Vec<Vec<[f32; 3]>> = (0..2).map(|f| (0..w * h).map(|i| [0.05 + 0.6 * ((i * 7 + f * 3) % 11) as f32 / 11.0, 0.3, 0.1 + 0.002 * i as f32]).collect()).collect();
+    let frames: Vec<Frame> = lin
+        .iter()
+        .enumerate()
+        .map(|(f, l)| Frame { name: format!("f{f}"), codes: analysis::photo_fit::codes(&p, l, 0.8, w, h).iter().map(|c| c.map(|v| v as f32)).collect() })
+        .collect();
+    let regions = vec![0i32; w * h];
+    let (s, m) = analysis::photo_fit::exposure_match(&p, &lin, &frames, &regions, 1, 0.99, w, h);
+    assert!((s - 0.8).abs() < 1e-3, "exposure {s}");
+    let tot = analysis::photo_fit::total(&m);
+    assert!(tot.rel_rmse < 5e-4, "rel. RMSE {}", tot.rel_rmse);
+}

@@ -96,6 +96,11 @@ pub struct Args {
     /// mix labels in proportions known only to a fraction of a pixel) [default: 0].
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub edge_px: Option<String>,
+    /// Leave out pixels where more than this share (0–1) of the light the basis renders see
+    /// comes from outside the labels: the environment seen through a hole of a scanned mesh, an
+    /// object that is not a label; 1 keeps every pixel a label reaches [default: 0.001].
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    pub max_background: Option<String>,
     /// Fit on every S-th pixel of each row and column [default: 1].
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub stride: Option<String>,
@@ -272,6 +277,10 @@ pub fn run(args: Args) -> Result<()> {
         None => 0,
     };
     let num = |name: &str, v: &Option<String>, d: f64| -> Result<f64> { v.as_deref().map(|t| finite_f64(name, t)).transpose().map(|o| o.unwrap_or(d)) };
+    let max_background = num("--max-background", &args.max_background, analysis::photo_fit::MAX_BACKGROUND)?;
+    if !(0.0..=1.0).contains(&max_background) {
+        bail!("--max-background must lie in [0, 1], got {max_background}");
+    }
     let gamma = num("--gamma", &args.gamma, 2.2)?;
     if !(0.3..=5.0).contains(&gamma) {
         bail!("--gamma must lie in [0.3, 5], got {gamma}");
@@ -401,6 +410,7 @@ pub fn run(args: Args) -> Result<()> {
         stride,
         fit_frames,
         edge_px,
+        max_background,
         ..FitOptions::default()
     };
     let result = fit(&basis, Some((&half_a, &half_b)), &frames, &start, &opts)?;
@@ -470,20 +480,29 @@ pub fn run(args: Args) -> Result<()> {
         ps.set_resolution(width, height);
         let pl = scene_labels(ps)?;
         let t = Instant::now();
-        let (pred, _) = verify_renders(ps, &pl, p, &patterns, spp, seed + 2)?;
+        let (lin, _) = analysis::photo_fit::verify_linear(ps, &pl, p, &patterns, spp, seed + 2)?;
+        let (w, h) = (width as usize, height as usize);
+        let pred: Vec<Vec<[f64; 3]>> = lin.iter().map(|l| analysis::photo_fit::codes(p, l, 1.0, w, h)).collect();
         // Regions of that scene: from a basis-free rule, the pixels a label's surface covers.
         let pbasis = render_basis(ps, &[], 1, seed)?;
-        let regions = analysis::photo_fit::regions(&pbasis);
+        let regions = analysis::photo_fit::regions(&pbasis, max_background);
         let m: Vec<FrameMetrics> = pred.iter().zip(pf.iter()).map(|(v, f)| frame_metrics(v, f, &regions, k, opts.saturation)).collect();
         let tot = total(&m);
         say(format!("predicted {}: rel. RMSE {:.5}, ΔE2000 {:.3} ({:.2} s)", dir.display(), tot.rel_rmse, tot.delta_e2000, t.elapsed().as_secs_f64()));
+        // Diagnostic, not part of the prediction: the error left after one exposure factor.
+        let (s, em) = analysis::photo_fit::exposure_match(p, &lin, pf, &regions, k, opts.saturation, w, h);
+        let etot = total(&em);
+        say(format!("  with one exposure factor {s:.4} matched to it: rel. RMSE {:.5}, ΔE2000 {:.3}", etot.rel_rmse, etot.delta_e2000));
         let stem = dir.file_name().and_then(|s| s.to_str()).unwrap_or("predict").to_string();
         if let Some(f0) = pf.first() {
             let render = codes_to_image(width, height, pred[0].iter().cloned());
             let photo = codes_to_image(width, height, f0.codes.iter().map(|c| c.map(|v| v as f64)));
             write_image(&out_dir.join(format!("predict_{stem}_{}_panel.png", f0.name)), &side_by_side(&[&photo, &render]), 0.0)?;
         }
-        predicted.push(json!({"capture": dir.display().to_string(), "total": metrics_json(&tot), "frames": frames_json(&m, &label_names)}));
+        predicted.push(json!({
+            "capture": dir.display().to_string(), "total": metrics_json(&tot), "frames": frames_json(&m, &label_names),
+            "exposure_matched": {"scale": s, "total": metrics_json(&etot), "frames": frames_json(&em, &label_names)},
+        }));
     }
 
     let steps: Vec<Value> = result
@@ -510,7 +529,10 @@ pub fn run(args: Args) -> Result<()> {
         "steps": result.steps.iter().map(|s| json!({"name": s.name, "total": metrics_json(&s.total)})).collect::<Vec<_>>(),
         "verify": metrics_json(&verify_total),
         "noise_floor": floor_total.as_ref().map(metrics_json),
-        "predict": predicted.iter().map(|v| json!({"capture": v["capture"], "total": v["total"]})).collect::<Vec<_>>(),
+        "predict": predicted
+            .iter()
+            .map(|v| json!({"capture": v["capture"], "total": v["total"], "exposure_matched": {"scale": v["exposure_matched"]["scale"], "total": v["exposure_matched"]["total"]}}))
+            .collect::<Vec<_>>(),
         "timing": timing,
     });
     let full = json!({
@@ -523,6 +545,7 @@ pub fn run(args: Args) -> Result<()> {
         "verify": {"total": metrics_json(&verify_total), "frames": frames_json(&verify_metrics, &label_names)},
         "noise_floor": floor_total.as_ref().map(|t| json!({"total": metrics_json(t), "frames": frames_json(&floor_metrics, &label_names)})),
         "edge_px": edge_px,
+        "max_background": max_background,
         "predict": predicted, "timing": summary["timing"],
     });
     write_text(&out_dir.join("fit.json"), &(serde_json::to_string_pretty(&full)? + "\n"))?;
