@@ -642,9 +642,13 @@ fn medium_light_sample(scene: &Scene, mm: &HomogeneousMedium, p: Vec3, d: Vec3, 
 /// only up to as many surfaces after the vertex.
 const GUIDE_STEPS: u32 = 16;
 
+/// Below this hero transmittance of a segment the refracted branch goes on only with
+/// probability T / BRANCH_ROULETTE_T (weighted by its inverse).
+const BRANCH_ROULETTE_T: f32 = 0.25;
+
 /// The refracted branch from medium vertex `p` in direction `w` (drawn from the refracted
 /// proposal): the continuation the main path would follow — free flight in the current medium
-/// (a collision ends the branch), pass-through boundaries, smooth non-dispersive interfaces
+/// (weighted by the probability of no collision), pass-through boundaries, smooth non-dispersive interfaces
 /// sampled as the main path samples them — up to the first surface that is neither, at most
 /// `GUIDE_STEPS` surfaces. Emission it meets (area lights, the environment) is counted with the
 /// balance heuristic against the main path's phase sampling over the 2 × 4 techniques: with
@@ -666,29 +670,32 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
         }
     };
     loop {
-        let mut t_coll = f32::INFINITY;
-        let mut coeffs = None;
-        if let Some(m) = medium {
+        let coeffs = medium.map(|m| {
             let mm = &scene.media[m as usize];
-            let (_, sigma_t) = mm.coefficients(wl);
-            if !mm.pure_absorber && sigma_t.x > 0.0 {
-                t_coll = -(1.0 - rng.next_f32()).ln() / sigma_t.x;
-            }
-            coeffs = Some((mm.pure_absorber, sigma_t));
-        }
-        ray.t_max = t_coll;
+            (mm.pure_absorber, mm.coefficients(wl).1)
+        });
+        ray.t_max = f32::INFINITY;
         let hit = scene.accel.intersect(&ray);
         if let Some((pure, sigma_t)) = coeffs {
-            if hit.is_none() && t_coll.is_finite() {
-                return l;
-            }
             let seg = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
             if pure {
                 num *= transmittance(sigma_t, seg);
             } else {
+                // The main path crosses the segment without a collision with probability
+                // T_hero = e^{−σ_hero t}; the branch takes that probability as a factor instead of
+                // drawing the collision (its expected value: same MIS weights, no branch lost to
+                // a collision), and plays Russian roulette only below BRANCH_ROULETTE_T.
+                let t_hero = transmittance(sigma_t, seg).x;
                 let a = relative_transmittance(sigma_t, seg);
-                num *= a;
+                num *= a * t_hero;
                 den *= a;
+                if t_hero < BRANCH_ROULETTE_T {
+                    let q = t_hero / BRANCH_ROULETTE_T;
+                    if rng.next_f32() >= q {
+                        return l;
+                    }
+                    num /= q;
+                }
             }
             if num == Vec4::ZERO {
                 return l;
