@@ -1196,6 +1196,88 @@ impl Accel {
         }
     }
 
+    /// The distance (m) from `p` to the nearest primitive, or `cap` when none is nearer: a
+    /// depth-first descent that leaves out every node whose box lies at least the best distance
+    /// so far away; triangles by their closest point (Ericson, *Real-Time Collision Detection*,
+    /// 5.1.5), spheres by |‖p − c‖ − r|. Exact up to f32 rounding; callers that need a bound
+    /// shrink it.
+    pub fn distance(&self, p: Vec3, cap: f32) -> f32 {
+        if self.nodes.is_empty() {
+            return cap;
+        }
+        const N: usize = 128;
+        if self.stack_needed + 4 <= N {
+            self.distance_with(p, cap, &mut [(0u32, 0.0f32); N])
+        } else {
+            self.distance_with(p, cap, &mut vec![(0u32, 0.0f32); self.stack_needed + 4])
+        }
+    }
+
+    #[inline(always)]
+    fn distance_with(&self, p: Vec3, cap: f32, stack: &mut [(u32, f32)]) -> f32 {
+        let mut best2 = cap * cap;
+        let mut sp = 0usize;
+        let mut cur = (0u32, 0.0f32);
+        loop {
+            if cur.1 < best2 {
+                let c = cur.0;
+                if c & LEAF_BIT == 0 {
+                    let node = &self.nodes[c as usize];
+                    let mut near = [(0u32, 0.0f32); 4];
+                    let mut k = 0usize;
+                    for i in 0..4 {
+                        if node.child[i] == EMPTY_CHILD {
+                            continue;
+                        }
+                        let mut d2 = 0.0f32;
+                        for a in 0..3 {
+                            let (lo, hi) = (node.b[0][a][i], node.b[1][a][i]);
+                            let e = (lo - p[a]).max(p[a] - hi).max(0.0);
+                            d2 += e * e;
+                        }
+                        if d2 < best2 {
+                            near[k] = (node.child[i], d2);
+                            k += 1;
+                        }
+                    }
+                    // Nearest on top: the best distance shrinks early and prunes the rest.
+                    far_first(&mut near[..k], |e| e.1);
+                    for e in &near[..k] {
+                        stack[sp] = *e;
+                        sp += 1;
+                    }
+                } else {
+                    let first = (c & LEAF_OFFSET) as usize;
+                    let n = ((c & !LEAF_BIT) >> LEAF_SHIFT) as usize;
+                    for pi in first..first + n {
+                        let pk = &self.packets[pi];
+                        for lane in 0..4 {
+                            let (o, prim) = self.ids[pi][lane];
+                            if o == u32::MAX {
+                                continue;
+                            }
+                            let [a, b, cc] = pk.vertices(lane);
+                            let d2 = if prim & SPHERE_BIT != 0 {
+                                let d = ((p - a).length() - b.x).abs();
+                                d * d
+                            } else {
+                                (closest_on_triangle(p, a, b, cc) - p).length_squared()
+                            };
+                            if d2 < best2 {
+                                best2 = d2;
+                            }
+                        }
+                    }
+                }
+            }
+            if sp == 0 {
+                return best2.sqrt().min(cap);
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+
     /// Position and normals at `hit` (found for `ray`).
     pub fn surface_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
         match self.shape(hit.object) {
@@ -1301,4 +1383,42 @@ fn prefetch(p: *const i8, lines: usize) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (p, lines);
+}
+
+/// The point of triangle (a, b, c) closest to `p` (Ericson 2005, 5.1.5: Voronoi regions of the
+/// vertices, then of the edges, else the face).
+fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    if !denom.is_finite() {
+        // Degenerate (zero-area) triangle: the nearest of its vertices and edges' ends.
+        return [a, b, c].into_iter().min_by(|x, y| (*x - p).length_squared().total_cmp(&(*y - p).length_squared())).unwrap_or(a);
+    }
+    a + ab * (vb * denom) + ac * (vc * denom)
 }

@@ -254,21 +254,62 @@ fn shadow_transmittance(scene: &Scene, mut o: Vec3, d: Vec3, dist: f32, mut medi
     None
 }
 
+/// A ball that no surface of the scene meets, found by an exact distance query
+/// ([`crate::accel::Accel::distance`]) where the medium's free-flight grid gives no guarantee:
+/// a free flight that starts and ends inside it crosses no surface (the ball is convex), so
+/// `volpath` skips its ray cast, and a collision inside it is at least its distance to the
+/// sphere from every surface. A random walk near a wall, with a mean free path much shorter
+/// than its distance to the wall, makes many flights in one ball.
+#[derive(Clone, Copy, Default)]
+struct FreeBall {
+    centre: Vec3,
+    /// Radius (m), shrunk against rounding; 0: no ball yet.
+    radius: f32,
+    /// Flights left before the next query: after a ball under two mean free paths wide
+    /// (a walk at the wall), a few flights go straight to the ray cast.
+    wait: u8,
+}
+
+impl FreeBall {
+    /// Whether the segment from `a` to `b` lies in the ball, after moving the ball to `a` when
+    /// `b` is outside the present one.
+    fn contains(&mut self, scene: &Scene, a: Vec3, b: Vec3, mean_free_path: f32) -> bool {
+        let inside = |s: &FreeBall, q: Vec3| (q - s.centre).length() < s.radius;
+        if inside(self, a) && inside(self, b) {
+            return true;
+        }
+        if self.wait > 0 {
+            self.wait -= 1;
+            return false;
+        }
+        let r = scene.accel.distance(a, f32::INFINITY) * (1.0 - 1e-4) - scene.ray_epsilon_m;
+        let wait = if r < 2.0 * mean_free_path { 3 } else { 0 };
+        *self = FreeBall { centre: a, radius: r.max(0.0), wait };
+        inside(self, b)
+    }
+
+    /// A lower bound (m) of the distance from `p` to every surface (0 outside the ball).
+    fn bound(&self, p: Vec3) -> f32 {
+        (self.radius - (p - self.centre).length()).max(0.0)
+    }
+}
+
 /// Optical depth (in the carried wavelengths' smallest extinction) within which a medium vertex
 /// aims part of its directions at the lights beyond a smooth dielectric boundary.
 const GUIDE_REACH: f32 = 6.0;
 
 /// Probability per lane (had that lane been the hero) that a vertex at `p` in `medium`
 /// (extinction `sigma_t` per lane, m⁻¹) plays the refracted branch: α_max e^{−σ_t d}, d the
-/// medium's free-distance bound at `p` (a lower bound of the distance to its boundary); `None`
+/// larger of the medium's free-distance bound at `p` and `ball_bound` (the path's
+/// [`FreeBall::bound`]; both lower bounds of the distance to its boundary); `None`
 /// beyond [`GUIDE_REACH`] optical depths (in the smallest extinction, the same for every hero).
-fn guide_probability(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Option<u32>, sigma_t: Vec4) -> Option<Vec4> {
+fn guide_probability(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Option<u32>, sigma_t: Vec4, ball_bound: f32) -> Option<Vec4> {
     let s_min = sigma_t.min_element();
     if !(s_min > 0.0) {
         return None;
     }
     let d = match medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()) {
-        Some(g) => g.free_distance(p).max(0.0),
+        Some(g) => g.free_distance(p).max(ball_bound).max(0.0),
         None => 0.0,
     };
     if d * s_min > GUIDE_REACH {
@@ -368,6 +409,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     // pass-throughs and delta interfaces (at most `GUIDE_STEPS` surfaces).
     let mut guide_at: Option<GuidedVertex> = None;
     let mut guide_steps = 0u32;
+    let mut free = FreeBall::default();
     loop {
         // Free flight in the current medium.
         let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
@@ -386,9 +428,9 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         ray.t_max = t_coll;
         // No surface within the free-distance bound around the origin: the collision is real
         // without a ray cast.
+        let grid = medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).filter(|_| options.free_flight_grid);
         let surely_inside = t_coll.is_finite()
-            && options.free_flight_grid
-            && medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m);
+            && grid.is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || free.contains(scene, ray.o, ray.o + ray.d * t_coll, med.map_or(0.0, |m| 1.0 / m.2.x)));
         let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
@@ -420,7 +462,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // The refracted branch (module documentation): played with probability α_j, which
                 // depends only on the vertex (not on the plane a probe ray finds), so the main
                 // path finds its own MIS weight by probing only if it reaches an emitter.
-                let guide = if can_nee { None } else { scene.refracted_lights.as_ref().and_then(|rl| guide_probability(scene, rl, p, medium, sigma_t).map(|alpha| (rl, alpha))) };
+                let guide = if can_nee { None } else { scene.refracted_lights.as_ref().and_then(|rl| guide_probability(scene, rl, p, medium, sigma_t, free.bound(p)).map(|alpha| (rl, alpha))) };
                 if let Some((rl, alpha)) = guide {
                     if rng.next_f32() < alpha.x {
                         let (uc, u2) = (rng.next_f32(), rng.next_2d());
