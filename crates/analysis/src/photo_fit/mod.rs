@@ -378,6 +378,7 @@ pub fn codes(params: &Params, lin: &Plane, exposure: f64, w: usize, h: usize) ->
 /// ln s; with the metrics per frame at that s. A diagnostic of a prediction: how much of its
 /// error one factor common to every pixel and frame (the camera's exposure, the light's output)
 /// would take, which a fit on another capture cannot know.
+#[allow(clippy::too_many_arguments)]
 pub fn exposure_match(params: &Params, lin: &[Plane], frames: &[Frame], regions: &[i32], labels: usize, saturation: f64, w: usize, h: usize) -> (f64, Vec<FrameMetrics>) {
     let eval = |ln_s: f64| -> (f64, Vec<FrameMetrics>) {
         let m: Vec<FrameMetrics> = lin.iter().zip(frames).map(|(l, f)| frame_metrics(&codes(params, l, ln_s.exp(), w, h), f, regions, labels, saturation)).collect();
