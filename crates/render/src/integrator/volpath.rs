@@ -48,13 +48,15 @@
 //! Refraction guiding: inside a medium whose boundary is a smooth dielectric, next-event
 //! estimation is blocked, and light is found only by directions that leave towards a light by
 //! chance. At a collision near the boundary a second, short *refracted branch* is played with
-//! probability α = α_max e^{−σ_t d₀} (d₀: the medium's free-distance bound, a lower bound of the
-//! distance to the boundary; α_max is the scene's `refraction_guiding`, 0 turns it off). A probe
+//! probability α = α_max e^{−σ_t d₀} (d₀: the larger of the medium's free-distance bound and the
+//! path's surface-free ball, both lower bounds of the distance to the boundary; α_max is the
+//! scene's `refraction_guiding`, 0 turns it off). A probe
 //! ray towards the lights finds where the boundary is left; the branch's direction comes from
 //! [`crate::light::refracted`]'s proposal — towards a point on an area light, refracted through
 //! the tangent plane there — and it follows what the main path would do from there (free
-//! flight, the real boundary's Fresnel choices, pass-through interfaces) up to the first other
-//! surface, counting any emission it meets. The main path continues with its phase-sampled
+//! flight, weighted by its probability of no collision instead of drawn; the real boundary's
+//! Fresnel choices; pass-through interfaces) up to the first other surface, counting any
+//! emission it meets. The main path continues with its phase-sampled
 //! direction as before. Both count the same paths, so each is weighted by the balance heuristic
 //! over the 2 × 4 techniques (phase or branch, each lane the hero; the branch's density per lane
 //! is α_j q): the main path's emission reached along the branch's chain gets
