@@ -209,38 +209,11 @@ pub fn fit_sphere(points: &[[f64; 3]]) -> Result<SphereFit> {
     Ok(SphereFit { centre: [x[0], x[1], x[2]], radius: x[3], rms: (e / points.len() as f64).sqrt(), points: points.len() })
 }
 
-/// Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection, §5.1.5:
-/// the Voronoi regions of vertices, edges and face).
+/// Closest point of triangle (a, b, c) to p ([`render::math::geometry::closest_point_on_triangle`]).
 pub fn closest_point_on_triangle(p: Vector3<f64>, a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> Vector3<f64> {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    a + ab * (vb * denom) + ac * (vc * denom)
+    let g = |v: Vector3<f64>| glam::DVec3::new(v.x, v.y, v.z);
+    let q = render::math::geometry::closest_point_on_triangle(g(p), g(a), g(b), g(c));
+    Vector3::new(q.x, q.y, q.z)
 }
 
 /// Distances from points to a triangle mesh: a uniform grid of triangle lists searched in

@@ -11,7 +11,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
 
-use crate::math::geometry::{Aabb, Ray};
+use crate::math::geometry::{closest_point_on_triangle, Aabb, Ray};
 use crate::shape::triangle::RayTri;
 use crate::shape::sphere::{sphere_uv, Sphere};
 use crate::shape::Shape;
@@ -1261,7 +1261,7 @@ impl Accel {
                                 let d = ((p - a).length() - b.x).abs();
                                 d * d
                             } else {
-                                (closest_on_triangle(p, a, b, cc) - p).length_squared()
+                                (closest_point_on_triangle(p.as_dvec3(), a.as_dvec3(), b.as_dvec3(), cc.as_dvec3()) - p.as_dvec3()).length_squared() as f32
                             };
                             if d2 < best2 {
                                 best2 = d2;
@@ -1385,40 +1385,3 @@ fn prefetch(p: *const i8, lines: usize) {
     let _ = (p, lines);
 }
 
-/// The point of triangle (a, b, c) closest to `p` (Ericson 2005, 5.1.5: Voronoi regions of the
-/// vertices, then of the edges, else the face).
-fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    if !denom.is_finite() {
-        // Degenerate (zero-area) triangle: the nearest of its vertices and edges' ends.
-        return [a, b, c].into_iter().min_by(|x, y| (*x - p).length_squared().total_cmp(&(*y - p).length_squared())).unwrap_or(a);
-    }
-    a + ab * (vb * denom) + ac * (vc * denom)
-}

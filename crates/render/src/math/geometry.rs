@@ -5,7 +5,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a < b)` is deliberate: it is true for NaN.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A ray r(t) = o + t d, valid for t in the open interval (t_min, t_max).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,4 +164,42 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+/// The point of triangle (a, b, c) closest to `p` (Ericson, *Real-Time Collision Detection*,
+/// §5.1.5: the Voronoi regions of the vertices, then of the edges, else the face). A
+/// zero-area triangle gives the nearest of its vertices.
+pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    if !denom.is_finite() {
+        return [a, b, c].into_iter().min_by(|x, y| (*x - p).length_squared().total_cmp(&(*y - p).length_squared())).unwrap_or(a);
+    }
+    a + ab * (vb * denom) + ac * (vc * denom)
 }

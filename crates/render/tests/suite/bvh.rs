@@ -221,10 +221,9 @@ fn dragon_48k_bvh_matches_brute_force_on_100k_rays() {
     assert!(hits > 20_000 && hits < 90_000, "hits = {hits}");
 }
 
-#[test]
-fn spheres_and_meshes_mixed() {
+/// The teapot, 200 random spheres (from `rng`) and a ground quad.
+fn teapot_spheres_and_quad(rng: &mut Rng) -> Vec<Shape> {
     let mut shapes = vec![Shape::Mesh(load("teapot.ply"))];
-    let mut rng = Rng(9);
     for _ in 0..200 {
         let c = (Vec3::new(rng.f32(), rng.f32(), rng.f32()) - 0.5) * Vec3::new(40.0, 20.0, 25.0);
         shapes.push(Shape::Sphere(Sphere { center: c, radius: 0.2 + 2.0 * rng.f32() }));
@@ -235,7 +234,12 @@ fn spheres_and_meshes_mixed() {
         Vec3::new(30.0, -8.0, 30.0),
         Vec3::new(30.0, -8.0, -30.0),
     ])));
-    let accel = Accel::build(shapes);
+    shapes
+}
+
+#[test]
+fn spheres_and_meshes_mixed() {
+    let accel = Accel::build(teapot_spheres_and_quad(&mut Rng(9)));
     let hits = check_against_brute_force(&accel, 20_000, 3);
     assert!(hits > 5_000);
 }
@@ -472,18 +476,8 @@ fn triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
 /// scene's size (f32 rounding), and capped where nothing is nearer than the cap.
 #[test]
 fn distance_to_the_nearest_surface_matches_brute_force() {
-    let mut shapes = vec![Shape::Mesh(load("teapot.ply"))];
     let mut rng = Rng(21);
-    for _ in 0..200 {
-        let c = (Vec3::new(rng.f32(), rng.f32(), rng.f32()) - 0.5) * Vec3::new(40.0, 20.0, 25.0);
-        shapes.push(Shape::Sphere(Sphere { center: c, radius: 0.2 + 2.0 * rng.f32() }));
-    }
-    shapes.push(Shape::Mesh(TriangleMesh::quad([
-        Vec3::new(-30.0, -8.0, -30.0),
-        Vec3::new(-30.0, -8.0, 30.0),
-        Vec3::new(30.0, -8.0, 30.0),
-        Vec3::new(30.0, -8.0, -30.0),
-    ])));
+    let shapes = teapot_spheres_and_quad(&mut rng);
     let accel = Accel::build(shapes.clone());
     let b = accel.bounds();
     let (c, ext) = (b.center(), b.extent());
