@@ -53,6 +53,9 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
     let mut prev_pdf = first_pdf; // BSDF density of the last direction (per sr)
     let mut prev_delta = !(first_pdf > 0.0); // camera ray or specular bounce: no MIS on emission
     let mut prev_p = ray.o;
+    // Product of the squared relative indices refracted through: roulette leaves out the 1/η²
+    // radiance scaling that `beta` carries (pbrt-v4's etaScale, Mitsuba 3's η²).
+    let mut eta_scale = 1.0f32;
     loop {
         let hit = scene.accel.intersect(&ray);
         depth += 1;
@@ -106,6 +109,9 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
             break;
         }
         beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if bs.transmission {
+            eta_scale *= bs.eta * bs.eta;
+        }
         if bs.terminate_secondary {
             wl.terminate_secondary();
         }
@@ -114,7 +120,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
         prev_p = s.p;
         ray = s.spawn(scene, wi);
         if depth >= settings.rr_depth {
-            let q = beta.max_element().min(0.95);
+            let q = (beta.max_element() * eta_scale).min(0.95);
             if !(rng.next_f32() < q) {
                 break;
             }

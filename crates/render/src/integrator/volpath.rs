@@ -80,10 +80,10 @@ use crate::integrator::nee::{self, environment_emission};
 use crate::integrator::settings::IntegratorSettings;
 use crate::interaction::{offset_origin, shadow_t_max};
 use crate::material::Material;
-use crate::medium::{HomogeneousMedium, MediumLanes};
+use crate::medium::{scattered, HomogeneousMedium, MediumLanes};
 use crate::interaction::Shading;
 use crate::light::refracted::{RefractedLights, RefractingPlane};
-use crate::math::sampling::{power_heuristic, Pcg32};
+use crate::math::sampling::{power_heuristic, Frame, Pcg32};
 use crate::scene::Scene;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::{Vec3, Vec4};
@@ -361,16 +361,28 @@ struct GuidedVertex<'a> {
     p: Vec3,
     w: Vec3,
     alpha: Vec4,
+    splits: Vec4,
     sigma_t: Vec4,
 }
 
 impl GuidedVertex<'_> {
-    /// The branch's density per lane for `w` (α_j q(w)); the probe ray is cast only now.
-    fn density(&self, scene: &Scene) -> Vec4 {
-        match exit_plane(scene, self.rl, self.p, self.sigma_t) {
-            Some(plane) => self.alpha * self.rl.pdf(&plane, self.p, self.w),
-            None => Vec4::ZERO,
+    /// The main path's balance-heuristic weight for emission reached along the branch's chain,
+    /// mean(r_u) / mean(r_u (1 + s_j T(w)) + r_l α_j q(w)): against the branch (density α_j q)
+    /// and the split phase samples (s_j more samples of the phase function, counted where
+    /// T(w) = 1, i.e. where `w` refracted through the plane reaches a light). The probe ray is
+    /// cast only now.
+    fn weight(&self, scene: &Scene, r_u: Vec4, r_l: Vec4, wl: &SampledWavelengths) -> f32 {
+        let Some(plane) = exit_plane(scene, self.rl, self.p, self.sigma_t) else { return 1.0 };
+        let q = self.rl.pdf(&plane, self.p, self.w);
+        let t = if self.rl.reaches(&plane, self.p, self.w).is_some() { 1.0 } else { 0.0 };
+        if !(q > 0.0) && t == 0.0 {
+            return 1.0;
         }
+        let d = mis_divisor(r_u * (Vec4::ONE + self.splits * t) + r_l * self.alpha * q, wl);
+        if !(d > 0.0) || !d.is_finite() {
+            return 0.0;
+        }
+        mis_divisor(r_u, wl) / d
     }
 }
 
@@ -412,6 +424,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     let mut guide_at: Option<GuidedVertex> = None;
     let mut guide_steps = 0u32;
     let mut free = FreeBall::default();
+    // Product of the squared relative indices of the refractions so far: `beta` carries their
+    // radiance scaling 1/η², which roulette leaves out (pbrt-v4's etaScale), so that a path is
+    // not ended on entering a denser medium for a factor its way out gives back.
+    let mut eta_scale = 1.0f32;
     loop {
         // Free flight in the current medium.
         let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
@@ -465,14 +481,47 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // depends only on the vertex (not on the plane a probe ray finds), so the main
                 // path finds its own MIS weight by probing only if it reaches an emitter.
                 let guide = if can_nee { None } else { scene.refracted_lights.as_ref().and_then(|rl| guide_probability(scene, rl, p, medium, sigma_t, free.bound(p)).map(|alpha| (rl, alpha))) };
+                // Split phase samples (s_j = K e^{−σ_j d}, K = `refraction_splits`): more
+                // directions from the phase function, traced along the branch's chain only where
+                // the plane refracts them onto a light, so that the forward-peaked lobe meets
+                // the lights in many small contributions instead of the main path's rare hits.
+                let splits = guide.map_or(Vec4::ZERO, |(rl, alpha)| alpha * (rl.splits / rl.alpha_max));
                 if let Some((rl, alpha)) = guide {
-                    if rng.next_f32() < alpha.x {
-                        let (uc, u2) = (rng.next_f32(), rng.next_2d());
-                        if let Some(plane) = exit_plane(scene, rl, p, sigma_t) {
+                    let play = rng.next_f32() < alpha.x;
+                    let n_split = if splits.x > 0.0 {
+                        let whole = splits.x.floor();
+                        whole as u32 + u32::from(rng.next_f32() < splits.x - whole)
+                    } else {
+                        0
+                    };
+                    let plane = if play || n_split > 0 { exit_plane(scene, rl, p, sigma_t) } else { None };
+                    if let Some(plane) = plane {
+                        if play {
+                            let (uc, u2) = (rng.next_f32(), rng.next_2d());
                             if let Some((w, q)) = rl.sample(&plane, p, uc, u2) {
                                 let f = mm.phase_eval(wl, ray.d.dot(w));
-                                l += beta * refracted_branch(scene, p, w, medium, f, r_u, alpha * q, wl, rng);
+                                let t = if rl.reaches(&plane, p, w).is_some() { 1.0 } else { 0.0 };
+                                l += beta * refracted_branch(scene, p, w, medium, f, r_u, alpha * q + f * (splits * t), 1.0, wl, rng);
                             }
+                        }
+                        let frame = Frame::from_normal(ray.d);
+                        for _ in 0..n_split {
+                            let (uc, u2) = (rng.next_f32(), rng.next_2d());
+                            let (mu, seg) = mm.phase_sample_cos(&lanes.1, uc, u2.x);
+                            let w = scattered(&frame, mu, u2.y);
+                            let Some(t_plane) = rl.reaches(&plane, p, w) else { continue };
+                            // Roulette before any ray cast on the straight line's transmittance to
+                            // the plane; the branch continues it on the segment's true one.
+                            let pre = ((-sigma_t.x * t_plane).exp() / BRANCH_ROULETTE_T).min(1.0);
+                            if pre < 1.0 && rng.next_f32() >= pre {
+                                continue;
+                            }
+                            let f = mm.phase_lanes_at(&lanes.1, mu, seg);
+                            if !(f.x > 0.0) {
+                                continue;
+                            }
+                            let q = rl.pdf(&plane, p, w);
+                            l += beta * refracted_branch(scene, p, w, medium, f, r_u, alpha * q + f * splits, pre, wl, rng);
                         }
                     }
                 }
@@ -482,7 +531,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // both lane j's weight and the ratio of the direction densities had λ_j been the
                 // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
                 r_l = if can_nee || guide.is_some() { r_u / ps.pdf } else { Vec4::ZERO };
-                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, w: ps.wi, alpha, sigma_t });
+                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, w: ps.wi, alpha, splits, sigma_t });
                 guide_steps = 0;
                 beta *= ps.weight;
                 r_u *= ps.weight;
@@ -496,7 +545,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 prev_p = p;
                 ray = Ray { o: p, d: wi, t_min: 0.0, t_max: f32::INFINITY };
                 crossings = 0;
-                if !roulette(&mut beta, depth, settings, wl, rng) {
+                if !roulette(&mut beta, eta_scale, depth, settings, wl, rng) {
                     break;
                 }
                 continue;
@@ -521,7 +570,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         depth += 1;
         let Some(hit) = hit else {
             if let Some(g) = &guide_at {
-                l += environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl) * spectral_balance_lanes(r_u, r_l, g.density(scene), wl);
+                l += environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl) * g.weight(scene, r_u, r_l, wl);
             } else if prev_medium_mis {
                 let e = environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl);
                 if let Some(ei) = scene.environment {
@@ -552,7 +601,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             let le = light.le(sp.ng_raw, wo, || sp.uv(scene), wl);
             if le != Vec4::ZERO {
                 let w = if let Some(g) = &guide_at {
-                    spectral_balance_lanes(r_u, r_l, g.density(scene), wl)
+                    g.weight(scene, r_u, r_l, wl)
                 } else if prev_medium_mis {
                     let lp = nee::area_light_pdf(scene, li_idx, prev_p, ray.d, sp.p, sp.ng_raw);
                     spectral_balance(r_u, r_l, lp, wl)
@@ -627,13 +676,14 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         }
         if bs.transmission {
             medium = cross(scene, sp.object, front, medium);
+            eta_scale *= bs.eta * bs.eta;
         }
         prev_pdf = bs.pdf;
         prev_no_mis = bs.delta || !did_nee;
         prev_medium_mis = false;
         prev_p = sp.p;
         ray = Ray { o: offset_origin(sp.p, ng, wi, scene.ray_epsilon_m), d: wi, t_min: 0.0, t_max: f32::INFINITY };
-        if !roulette(&mut beta, depth, settings, wl, rng) {
+        if !roulette(&mut beta, eta_scale, depth, settings, wl, rng) {
             break;
         }
     }
@@ -641,15 +691,16 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
 }
 
 /// Russian roulette on the effective throughput once the path has `rr_depth` segments, as in
-/// pbrt-v4: a path whose largest throughput m is below 1 continues with probability m (and is
-/// divided by it); paths with m ≥ 1 always continue, so dense media with albedo near 1 are not
-/// cut short by roulette (only by `max_depth`) and surviving weights never exceed 1.
+/// pbrt-v4: a path whose largest throughput m (times `eta_scale`, the product of the squared
+/// relative indices it has been refracted through) is below 1 continues with probability m
+/// (and is divided by it); paths with m ≥ 1 always continue, so dense media with albedo near 1
+/// are not cut short by roulette (only by `max_depth`).
 #[inline]
-fn roulette(beta: &mut Vec4, depth: u32, settings: &IntegratorSettings, wl: &SampledWavelengths, rng: &mut Pcg32) -> bool {
+fn roulette(beta: &mut Vec4, eta_scale: f32, depth: u32, settings: &IntegratorSettings, wl: &SampledWavelengths, rng: &mut Pcg32) -> bool {
     if depth < settings.rr_depth {
         return true;
     }
-    let m = if wl.secondary_terminated() { beta.x } else { beta.max_element() };
+    let m = eta_scale * if wl.secondary_terminated() { beta.x } else { beta.max_element() };
     if m >= 1.0 {
         return true;
     }
@@ -701,8 +752,8 @@ const BRANCH_ROULETTE_T: f32 = 0.25;
 /// D the downstream density ratios (to be multiplied by the path throughput). The main path
 /// gives the same paths the complementary weight (`guide_at` in [`li_volpath_with`]).
 #[allow(clippy::too_many_arguments)]
-fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f: Vec4, r_u: Vec4, lp: Vec4, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
-    let mut num = f;
+fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f: Vec4, r_u: Vec4, lp: Vec4, mut pre: f32, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+    let mut num = f / pre;
     let mut den = r_u * (f + lp);
     let mut l = Vec4::ZERO;
     let mut ray = Ray { o: p, d: w, t_min: 0.0, t_max: f32::INFINITY };
@@ -733,8 +784,11 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
                 let a = relative_transmittance(sigma_t, seg);
                 num *= a * t_hero;
                 den *= a;
-                if t_hero < BRANCH_ROULETTE_T {
-                    let q = t_hero / BRANCH_ROULETTE_T;
+                // A roulette already played (`pre`, the probability the branch survived it) counts
+                // towards this one: overall the branch survives with min(1, T_hero / threshold).
+                let q = ((t_hero / BRANCH_ROULETTE_T).min(1.0) / pre).min(1.0);
+                pre = 1.0;
+                if q < 1.0 {
                     if rng.next_f32() >= q {
                         return l;
                     }

@@ -63,6 +63,9 @@ pub struct RefractedLights {
     /// Largest probability with which a medium vertex uses the proposal instead of phase sampling
     /// (`volpath` lowers it with the distance to the boundary); in (0, 1).
     pub alpha_max: f32,
+    /// Expected number of extra phase-function samples at a medium vertex on the boundary
+    /// (`volpath` lowers it with the distance as it does `alpha_max`); 0: none.
+    pub splits: f32,
     entries: Vec<Entry>,
     /// Probability of each entry.
     prob: Vec<f32>,
@@ -74,9 +77,9 @@ pub struct RefractedLights {
 
 impl RefractedLights {
     /// The triangle-mesh area lights of at most [`MAX_TRIANGLES`] triangles, chosen in proportion
-    /// to their next-event probabilities `light_pmf`; `None` when there is none or `alpha_max`
-    /// is not in (0, 1).
-    pub fn new(lights: &[Light], light_pmf: &[f32], alpha_max: f32) -> Option<RefractedLights> {
+    /// to their next-event probabilities `light_pmf`, with `splits` extra phase samples at the
+    /// boundary ([`Self::splits`]); `None` when there is none or `alpha_max` is not in (0, 1).
+    pub fn new(lights: &[Light], light_pmf: &[f32], alpha_max: f32, splits: f32) -> Option<RefractedLights> {
         if !(alpha_max > 0.0 && alpha_max < 1.0) {
             return None;
         }
@@ -113,7 +116,7 @@ impl RefractedLights {
             acc += p;
             acc
         }).collect();
-        Some(RefractedLights { alpha_max, entries, prob, cdf, target })
+        Some(RefractedLights { alpha_max, splits, entries, prob, cdf, target })
     }
 
     /// A direction from `p` (inside, below `plane`) proposed towards a uniformly chosen point of
@@ -133,6 +136,22 @@ impl RefractedLights {
         }
         let pdf = self.pdf(plane, p, w);
         (pdf > 0.0 && pdf.is_finite()).then_some((w, pdf))
+    }
+
+    /// Whether the inside direction `w` (unit) from `p`, refracted at the plane, meets one of
+    /// the lights (single precision; a cheap test that needs no ray cast), and if so the distance
+    /// (m) from `p` to the plane along `w`.
+    pub fn reaches(&self, plane: &RefractingPlane, p: Vec3, w: Vec3) -> Option<f32> {
+        let n = plane.normal;
+        let c1 = w.dot(n);
+        let d1 = n.dot(plane.point - p);
+        if !(c1 > 0.0) || !(d1 > 0.0) {
+            return None;
+        }
+        let w2 = refract_out(w, n, plane.eta)?;
+        let t = d1 / c1;
+        let s = p + w * t;
+        self.entries.iter().any(|e| e.tris.iter().any(|tri| hits_triangle(s, w2, tri))).then_some(t)
     }
 
     /// Density per steradian with which [`Self::sample`] proposes the inside direction `w` (unit)
@@ -246,6 +265,25 @@ fn snell_offset(eta: f64, d1: f64, d2: f64, l: f64) -> f64 {
     x
 }
 
+/// Whether the ray (o, d) meets triangle `t` (p0, e1, e2, n) in front (single precision).
+#[inline]
+fn hits_triangle(o: Vec3, d: Vec3, t: &[Vec3; 4]) -> bool {
+    let pv = d.cross(t[2]);
+    let det = t[1].dot(pv);
+    if det == 0.0 {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let tv = o - t[0];
+    let bu = tv.dot(pv) * inv;
+    if !(0.0..=1.0).contains(&bu) {
+        return false;
+    }
+    let qv = tv.cross(t[1]);
+    let bv = d.dot(qv) * inv;
+    bv >= 0.0 && bu + bv <= 1.0 && t[2].dot(qv) * inv > 0.0
+}
+
 /// Distance along the ray (o, d) to triangle `t` (p0, e1, e2, n), if it hits it in front.
 fn ray_triangle(o: Vec3, d: Vec3, t: &[Vec3; 4]) -> Option<f32> {
     let (p0, e1, e2) = (t[0].as_dvec3(), t[1].as_dvec3(), t[2].as_dvec3());
@@ -344,7 +382,7 @@ mod tests {
     #[test]
     fn density_is_normalised_and_agrees_with_sampling() {
         let (light, tris) = quad_light();
-        let rl = RefractedLights::new(&[light], &[1.0], 0.5).unwrap();
+        let rl = RefractedLights::new(&[light], &[1.0], 0.5, 0.0).unwrap();
         let pl = plane(1.35);
         let p = Vec3::new(0.02, -0.01, -0.004);
         let mut rng = Pcg32::new(7, 3);

@@ -74,6 +74,7 @@ pub(crate) struct IntegratorDesc {
     pub(crate) rr_depth: Option<u32>,
     pub(crate) ao_distance: Option<f64>,
     pub(crate) refraction_guiding: Option<f64>,
+    pub(crate) refraction_splits: Option<f64>,
 }
 
 #[derive(Deserialize)]

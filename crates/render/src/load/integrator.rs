@@ -1,5 +1,5 @@
 //! `[integrator]`: type (named by [`crate::integrator::settings`]), max_depth, rr_depth, ao_distance,
-//! refraction_guiding.
+//! refraction_guiding, refraction_splits.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
@@ -13,13 +13,18 @@ use anyhow::Result;
 /// smooth dielectric boundary whose direction is aimed at the lights beyond it.
 pub const DEFAULT_REFRACTION_GUIDING: f32 = 0.3;
 
-/// The integrator settings, the ambient-occlusion distance in metres (infinite by default) and
-/// the refraction-guiding fraction (0: off).
-pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(IntegratorSettings, f32, f32)> {
+/// Default of `refraction_splits`: the expected number of extra phase-function samples at a
+/// `volpath` medium vertex on a smooth dielectric boundary (fewer further in).
+pub const DEFAULT_REFRACTION_SPLITS: f32 = 4.0;
+
+/// The integrator settings, the ambient-occlusion distance in metres (infinite by default), the
+/// refraction-guiding fraction (0: off) and the refraction splits (0: none).
+pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(IntegratorSettings, f32, f32, f32)> {
     let to_m = |x: f64| (x * unit_m) as f32;
     let mut integrator = IntegratorSettings::default();
     let mut ao_distance_m = f32::INFINITY;
     let mut guiding = DEFAULT_REFRACTION_GUIDING;
+    let mut splits = DEFAULT_REFRACTION_SPLITS;
     if let Some(i) = &desc.integrator {
         let span = i.span();
         let i = i.get_ref();
@@ -50,6 +55,12 @@ pub(crate) fn integrator(cx: &Cx, desc: &SceneDesc, unit_m: f64) -> Result<(Inte
             }
             guiding = g as f32;
         }
+        if let Some(k) = i.refraction_splits {
+            if !(0.0..=64.0).contains(&k) {
+                return Err(cx.err(&span, "integrator.refraction_splits", format!("must be in [0, 64], got {k}")));
+            }
+            splits = k as f32;
+        }
     }
-    Ok((integrator, ao_distance_m, guiding))
+    Ok((integrator, ao_distance_m, guiding, splits))
 }

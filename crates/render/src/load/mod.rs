@@ -179,7 +179,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let spectra_hash = ld.sp.hash.borrow().finish();
     ld.hash.write(&spectra_hash.to_le_bytes());
     let camera = camera::camera(&mut ld, &desc)?;
-    let (integrator, ao_distance_m, refraction_guiding) = integrator::integrator(cx, &desc, unit_m)?;
+    let (integrator, ao_distance_m, refraction_guiding, refraction_splits) = integrator::integrator(cx, &desc, unit_m)?;
 
     if shapes.is_empty() {
         return Err(anyhow!("{}: the scene has no objects", cx.file));
@@ -231,7 +231,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         })
         .collect();
 
-    let refracted_lights = if media.is_empty() { None } else { crate::light::refracted::RefractedLights::new(&lights, &light_pmf, refraction_guiding) };
+    let refracted_lights = if media.is_empty() { None } else { crate::light::refracted::RefractedLights::new(&lights, &light_pmf, refraction_guiding, refraction_splits) };
     Ok(Scene {
         medium_grids,
         refracted_lights,

@@ -121,6 +121,15 @@ pub struct MediumLanes {
     table: [u32; N_LAMBDA],
 }
 
+/// The direction at scattering cosine `mu` from `frame`'s normal (the incident direction), at
+/// azimuth 2π `uy` around it.
+#[inline]
+pub fn scattered(frame: &Frame, mu: f32, uy: f32) -> Vec3 {
+    let sin = (1.0 - mu * mu).max(0.0).sqrt();
+    let (sp, cp) = (2.0 * PI * uy).sin_cos();
+    frame.to_world(Vec3::new(sin * cp, sin * sp, mu)).normalize()
+}
+
 /// A direction sampled from a phase function.
 #[derive(Clone, Copy, Debug)]
 pub struct PhaseSample {
@@ -242,20 +251,29 @@ impl HomogeneousMedium {
     /// segment the inversion found (no searches).
     #[inline]
     pub fn phase_sample_lanes(&self, lanes: &MediumLanes, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
-        let (mu, p) = match &self.phase {
-            PhaseModel::HenyeyGreenstein { .. } => {
-                let g = lanes.phase_w;
-                let mu = hg_sample(g.x, u.x).clamp(-1.0, 1.0);
-                let dd = Vec4::ONE + g * g - 2.0 * g * mu;
-                let p = (Vec4::ONE - g * g) / (4.0 * PI * dd * dd.max(Vec4::splat(1e-12)).powf(0.5));
-                (mu, p)
-            }
+        let (mu, seg) = self.phase_sample_cos(lanes, uc, u.x);
+        let p = self.phase_lanes_at(lanes, mu, seg);
+        let wi = scattered(&Frame::from_normal(d), mu, u.y);
+        let pdf = p.x;
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(PhaseSample { wi, weight: p / pdf, pdf })
+    }
+
+    /// The scattering cosine μ that [`Self::phase_sample_lanes`] draws from the hero
+    /// wavelength's phase function with the same `uc` and `ux`, and, for tables on a shared
+    /// grid, the grid segment and the position in it (for [`Self::phase_lanes_at`]).
+    #[inline]
+    pub fn phase_sample_cos(&self, lanes: &MediumLanes, uc: f32, ux: f32) -> (f32, Option<(usize, f32)>) {
+        match &self.phase {
+            PhaseModel::HenyeyGreenstein { .. } => (hg_sample(lanes.phase_w.x, ux).clamp(-1.0, 1.0), None),
             PhaseModel::Tabulated { grid: Some(gr), .. } => {
                 let n = gr.mu.len();
                 let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
                 let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
                 let cdf = &gr.cdf[kk * n..(kk + 1) * n];
-                let x = u.x.clamp(0.0, 1.0);
+                let x = ux.clamp(0.0, 1.0);
                 let mut j = gr.guide[kk * GUIDE + ((x * GUIDE as f32) as usize).min(GUIDE - 1)] as usize;
                 while j + 2 < n && cdf[j + 1] <= x {
                     j += 1;
@@ -277,7 +295,28 @@ impl HomogeneousMedium {
                     2.0 * target / (a + disc.sqrt())
                 }
                 .clamp(0.0, 1.0);
-                let mu = (gr.mu[j] + s * h).clamp(-1.0, 1.0);
+                ((gr.mu[j] + s * h).clamp(-1.0, 1.0), Some((j, s)))
+            }
+            PhaseModel::Tabulated { tables, .. } => {
+                let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
+                let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
+                ((tables[kk].sample_cos_theta(ux as f64) as f32).clamp(-1.0, 1.0), None)
+            }
+        }
+    }
+
+    /// Phase function (sr⁻¹) at each carried wavelength for the cosine `mu` drawn by
+    /// [`Self::phase_sample_cos`] (`seg` as it returned it).
+    #[inline]
+    pub fn phase_lanes_at(&self, lanes: &MediumLanes, mu: f32, seg: Option<(usize, f32)>) -> SampledSpectrum {
+        match (&self.phase, seg) {
+            (PhaseModel::HenyeyGreenstein { .. }, _) => {
+                let g = lanes.phase_w;
+                let dd = Vec4::ONE + g * g - 2.0 * g * mu;
+                (Vec4::ONE - g * g) / (4.0 * PI * dd * dd.max(Vec4::splat(1e-12)).powf(0.5))
+            }
+            (PhaseModel::Tabulated { grid: Some(gr), .. }, Some((j, s))) => {
+                let n = gr.mu.len();
                 let at = |k: usize| {
                     let v = &gr.values[k * n + j..k * n + j + 2];
                     v[0] + s * (v[1] - v[0])
@@ -287,30 +326,18 @@ impl HomogeneousMedium {
                     let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
                     *o = if t > 0.0 { at(k) * (1.0 - t) + t * at(k + 1) } else { at(k) };
                 }
-                (mu, Vec4::from_array(out))
+                Vec4::from_array(out)
             }
-            PhaseModel::Tabulated { lambda_nm: ls, tables, grid: None } => {
-                let (k0, t0) = (lanes.table[0] as usize, lanes.phase_w.x);
-                let kk = if t0 > 0.0 && uc < t0 { k0 + 1 } else { k0 };
-                let mu = (tables[kk].sample_cos_theta(u.x as f64) as f32).clamp(-1.0, 1.0);
+            (PhaseModel::Tabulated { lambda_nm: ls, tables, .. }, _) => {
                 let mut out = [0f32; N_LAMBDA];
                 for (i, o) in out.iter_mut().enumerate() {
                     let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
                     let a = tables[k].eval(mu as f64) as f32;
                     *o = if t > 0.0 && k + 1 < ls.len() { a * (1.0 - t) + t * tables[k + 1].eval(mu as f64) as f32 } else { a };
                 }
-                (mu, Vec4::from_array(out))
+                Vec4::from_array(out)
             }
-        };
-        let sin = (1.0 - mu * mu).max(0.0).sqrt();
-        let (sp, cp) = (2.0 * PI * u.y).sin_cos();
-        let local = Vec3::new(sin * cp, sin * sp, mu);
-        let wi = Frame::from_normal(d).to_world(local).normalize();
-        let pdf = p.x;
-        if !(pdf > 0.0) {
-            return None;
         }
-        Some(PhaseSample { wi, weight: p / pdf, pdf })
     }
 
     /// The similarity-relation equivalent of this medium (an APPROXIMATION, opt-in with
