@@ -148,7 +148,7 @@ medium = {medium}
 #[test]
 fn furnace_with_area_lights_and_refraction_guiding_gives_the_walls_radiance() {
     let medium = r#"{ sigma_a_per_mm = 0, sigma_s_per_mm = { lambda_nm = [360, 550, 551, 830], values = [1, 1, 60, 60] }, g = 0.5 }"#;
-    for extra in ["refraction_guiding = 0", "refraction_guiding = 0.3", "refraction_guiding = 0.9"] {
+    for extra in ["refraction_guiding = 0", "refraction_guiding = 0.3", "refraction_guiding = 0.9", "refraction_guiding = 0.3\nrefraction_splits = 0", "refraction_guiding = 0.3\nrefraction_splits = 32"] {
         let s = scene(&box_furnace_scene("type = \"dielectric\"\nior = 1.33", medium, extra));
         assert_eq!(s.refracted_lights.is_some(), extra != "refraction_guiding = 0", "{extra}");
         let (m, se) = mean_y(&s, &s.integrator.clone(), 128, 11);
@@ -161,10 +161,11 @@ fn furnace_with_area_lights_and_refraction_guiding_gives_the_walls_radiance() {
 /// Refraction guiding changes the variance, not the expected image: a dense, forward-scattering,
 /// slightly absorbing ball (σ_s 20 /mm, σ_a 0.02 /mm, g = 0.8, η = 1.35) lit by a square area
 /// light above it and a dim environment, rendered with and without guiding (different seeds):
-/// the pooled means of X, Y and Z agree within 4 combined standard errors.
+/// the pooled means of X, Y and Z agree within 4 combined standard errors; so do they with the
+/// default split phase samples (`refraction_splits = 4`) and with 32.
 #[test]
 fn refraction_guiding_keeps_the_expected_image() {
-    let mk = |g: f64| {
+    let mk = |g: f64, k: f64| {
         format!(
             r#"
 unit = "mm"
@@ -178,6 +179,7 @@ height = 16
 type = "volpath"
 max_depth = 100000
 refraction_guiding = {g}
+refraction_splits = {k}
 [materials.milk]
 type = "dielectric"
 ior = 1.35
@@ -203,16 +205,19 @@ radiance = 0.05
 "#
         )
     };
-    let off = scene(&mk(0.0));
-    let on = scene(&mk(0.5));
-    assert!(off.refracted_lights.is_none() && on.refracted_lights.is_some());
+    let off = scene(&mk(0.0, 4.0));
+    assert!(off.refracted_lights.is_none());
     let (m0, s0) = mean_xyz(&off, &off.integrator, 256, 5);
-    let (m1, s1) = mean_xyz(&on, &on.integrator, 256, 6);
-    for c in 0..3 {
-        let z = (m1[c] - m0[c]) / (s0[c] * s0[c] + s1[c] * s1[c]).sqrt();
-        eprintln!("channel {c}: off {:.5} ± {:.5}, guided {:.5} ± {:.5}, z {z:.2}", m0[c], s0[c], m1[c], s1[c]);
-        assert!(z.abs() < 4.0, "channel {c}: guided {} vs unguided {} (z = {z:.2})", m1[c], m0[c]);
-        assert!(s0[c] < 0.02 * m0[c], "channel {c}: too noisy to compare ({} ± {})", m0[c], s0[c]);
+    for k in [4.0, 32.0] {
+        let on = scene(&mk(0.5, k));
+        assert!(on.refracted_lights.is_some());
+        let (m1, s1) = mean_xyz(&on, &on.integrator, 256, 6);
+        for c in 0..3 {
+            let z = (m1[c] - m0[c]) / (s0[c] * s0[c] + s1[c] * s1[c]).sqrt();
+            eprintln!("splits {k}, channel {c}: off {:.5} ± {:.5}, guided {:.5} ± {:.5}, z {z:.2}", m0[c], s0[c], m1[c], s1[c]);
+            assert!(z.abs() < 4.0, "splits {k}, channel {c}: guided {} vs unguided {} (z = {z:.2})", m1[c], m0[c]);
+            assert!(s0[c] < 0.02 * m0[c], "channel {c}: too noisy to compare ({} ± {})", m0[c], s0[c]);
+        }
     }
 }
 
