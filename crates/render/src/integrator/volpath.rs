@@ -63,6 +63,17 @@
 //! mean(r_u)/mean(r_u + r_l α q), the probe being cast again only then. The plane only shapes
 //! the variance; the expected image is unchanged (tests in `tests/suite/volpath.rs`).
 //!
+//! Split phase samples (`refraction_splits`, K): at a vertex where the branch may play, s_j =
+//! K e^{−σ_j d₀} more directions are drawn from the hero's phase function (in expectation: the
+//! integer part and a Bernoulli draw), and those that the branch's tangent plane refracts onto a
+//! light (T(w) = 1, [`crate::light::refracted::RefractedLights::reaches`], no ray cast) are traced
+//! like the branch. Every technique's density then includes p_j s_j T(w), so the main path's
+//! emission along the chain gets mean(r_u)/mean(r_u (1 + s T) + r_l α q): the forward lobe of a
+//! peaked phase function meets the lights in many small contributions instead of rare large ones.
+//!
+//! Russian roulette leaves out the radiance scaling 1/η² of refractions (pbrt-v4's `etaScale`):
+//! a path is not ended on entering a denser medium for a factor its way out gives back.
+//!
 //! Next-event estimation at surface and medium vertices: one light sample; the shadow ray passes
 //! index-matched boundaries, switching media and accumulating the transmittance of every medium
 //! it crosses; any other surface (including dielectric boundaries, as in pbrt) blocks it. From
