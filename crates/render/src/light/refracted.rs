@@ -331,6 +331,40 @@ mod tests {
         )
     }
 
+    /// `reaches` (single precision, volpath's split-sample test) and `pdf` (double-precision
+    /// triangle hits) agree on which directions meet the light, except within rounding of its
+    /// edges; the distance it returns is the one to the plane; every proposed direction reaches.
+    #[test]
+    fn reaches_agrees_with_the_density_support() {
+        let (light, _) = quad_light();
+        let rl = RefractedLights::new(&[light], &[1.0], 0.5, 4.0).unwrap();
+        let pl = plane(1.35);
+        let p = Vec3::new(0.02, -0.01, -0.004);
+        let mut rng = Pcg32::new(11, 5);
+        let (mut hits, mut disagree) = (0u32, 0u32);
+        for _ in 0..100_000 {
+            let u = rng.next_2d();
+            let z = 2.0 * u.x - 1.0;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * u.y;
+            let w = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let reach = rl.reaches(&pl, p, w);
+            if let Some(t) = reach {
+                hits += 1;
+                assert!(((p + w * t).z).abs() < 1e-6, "distance {t} does not end on the plane");
+            }
+            if reach.is_some() != (rl.pdf(&pl, p, w) > 0.0) {
+                disagree += 1;
+            }
+        }
+        assert!(hits > 500, "only {hits} of 100000 directions reach the light");
+        assert!(disagree <= 2, "{disagree} directions disagree between reaches and pdf");
+        for k in 0..500 {
+            let (w, _) = rl.sample(&pl, p, rng.next_f32(), rng.next_2d()).unwrap_or_else(|| panic!("sample {k}"));
+            assert!(rl.reaches(&pl, p, w).is_some(), "proposed direction {w} does not reach the light");
+        }
+    }
+
     #[test]
     fn refraction_point_obeys_snell() {
         let pl = plane(1.35);
