@@ -47,6 +47,23 @@ pub struct RefractingPlane {
     pub eta: f32,
 }
 
+impl RefractingPlane {
+    /// Where the inside direction `w` (unit) from `p` meets the plane and leaves it: the normal,
+    /// the distance d₁ (m) of `p` from the plane, cos θ₁ = w·n, the crossing point and the
+    /// refracted direction; `None` when `w` does not head out through it or is totally reflected.
+    #[inline]
+    fn crossing(&self, p: Vec3, w: Vec3) -> Option<(Vec3, f32, f32, Vec3, Vec3)> {
+        let n = self.normal;
+        let c1 = w.dot(n);
+        let d1 = n.dot(self.point - p);
+        if !(c1 > 0.0) || !(d1 > 0.0) {
+            return None;
+        }
+        let w2 = refract_out(w, n, self.eta)?;
+        Some((n, d1, c1, p + w * (d1 / c1), w2))
+    }
+}
+
 #[derive(Clone, Debug)]
 struct Entry {
     /// Each triangle as (p0, p1 − p0, p2 − p0, unit normal), as [`Emitter::Triangles`] stores it.
@@ -142,29 +159,14 @@ impl RefractedLights {
     /// the lights (single precision; a cheap test that needs no ray cast), and if so the distance
     /// (m) from `p` to the plane along `w`.
     pub fn reaches(&self, plane: &RefractingPlane, p: Vec3, w: Vec3) -> Option<f32> {
-        let n = plane.normal;
-        let c1 = w.dot(n);
-        let d1 = n.dot(plane.point - p);
-        if !(c1 > 0.0) || !(d1 > 0.0) {
-            return None;
-        }
-        let w2 = refract_out(w, n, plane.eta)?;
-        let t = d1 / c1;
-        let s = p + w * t;
-        self.entries.iter().any(|e| e.tris.iter().any(|tri| hits_triangle(s, w2, tri))).then_some(t)
+        let (_, d1, c1, s, w2) = plane.crossing(p, w)?;
+        self.entries.iter().any(|e| e.tris.iter().any(|tri| hits_triangle(s, w2, tri))).then_some(d1 / c1)
     }
 
     /// Density per steradian with which [`Self::sample`] proposes the inside direction `w` (unit)
     /// from `p`: the sum over the lights' points that `w`, refracted at the plane, reaches.
     pub fn pdf(&self, plane: &RefractingPlane, p: Vec3, w: Vec3) -> f32 {
-        let n = plane.normal;
-        let c1 = w.dot(n);
-        let d1 = n.dot(plane.point - p);
-        if !(c1 > 0.0) || !(d1 > 0.0) {
-            return 0.0;
-        }
-        let Some(w2) = refract_out(w, n, plane.eta) else { return 0.0 };
-        let s = p + w * (d1 / c1);
+        let Some((n, d1, c1, s, w2)) = plane.crossing(p, w) else { return 0.0 };
         let mut pdf = 0.0;
         for (e, &pr) in self.entries.iter().zip(&self.prob) {
             for t in &e.tris {
