@@ -14,8 +14,9 @@ output at the calibrated centre predicts it ∝ cos θᵢ / d² (θᵢ the incid
 distance to the projector centre). The script prints, per capture, the ranges of cos θᵢ and d,
 the median of the measured / predicted ratio relative to the first capture (1 for every
 capture if the projector, the camera's exposure and the paper's reflectance were the same), the
-image-wide mean and 99th percentile of the white frame's codes, and the residual of two fits
-over all captures: one factor per capture, and one exponent of d for all.
+image-wide mean and 99th percentile of the white frame's codes, the exponent of d fitted within
+each capture alone (where the exposure is one constant; −2 for the point projector), and the
+residual of two fits over all captures: one factor per capture, and one exponent of d for all.
 """
 import json, math, os, sys
 
@@ -101,6 +102,12 @@ def main(argv):
         ratio0 = ratio0 or r
         print(f"{c['k']} | {c['cos'].min():.3f}–{c['cos'].max():.3f} | {c['d'].min():.0f}–{c['d'].max():.0f} | "
               f"{r / ratio0:.3f} | {c['img'].mean():.1f}, {np.percentile(c['img'], 99):.0f}")
+    per = []
+    for c in data:
+        A = np.c_[np.ones(len(c['L'])), np.log(c['d'])]
+        per.append(np.linalg.lstsq(A, np.log(c['L'] / c['cos']), rcond=None)[0][1])
+    print('one exponent of d per capture (cos θᵢ held, exposure one constant within a capture): ' +
+          ' '.join(f'd^{b:.2f}' for b in per))
     y = np.concatenate([np.log(c['L']) - np.log(c['cos']) + 2 * np.log(c['d']) for c in data])
     cap = np.concatenate([np.full(len(c['L']), c['k']) for c in data])
     logd = np.concatenate([np.log(c['d']) for c in data])
