@@ -11,8 +11,10 @@ Msamples per wall and CPU second.
 
     pip install mitsuba==3.9.1
     # drjit's LLVM backend needs a recent libLLVM: with Debian's LLVM 14/15 the JIT aborts
-    # ("Cannot select ... fminimum"); Rust's own LLVM 22 works:
-    export DRJIT_LIBLLVM_PATH=$(ls ~/.rustup/toolchains/stable-*/lib/libLLVM.so.*)
+    # ("Cannot select ... fminimum"); Debian's LLVM 19 (apt install libllvm19) and Rust's own
+    # LLVM 22 both work and run at the same speed here:
+    export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so
+    # or: export DRJIT_LIBLLVM_PATH=$(ls ~/.rustup/toolchains/*/lib/libLLVM.so.* | head -1)
     python3 benches-peers/mitsuba_cornell.py [--variant llvm_ad_spectral] [--size 128] [--spp 256]
         [--repeats 3] [--threads 2] [--json] [--exr out.exr]
 """
