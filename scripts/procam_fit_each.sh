@@ -15,7 +15,7 @@ FILL=${2:-40}
 S=${S:-../shared/data/structured-light/procam-sample}
 L=${LUCENT:-target/release/lucent}
 D=digit/fit-each/c$P-f$FILL
-for f in digit/calib.json digit/patterns/graycode_00.png "$S/capture_$P/graycode_40.png"; do
+for f in digit/calib.json digit/patterns/pattern_00.png "$S/capture_$P/graycode_40.png"; do
   [ -f "$f" ] || { echo "procam_fit_each.sh: $f is missing (run the walk-through's steps 1 first)" >&2; exit 1; }
 done
 mkdir -p "$D/labels"

@@ -100,26 +100,119 @@ fn finish(x: Vec<f64>, cur: Normal, iterations: usize, n: usize) -> Result<LmRes
 }
 
 /// Standard errors of the free parameters from the Gauss–Newton covariance σ²(JᵀJ)⁻¹ with
-/// σ² = Σr² / (N − n); `None` for each parameter when JᵀJ is singular (the data do not fix it).
+/// σ² = Σr² / (N − r), r the rank of JᵀJ (the number of parameters when all are fixed). `None` for a parameter the data do not fix: one whose column of J is zero,
+/// or one that takes part in a combination of parameters with no effect on the residuals (a null
+/// direction of JᵀJ, e.g. the camera gain against a common scale of every albedo when the
+/// projector is held). The other parameters get their error in the identifiable subspace: the
+/// diagonal of σ² (JᵀJ)⁺, which equals the marginal variance for a parameter orthogonal to every
+/// null direction (the same number as if the undetermined combination were held at any value).
 pub fn standard_errors(result: &LmResult) -> Vec<Option<f64>> {
     let n = result.jtj.nrows();
-    let dof = result.residuals.saturating_sub(n).max(1) as f64;
-    let sigma2 = 2.0 * result.cost / dof;
-    // Scale to unit diagonal before inverting, so that parameters of very different sizes do not
-    // make a well-posed system look singular.
+    let mut out = vec![None; n];
+    // Scale to unit diagonal before the decomposition, so that parameters of very different sizes
+    // do not make a well-posed system look singular; parameters without any effect are left out.
     let d: Vec<f64> = (0..n).map(|i| result.jtj[(i, i)].max(0.0).sqrt()).collect();
-    if d.iter().any(|&v| !(v > 0.0)) {
-        return vec![None; n];
+    let keep: Vec<usize> = (0..n).filter(|&i| d[i] > 0.0 && d[i].is_finite()).collect();
+    let m = keep.len();
+    if m == 0 {
+        return out;
     }
-    let scaled = DMatrix::from_fn(n, n, |i, j| result.jtj[(i, j)] / (d[i] * d[j]));
-    let eig = scaled.clone().symmetric_eigen();
-    let min = eig.eigenvalues.iter().cloned().fold(f64::INFINITY, f64::min);
+    let scaled = DMatrix::from_fn(m, m, |a, b| result.jtj[(keep[a], keep[b])] / (d[keep[a]] * d[keep[b]]));
+    if scaled.iter().any(|v| !v.is_finite()) {
+        return out;
+    }
+    let eig = scaled.symmetric_eigen();
     let max = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
-    if !(min > 1e-12 * max) {
-        return vec![None; n];
+    if !(max > 0.0) {
+        return out;
     }
-    match scaled.try_inverse() {
-        Some(inv) => (0..n).map(|i| Some((sigma2 * inv[(i, i)]).max(0.0).sqrt() / d[i])).collect(),
-        None => vec![None; n],
+    // Relative size below which an eigenvalue counts as a null direction: the scaled matrix has a
+    // unit diagonal, so exact degeneracies come out at rounding level (~1e-15).
+    const NULL: f64 = 1e-10;
+    let rank = eig.eigenvalues.iter().filter(|&&l| l > NULL * max).count();
+    let dof = result.residuals.saturating_sub(rank).max(1) as f64;
+    let sigma2 = 2.0 * result.cost / dof;
+    if !sigma2.is_finite() {
+        return out;
+    }
+    for (a, &i) in keep.iter().enumerate() {
+        let mut in_null = 0.0;
+        let mut var = 0.0;
+        for k in 0..m {
+            let v = eig.eigenvectors[(a, k)];
+            let lam = eig.eigenvalues[k];
+            if lam <= NULL * max {
+                in_null += v * v;
+            } else {
+                var += v * v / lam;
+            }
+        }
+        if in_null < 1e-8 {
+            out[i] = Some((sigma2 * var).max(0.0).sqrt() / d[i]);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight line y = a + b x through noisy points: JᵀJ = XᵀX, and the standard errors are
+    /// the closed form σ √((XᵀX)⁻¹)ᵢᵢ with σ² = Σr²/(N − 2) (any least-squares text, e.g. Press
+    /// et al., Numerical Recipes, 3rd ed., § 15.2).
+    fn line() -> (Vec<f64>, Vec<f64>, f64, f64) {
+        let xs: Vec<f64> = (0..20).map(|i| i as f64 * 0.5 - 3.0).collect();
+        let noise = [0.3, -0.1, 0.2, -0.4, 0.1, 0.0, -0.2, 0.5, -0.3, 0.1, 0.2, -0.1, -0.2, 0.3, 0.0, -0.5, 0.4, -0.1, 0.1, -0.2];
+        let ys: Vec<f64> = xs.iter().zip(noise).map(|(x, e)| 1.5 + 0.7 * x + e).collect();
+        let n = xs.len() as f64;
+        let (sx, sy) = (xs.iter().sum::<f64>(), ys.iter().sum::<f64>());
+        let sxx: f64 = xs.iter().map(|x| x * x).sum();
+        let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| x * y).sum();
+        let det = n * sxx - sx * sx;
+        let b = (n * sxy - sx * sy) / det;
+        let a = (sy - b * sx) / n;
+        let ss: f64 = xs.iter().zip(&ys).map(|(x, y)| (y - a - b * x).powi(2)).sum();
+        let s2 = ss / (n - 2.0);
+        (xs, ys, (s2 * sxx / det).sqrt(), (s2 * n / det).sqrt())
+    }
+
+    fn result(columns: &[Vec<f64>], xs: &[f64], ys: &[f64]) -> LmResult {
+        // Least-squares fit of the first two columns (1 and x); residuals from it.
+        let n = xs.len() as f64;
+        let (sx, sy) = (xs.iter().sum::<f64>(), ys.iter().sum::<f64>());
+        let sxx: f64 = xs.iter().map(|x| x * x).sum();
+        let sxy: f64 = xs.iter().zip(ys).map(|(x, y)| x * y).sum();
+        let b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+        let a = (sy - b * sx) / n;
+        let cost = 0.5 * xs.iter().zip(ys).map(|(x, y)| (y - a - b * x).powi(2)).sum::<f64>();
+        let k = columns.len();
+        let jtj = DMatrix::from_fn(k, k, |i, j| columns[i].iter().zip(&columns[j]).map(|(u, v)| u * v).sum());
+        LmResult { x: vec![0.0; k], cost, residuals: xs.len(), iterations: 1, jtj }
+    }
+
+    #[test]
+    fn standard_errors_match_the_straight_line_closed_form() {
+        let (xs, ys, se_a, se_b) = line();
+        let ones = vec![1.0; xs.len()];
+        let se = standard_errors(&result(&[ones, xs.clone()], &xs, &ys));
+        assert!((se[0].unwrap() / se_a - 1.0).abs() < 1e-12, "{:?} vs {se_a}", se[0]);
+        assert!((se[1].unwrap() / se_b - 1.0).abs() < 1e-12, "{:?} vs {se_b}", se[1]);
+    }
+
+    /// y = a + (b + c) x: b and c are fixed only as a sum (a null direction of JᵀJ), so they get
+    /// none, while a keeps the two-parameter line's error; a parameter without effect (zero
+    /// column) gets none and changes nothing for the others.
+    #[test]
+    fn degenerate_and_idle_parameters_get_none_and_leave_the_others_exact() {
+        let (xs, ys, se_a, _) = line();
+        let ones = vec![1.0; xs.len()];
+        let zero = vec![0.0; xs.len()];
+        let se = standard_errors(&result(&[ones, xs.clone(), xs.clone(), zero], &xs, &ys));
+        // Rank 2: the residual degrees of freedom are N − 2, as for the line.
+        assert!((se[0].unwrap() / se_a - 1.0).abs() < 1e-9, "{:?} vs {se_a}", se[0]);
+        assert_eq!(se[1], None);
+        assert_eq!(se[2], None);
+        assert_eq!(se[3], None);
     }
 }
