@@ -56,8 +56,9 @@ def sample(img, px):
     return out / 9
 
 
-def main(argv):
-    opts = {'--corners': '9x7', '--square': '75', '--white': '40', '--black': '41', '--gamma': '1.0'}
+def parse_options(argv, opts, usage):
+    """`--name value` options into `opts` (its keys are the known names, its values the
+    defaults) and one positional argument; exits with a one-line message otherwise."""
     pos, i = [], 0
     while i < len(argv):
         if argv[i] in opts and i + 1 < len(argv):
@@ -69,8 +70,25 @@ def main(argv):
             pos.append(argv[i])
             i += 1
     if len(pos) != 1:
-        sys.exit(__doc__.strip().splitlines()[2])
-    calib = json.load(open(pos[0]))
+        sys.exit(usage)
+    return opts, pos[0]
+
+
+def load_calib(path):
+    """The calibration JSON, or a one-line exit naming the file."""
+    try:
+        with open(path) as f:
+            calib = json.load(f)
+        calib['rotation'], calib['translation'], calib['camera'], calib['captures']
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f'{path}: not a calibration of `lucent scan calibrate` ({e})')
+    return calib
+
+
+def main(argv):
+    opts, calib_path = parse_options(argv, {'--corners': '9x7', '--square': '75', '--white': '40', '--black': '41', '--gamma': '1.0'},
+                                     __doc__.strip().splitlines()[2])
+    calib = load_calib(calib_path)
     cols, rows = (int(v) for v in opts['--corners'].split('x'))
     sq, gamma = float(opts['--square']), float(opts['--gamma'])
     Rp, Tp = np.array(calib['rotation']), np.array(calib['translation'])

@@ -29,7 +29,7 @@ import numpy as np
 from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from procam_irradiance_check import project, rodrigues, sample  # noqa: E402
+from procam_irradiance_check import load_calib, parse_options, project, rodrigues, sample  # noqa: E402
 
 
 def frame(capture, index):
@@ -84,20 +84,8 @@ def edge_profile(cap, index, white, black, offsets):
 
 
 def main(argv):
-    opts = {'--corners': '9x7', '--square': '75', '--scan': None}
-    pos, i = [], 0
-    while i < len(argv):
-        if argv[i] in opts and i + 1 < len(argv):
-            opts[argv[i]] = argv[i + 1]
-            i += 2
-        elif argv[i].startswith('--'):
-            sys.exit(f'{argv[i]}: unknown option or missing value')
-        else:
-            pos.append(argv[i])
-            i += 1
-    if len(pos) != 1:
-        sys.exit(__doc__.strip().splitlines()[2])
-    calib = json.load(open(pos[0]))
+    opts, calib_path = parse_options(argv, {'--corners': '9x7', '--square': '75', '--scan': None}, __doc__.strip().splitlines()[2])
+    calib = load_calib(calib_path)
     cols, rows = (int(v) for v in opts['--corners'].split('x'))
     sq = float(opts['--square'])
     Rp, Tp = np.array(calib['rotation']), np.array(calib['translation'])
