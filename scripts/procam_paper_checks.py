@@ -94,7 +94,10 @@ def main(argv):
     pts = np.array([((i - 1 + a) * sq, (j - 1 + b) * sq) for i in range(cols + 1) for j in range(rows + 1) for a in u for b in u])
     wall = None
     if opts['--scan']:
-        X = read_ply_xyz(opts['--scan'])
+        try:
+            X = read_ply_xyz(opts['--scan'])
+        except (OSError, ValueError, KeyError) as e:
+            sys.exit(f"{opts['--scan']}: not a binary PLY point cloud with x, y, z ({e})")
         R0, t0 = rodrigues(calib['captures'][0]['rvec']), np.array(calib['captures'][0]['tvec'])
         s = (X - t0) @ R0[:, 2]
         W = X[(s > 40) & (s < 300)]
