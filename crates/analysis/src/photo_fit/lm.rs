@@ -100,8 +100,9 @@ fn finish(x: Vec<f64>, cur: Normal, iterations: usize, n: usize) -> Result<LmRes
 }
 
 /// Standard errors of the free parameters from the Gauss–Newton covariance σ²(JᵀJ)⁻¹ with
-/// σ² = Σr² / (N − r), r the rank of JᵀJ (the number of parameters when all are fixed). `None` for a parameter the data do not fix: one whose column of J is zero,
-/// or one that takes part in a combination of parameters with no effect on the residuals (a null
+/// σ² = Σr² / (N − r), r the rank of JᵀJ (the number of parameters when all are fixed). `None`
+/// for a parameter the data do not fix: one whose column of J is zero, or one that takes part in
+/// a combination of parameters with no effect on the residuals (a null
 /// direction of JᵀJ, e.g. the camera gain against a common scale of every albedo when the
 /// projector is held). The other parameters get their error in the identifiable subspace: the
 /// diagonal of σ² (JᵀJ)⁺, which equals the marginal variance for a parameter orthogonal to every
@@ -158,10 +159,17 @@ pub fn standard_errors(result: &LmResult) -> Vec<Option<f64>> {
 mod tests {
     use super::*;
 
-    /// A straight line y = a + b x through noisy points: JᵀJ = XᵀX, and the standard errors are
-    /// the closed form σ √((XᵀX)⁻¹)ᵢᵢ with σ² = Σr²/(N − 2) (any least-squares text, e.g. Press
-    /// et al., Numerical Recipes, 3rd ed., § 15.2).
-    fn line() -> (Vec<f64>, Vec<f64>, f64, f64) {
+    /// A straight line y = a + b x fitted to 20 noisy points: ½Σr² at the fit, and the closed-form
+    /// standard errors of a and b, σ √((XᵀX)⁻¹)ᵢᵢ with σ² = Σr²/(N − 2) (any least-squares text,
+    /// e.g. Press et al., Numerical Recipes, 3rd ed., § 15.2).
+    struct Line {
+        xs: Vec<f64>,
+        cost: f64,
+        se_a: f64,
+        se_b: f64,
+    }
+
+    fn line() -> Line {
         let xs: Vec<f64> = (0..20).map(|i| i as f64 * 0.5 - 3.0).collect();
         let noise = [0.3, -0.1, 0.2, -0.4, 0.1, 0.0, -0.2, 0.5, -0.3, 0.1, 0.2, -0.1, -0.2, 0.3, 0.0, -0.5, 0.4, -0.1, 0.1, -0.2];
         let ys: Vec<f64> = xs.iter().zip(noise).map(|(x, e)| 1.5 + 0.7 * x + e).collect();
@@ -174,30 +182,23 @@ mod tests {
         let a = (sy - b * sx) / n;
         let ss: f64 = xs.iter().zip(&ys).map(|(x, y)| (y - a - b * x).powi(2)).sum();
         let s2 = ss / (n - 2.0);
-        (xs, ys, (s2 * sxx / det).sqrt(), (s2 * n / det).sqrt())
+        Line { cost: 0.5 * ss, se_a: (s2 * sxx / det).sqrt(), se_b: (s2 * n / det).sqrt(), xs }
     }
 
-    fn result(columns: &[Vec<f64>], xs: &[f64], ys: &[f64]) -> LmResult {
-        // Least-squares fit of the first two columns (1 and x); residuals from it.
-        let n = xs.len() as f64;
-        let (sx, sy) = (xs.iter().sum::<f64>(), ys.iter().sum::<f64>());
-        let sxx: f64 = xs.iter().map(|x| x * x).sum();
-        let sxy: f64 = xs.iter().zip(ys).map(|(x, y)| x * y).sum();
-        let b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-        let a = (sy - b * sx) / n;
-        let cost = 0.5 * xs.iter().zip(ys).map(|(x, y)| (y - a - b * x).powi(2)).sum::<f64>();
+    /// The LM result at the line's minimum with Jacobian columns `columns`.
+    fn result(columns: &[Vec<f64>], l: &Line) -> LmResult {
         let k = columns.len();
         let jtj = DMatrix::from_fn(k, k, |i, j| columns[i].iter().zip(&columns[j]).map(|(u, v)| u * v).sum());
-        LmResult { x: vec![0.0; k], cost, residuals: xs.len(), iterations: 1, jtj }
+        LmResult { x: vec![0.0; k], cost: l.cost, residuals: l.xs.len(), iterations: 1, jtj }
     }
 
     #[test]
     fn standard_errors_match_the_straight_line_closed_form() {
-        let (xs, ys, se_a, se_b) = line();
-        let ones = vec![1.0; xs.len()];
-        let se = standard_errors(&result(&[ones, xs.clone()], &xs, &ys));
-        assert!((se[0].unwrap() / se_a - 1.0).abs() < 1e-12, "{:?} vs {se_a}", se[0]);
-        assert!((se[1].unwrap() / se_b - 1.0).abs() < 1e-12, "{:?} vs {se_b}", se[1]);
+        let l = line();
+        let ones = vec![1.0; l.xs.len()];
+        let se = standard_errors(&result(&[ones, l.xs.clone()], &l));
+        assert!((se[0].unwrap() / l.se_a - 1.0).abs() < 1e-12, "{:?} vs {}", se[0], l.se_a);
+        assert!((se[1].unwrap() / l.se_b - 1.0).abs() < 1e-12, "{:?} vs {}", se[1], l.se_b);
     }
 
     /// y = a + (b + c) x: b and c are fixed only as a sum (a null direction of JᵀJ), so they get
@@ -205,12 +206,12 @@ mod tests {
     /// column) gets none and changes nothing for the others.
     #[test]
     fn degenerate_and_idle_parameters_get_none_and_leave_the_others_exact() {
-        let (xs, ys, se_a, _) = line();
-        let ones = vec![1.0; xs.len()];
-        let zero = vec![0.0; xs.len()];
-        let se = standard_errors(&result(&[ones, xs.clone(), xs.clone(), zero], &xs, &ys));
+        let l = line();
+        let ones = vec![1.0; l.xs.len()];
+        let zero = vec![0.0; l.xs.len()];
+        let se = standard_errors(&result(&[ones, l.xs.clone(), l.xs.clone(), zero], &l));
         // Rank 2: the residual degrees of freedom are N − 2, as for the line.
-        assert!((se[0].unwrap() / se_a - 1.0).abs() < 1e-9, "{:?} vs {se_a}", se[0]);
+        assert!((se[0].unwrap() / l.se_a - 1.0).abs() < 1e-9, "{:?} vs {}", se[0], l.se_a);
         assert_eq!(se[1], None);
         assert_eq!(se[2], None);
         assert_eq!(se[3], None);
