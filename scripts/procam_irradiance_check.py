@@ -74,6 +74,13 @@ def parse_options(argv, opts, usage):
     return opts, pos[0]
 
 
+def square_points(cols, rows, sq):
+    """16 points inside each square of a board of cols × rows inner corners (board coordinates,
+    origin at the first inner corner, squares of side sq)."""
+    u = np.linspace(0.25, 0.75, 4)
+    return np.array([((i - 1 + a) * sq, (j - 1 + b) * sq) for i in range(cols + 1) for j in range(rows + 1) for a in u for b in u])
+
+
 def load_calib(path):
     """The calibration JSON, or a one-line exit naming the file."""
     try:
@@ -93,8 +100,7 @@ def main(argv):
     sq, gamma = float(opts['--square']), float(opts['--gamma'])
     Rp, Tp = np.array(calib['rotation']), np.array(calib['translation'])
     centre = -Rp.T @ Tp
-    u = np.linspace(0.25, 0.75, 4)
-    pts = np.array([((i - 1 + a) * sq, (j - 1 + b) * sq) for i in range(cols + 1) for j in range(rows + 1) for a in u for b in u])
+    pts = square_points(cols, rows, sq)
     data = []
     for k, cap in enumerate(calib['captures']):
         R, t = rodrigues(cap['rvec']), np.array(cap['tvec'])

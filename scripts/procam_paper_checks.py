@@ -1,4 +1,4 @@
-"""Two tests of what could make the paper of the procam captures depart from cos θᵢ / d².
+"""Three checks of what could make the paper of the procam captures depart from cos θᵢ / d².
 
 Usage: python3 scripts/procam_paper_checks.py CALIB.json [--scan SCAN.ply] [--corners 9x7]
        [--square 75]
@@ -23,13 +23,13 @@ reconstruct` of the first capture (binary, x y z first), used to place the wall 
    capture's board plane, and the residual of 1. is binned by each point's distance in front of
    the wall.
 """
-import json, math, os, sys
+import json, os, sys
 
 import numpy as np
 from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from procam_irradiance_check import load_calib, parse_options, project, rodrigues, sample  # noqa: E402
+from procam_irradiance_check import load_calib, parse_options, project, rodrigues, sample, square_points  # noqa: E402
 
 
 def frame(capture, index):
@@ -39,16 +39,18 @@ def frame(capture, index):
 
 def read_ply_xyz(path):
     with open(path, 'rb') as f:
-        header, props, count = [], [], 0
+        header, props, count, element = [], [], 0, None
         while True:
             line = f.readline()
             if not line:
                 sys.exit(f'{path}: no end_header')
             line = line.strip().decode('ascii', 'replace')
             header.append(line)
-            if line.startswith('element vertex'):
-                count = int(line.split()[2])
-            elif line.startswith('property') and count and not header[-2].startswith('element face'):
+            if line.startswith('element '):
+                element = line.split()[1]
+                if element == 'vertex':
+                    count = int(line.split()[2])
+            elif line.startswith('property') and element == 'vertex':
                 props.append(line.split()[1:])
             if line == 'end_header':
                 break
@@ -90,8 +92,7 @@ def main(argv):
     sq = float(opts['--square'])
     Rp, Tp = np.array(calib['rotation']), np.array(calib['translation'])
     centre = -Rp.T @ Tp
-    u = np.linspace(0.25, 0.75, 4)
-    pts = np.array([((i - 1 + a) * sq, (j - 1 + b) * sq) for i in range(cols + 1) for j in range(rows + 1) for a in u for b in u])
+    pts = square_points(cols, rows, sq)
     wall = None
     if opts['--scan']:
         try:
