@@ -41,6 +41,9 @@
 //! Free flights that end closer to their origin than the medium's free-distance bound
 //! (`Scene::medium_grids`, a conservative distance-to-any-surface grid over the medium's bounding
 //! objects) skip the ray cast: no surface can lie in between, so the result is bit-for-bit the same.
+//! Collisions deeper than the guide's reach inside a path's surface-free ball (below) run in a
+//! short inner loop, the deep walk, with the same arithmetic and random numbers (bit-for-bit the
+//! same result, tested).
 //!
 //! Media that do not scatter at any wavelength (pure absorbers) are not sampled at all: the
 //! Beer–Lambert transmittance e^{−σ_a t} multiplies the throughput deterministically.
@@ -114,11 +117,15 @@ pub struct VolpathOptions {
     /// Skip the ray cast of a free flight that ends within the medium's free-distance bound
     /// ([`crate::medium::FreeFlightGrid`]; same result, less time).
     pub free_flight_grid: bool,
+    /// Run the collisions deep inside a surface-free ball in a short inner loop (the same
+    /// arithmetic and random numbers as the general loop, so the same result, less time; needs
+    /// `free_flight_grid`).
+    pub deep_walk: bool,
 }
 
 impl Default for VolpathOptions {
     fn default() -> Self {
-        VolpathOptions { event_rr_start: EVENT_RR_START, free_flight_grid: true }
+        VolpathOptions { event_rr_start: EVENT_RR_START, free_flight_grid: true, deep_walk: true }
     }
 }
 
@@ -287,8 +294,7 @@ impl FreeBall {
     /// Whether the segment from `a` to `b` lies in the ball, after moving the ball to `a` when
     /// `b` is outside the present one.
     fn contains(&mut self, scene: &Scene, a: Vec3, b: Vec3, mean_free_path: f32) -> bool {
-        let inside = |s: &FreeBall, q: Vec3| (q - s.centre).length() < s.radius;
-        if inside(self, a) && inside(self, b) {
+        if self.inside(a) && self.inside(b) {
             return true;
         }
         if self.wait > 0 {
@@ -298,7 +304,12 @@ impl FreeBall {
         let r = scene.accel.distance(a, f32::INFINITY) * (1.0 - 1e-4) - scene.ray_epsilon_m;
         let wait = if r < 2.0 * mean_free_path { 3 } else { 0 };
         *self = FreeBall { centre: a, radius: r.max(0.0), wait };
-        inside(self, b)
+        self.inside(b)
+    }
+
+    /// Whether `p` lies in the ball (as [`Self::contains`] tests its ends).
+    fn inside(&self, p: Vec3) -> bool {
+        (p - self.centre).length() < self.radius
     }
 
     /// A lower bound (m) of the distance from `p` to every surface (0 outside the ball).
@@ -439,7 +450,9 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     // radiance scaling 1/η², which roulette leaves out (pbrt-v4's etaScale), so that a path is
     // not ended on entering a denser medium for a factor its way out gives back.
     let mut eta_scale = 1.0f32;
-    loop {
+    // A free flight (m) the deep walk drew but did not take: the next flight in the same medium.
+    let mut pending_flight: Option<f32> = None;
+    'path: loop {
         // Free flight in the current medium.
         let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
             let mm = &scene.media[m as usize];
@@ -451,7 +464,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         let mut t_coll = f32::INFINITY;
         if let Some((mm, _, sigma_t)) = med {
             if !mm.pure_absorber && sigma_t.x > 0.0 {
-                t_coll = -(1.0 - rng.next_f32()).ln() / sigma_t.x;
+                t_coll = match pending_flight.take() {
+                    Some(t) => t,
+                    None => free_flight(sigma_t.x, rng),
+                };
             }
         }
         ray.t_max = t_coll;
@@ -558,6 +574,58 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 crossings = 0;
                 if !roulette(&mut beta, eta_scale, depth, settings, wl, rng) {
                     break;
+                }
+                // Deep walk: while the collisions stay deeper than the guide's reach inside the
+                // path's surface-free ball, nothing but the free flight, the lane weights and the
+                // phase sample happens at them (no ray cast, no light sample, no branch), so
+                // they run here, each exactly as the general loop would run it; the first flight
+                // that ends outside that core goes back to the general loop, already drawn.
+                if options.deep_walk && !can_nee && guide.is_none() && grid.is_some() && !mm.pure_absorber && sigma_t.x > 0.0 && free.inside(ray.o) {
+                    let s_min = sigma_t.min_element();
+                    // Without refracted lights no vertex plays a branch: the ball alone is enough.
+                    let reach = if scene.refracted_lights.is_some() { GUIDE_REACH } else { 0.0 };
+                    loop {
+                        let t = free_flight(sigma_t.x, rng);
+                        let q = ray.o + ray.d * t;
+                        if !(free.bound(q) * s_min > reach) {
+                            pending_flight = Some(t);
+                            break;
+                        }
+                        let a = relative_transmittance(sigma_t, t);
+                        beta *= a * sigma_s;
+                        r_u *= a * sigma_t;
+                        if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                            break 'path;
+                        }
+                        depth += 1;
+                        events += 1;
+                        if depth >= settings.max_depth {
+                            break 'path;
+                        }
+                        if events == next_event_rr {
+                            next_event_rr = next_event_rr.saturating_mul(4);
+                            if rng.next_f32() < 0.5 {
+                                break 'path;
+                            }
+                            beta *= 2.0;
+                        }
+                        let uc = rng.next_f32();
+                        let Some(ps) = mm.phase_sample_lanes(&lanes.1, ray.d, uc, rng.next_2d()) else { break 'path };
+                        r_l = Vec4::ZERO;
+                        guide_at = None;
+                        beta *= ps.weight;
+                        r_u *= ps.weight;
+                        if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                            break 'path;
+                        }
+                        prev_pdf = ps.pdf;
+                        prev_no_mis = true;
+                        prev_p = q;
+                        ray = Ray { o: q, d: ps.wi, t_min: 0.0, t_max: f32::INFINITY };
+                        if !roulette(&mut beta, eta_scale, depth, settings, wl, rng) {
+                            break 'path;
+                        }
+                    }
                 }
                 continue;
             }
@@ -699,6 +767,12 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         }
     }
     l
+}
+
+/// A free-flight distance (m) drawn from the density σ e^{−σ t}.
+#[inline]
+fn free_flight(sigma_per_m: f32, rng: &mut Pcg32) -> f32 {
+    -(1.0 - rng.next_f32()).ln() / sigma_per_m
 }
 
 /// Russian roulette on the effective throughput once the path has `rr_depth` segments, as in
