@@ -89,6 +89,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::math::fastexp::exp4;
 use crate::math::geometry::Ray;
 use crate::integrator::nee::{self, environment_emission};
 use crate::integrator::settings::IntegratorSettings;
@@ -143,7 +144,7 @@ pub fn index_matched(m: &Material) -> bool {
 #[inline]
 fn transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
     if t.is_finite() {
-        (-sigma_t * t).exp()
+        exp4(-sigma_t * t)
     } else {
         Vec4::select(sigma_t.cmpeq(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
     }
@@ -154,7 +155,7 @@ fn transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
 fn relative_transmittance(sigma_t: Vec4, t: f32) -> Vec4 {
     let m = sigma_t.min_element();
     if t.is_finite() {
-        (-(sigma_t - Vec4::splat(m)) * t).exp()
+        exp4(-(sigma_t - Vec4::splat(m)) * t)
     } else {
         Vec4::select(sigma_t.cmpeq(Vec4::splat(m)), Vec4::ONE, Vec4::ZERO)
     }
@@ -318,6 +319,10 @@ impl FreeBall {
     }
 }
 
+/// Most cos θ nodes of a phase table that a path interpolates between its wavelengths once (the
+/// milk model's tables have 181).
+const LANE_TABLE_NODES: usize = 512;
+
 /// Optical depth (in the carried wavelengths' smallest extinction) within which a medium vertex
 /// aims part of its directions at the lights beyond a smooth dielectric boundary.
 const GUIDE_REACH: f32 = 6.0;
@@ -339,7 +344,7 @@ fn guide_probability(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Optio
     if d * s_min > GUIDE_REACH {
         return None;
     }
-    Some(rl.alpha_max * (-sigma_t * d).exp())
+    Some(rl.alpha_max * exp4(-sigma_t * d))
 }
 
 /// The plane through which the refracted proposal aims from `p` (extinction `sigma_t` per lane,
@@ -437,6 +442,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     let mut crossings = 0u32;
     // The current medium's data at this path's wavelengths (computed on entering it).
     let mut lanes: (u32, MediumLanes) = (u32::MAX, MediumLanes::default());
+    // Its phase functions on the shared cos θ grid, interpolated between wavelengths once
+    // (`HomogeneousMedium::lane_table`; 0 nodes: evaluated per event instead).
+    let mut lane_buf = [Vec4::ZERO; LANE_TABLE_NODES];
+    let mut lane_nodes = 0usize;
     // Real collisions so far, and the count at which the next event-count roulette is played.
     let mut events = 0u32;
     let mut next_event_rr = options.event_rr_start;
@@ -458,9 +467,11 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             let mm = &scene.media[m as usize];
             if lanes.0 != m {
                 lanes = (m, mm.lanes(wl));
+                lane_nodes = mm.lane_table(&lanes.1, &mut lane_buf);
             }
             (mm, lanes.1.sigma_s, lanes.1.sigma_t)
         });
+        let lane_table = (lane_nodes > 0).then(|| &lane_buf[..lane_nodes]);
         let mut t_coll = f32::INFINITY;
         if let Some((mm, _, sigma_t)) = med {
             if !mm.pure_absorber && sigma_t.x > 0.0 {
@@ -543,7 +554,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                             if pre < 1.0 && rng.next_f32() >= pre {
                                 continue;
                             }
-                            let f = mm.phase_lanes_at(&lanes.1, mu, seg);
+                            let f = mm.phase_lanes_at(&lanes.1, lane_table, mu, seg);
                             if !(f.x > 0.0) {
                                 continue;
                             }
@@ -553,7 +564,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     }
                 }
                 let uc = rng.next_f32();
-                let Some(ps) = mm.phase_sample_lanes(&lanes.1, ray.d, uc, rng.next_2d()) else { break };
+                let Some(ps) = mm.phase_sample_lanes(&lanes.1, lane_table, ray.d, uc, rng.next_2d()) else { break };
                 // The phase functions differ between the carried wavelengths: p_j(μ)/p₀(μ) is
                 // both lane j's weight and the ratio of the direction densities had λ_j been the
                 // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
@@ -610,7 +621,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                             beta *= 2.0;
                         }
                         let uc = rng.next_f32();
-                        let Some(ps) = mm.phase_sample_lanes(&lanes.1, ray.d, uc, rng.next_2d()) else { break 'path };
+                        let Some(ps) = mm.phase_sample_lanes(&lanes.1, lane_table, ray.d, uc, rng.next_2d()) else { break 'path };
                         r_l = Vec4::ZERO;
                         guide_at = None;
                         beta *= ps.weight;

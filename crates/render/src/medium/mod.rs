@@ -57,6 +57,10 @@ pub struct SharedGrid {
     /// `guide[k * GUIDE + c]`: the last segment j of table k with cdf[j] ≤ c/GUIDE (the search
     /// for u ∈ [c/GUIDE, (c+1)/GUIDE) starts there).
     guide: Vec<u32>,
+    /// `ends[k * mu.len() + j]`: segment j's end values scaled to mean 1, 2a/(a + b) and
+    /// 2b/(a + b) (a, b: table k at nodes j and j + 1), for inverting the segment's linear
+    /// density without divisions.
+    ends: Vec<[f32; 2]>,
 }
 
 /// Cells of the guide table for inverting a shared-grid CDF.
@@ -85,7 +89,15 @@ impl PhaseModel {
                 }
                 cdf.extend_from_slice(&c);
             }
-            SharedGrid { mu: mu.iter().map(|&m| m as f32).collect(), values, cdf, guide }
+            let ends = values
+                .iter()
+                .enumerate()
+                .map(|(i, &a)| {
+                    let b = if (i + 1) % n == 0 { a } else { values[i + 1] };
+                    [2.0 * a / (a + b), 2.0 * b / (a + b)]
+                })
+                .collect();
+            SharedGrid { mu: mu.iter().map(|&m| m as f32).collect(), values, cdf, guide, ends }
         });
         PhaseModel::Tabulated { lambda_nm, tables, grid }
     }
@@ -119,6 +131,9 @@ pub struct MediumLanes {
     phase_w: SampledSpectrum,
     /// Tables: index k of the lower table per wavelength.
     table: [u32; N_LAMBDA],
+    /// Tables on a shared grid: where the lower table starts in [`SharedGrid::values`]
+    /// (k · nodes).
+    row: [u32; N_LAMBDA],
 }
 
 /// The direction at scattering cosine `mu` from `frame`'s normal (the incident direction), at
@@ -185,7 +200,11 @@ impl HomogeneousMedium {
                 }
             }
         }
-        MediumLanes { sigma_s, sigma_t, phase_w: Vec4::from_array(w), table }
+        let nodes = match &self.phase {
+            PhaseModel::Tabulated { grid: Some(g), .. } => g.mu.len() as u32,
+            _ => 0,
+        };
+        MediumLanes { sigma_s, sigma_t, phase_w: Vec4::from_array(w), table, row: table.map(|k| k * nodes) }
     }
 
     /// (σ_s, σ_t) in m⁻¹ at the carried wavelengths.
@@ -243,16 +262,38 @@ impl HomogeneousMedium {
     /// wavelength's phase function; `u` uniform in [0,1)² and `uc` uniform for the table choice.
     #[inline]
     pub fn phase_sample(&self, wl: &SampledWavelengths, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
-        self.phase_sample_lanes(&self.lanes(wl), d, uc, u)
+        self.phase_sample_lanes(&self.lanes(wl), None, d, uc, u)
+    }
+
+    /// The carried wavelengths' phase functions at the nodes of a shared cos θ grid, node j in
+    /// `out[j]` (sr⁻¹ per lane): the interpolation between the wavelength tables done once, so
+    /// that [`Self::phase_lanes_at`] is one interpolation in cos θ. Returns the number of nodes
+    /// written, 0 (nothing written) without a shared grid or when `out` is too short.
+    pub fn lane_table(&self, lanes: &MediumLanes, out: &mut [Vec4]) -> usize {
+        let PhaseModel::Tabulated { grid: Some(gr), .. } = &self.phase else { return 0 };
+        let n = gr.mu.len();
+        if out.len() < n {
+            return 0;
+        }
+        let v = &gr.values;
+        let row = lanes.row.map(|r| r as usize);
+        let t = lanes.phase_w.to_array();
+        for (j, o) in out[..n].iter_mut().enumerate() {
+            *o = Vec4::from_array(std::array::from_fn(|i| {
+                let a = v[row[i] + j];
+                if t[i] > 0.0 { a * (1.0 - t[i]) + t[i] * v[row[i] + n + j] } else { a }
+            }));
+        }
+        n
     }
 
     /// [`Self::phase_sample`] with the medium's per-wavelength data already at hand. Tables on a
     /// shared grid are inverted with a guide table and evaluated at all four wavelengths in the
     /// segment the inversion found (no searches).
     #[inline]
-    pub fn phase_sample_lanes(&self, lanes: &MediumLanes, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
+    pub fn phase_sample_lanes(&self, lanes: &MediumLanes, table: Option<&[Vec4]>, d: Vec3, uc: f32, u: Vec2) -> Option<PhaseSample> {
         let (mu, seg) = self.phase_sample_cos(lanes, uc, u.x);
-        let p = self.phase_lanes_at(lanes, mu, seg);
+        let p = self.phase_lanes_at(lanes, table, mu, seg);
         let wi = scattered(&Frame::from_normal(d), mu, u.y);
         let pdf = p.x;
         if !(pdf > 0.0) {
@@ -278,18 +319,18 @@ impl HomogeneousMedium {
                 while j + 2 < n && cdf[j + 1] <= x {
                     j += 1;
                 }
-                let vk = &gr.values[kk * n..(kk + 1) * n];
+                let at = kk * n + j;
                 let h = gr.mu[j + 1] - gr.mu[j];
                 // Density in the segment q(s) ∝ a + (b − a) s, s ∈ [0, 1], scaled to mean 1 over the segment; `target` is the fraction of the segment's
                 // probability below the sample (exactly consistent with the CDF).
-                let (a, b) = (vk[j], vk[j + 1]);
+                let (a, b) = (gr.values[at], gr.values[at + 1]);
                 let mass = cdf[j + 1] - cdf[j];
                 let s = if !(a + b > 0.0) || !(mass > 0.0) {
                     0.5
                 } else if (b - a).abs() <= 1e-6 * (a + b) {
                     ((x - cdf[j]) / mass).clamp(0.0, 1.0)
                 } else {
-                    let (a, b) = (2.0 * a / (a + b), 2.0 * b / (a + b));
+                    let [a, b] = gr.ends[at];
                     let target = ((x - cdf[j]) / mass).clamp(0.0, 1.0);
                     let disc = (a * a + 2.0 * (b - a) * target).max(0.0);
                     2.0 * target / (a + disc.sqrt())
@@ -306,9 +347,14 @@ impl HomogeneousMedium {
     }
 
     /// Phase function (sr⁻¹) at each carried wavelength for the cosine `mu` drawn by
-    /// [`Self::phase_sample_cos`] (`seg` as it returned it).
+    /// [`Self::phase_sample_cos`] (`seg` as it returned it); `table` is this path's
+    /// [`Self::lane_table`], if it has one.
     #[inline]
-    pub fn phase_lanes_at(&self, lanes: &MediumLanes, mu: f32, seg: Option<(usize, f32)>) -> SampledSpectrum {
+    pub fn phase_lanes_at(&self, lanes: &MediumLanes, table: Option<&[Vec4]>, mu: f32, seg: Option<(usize, f32)>) -> SampledSpectrum {
+        if let (Some(tab), Some((j, s))) = (table, seg) {
+            let a = tab[j];
+            return a + s * (tab[j + 1] - a);
+        }
         match (&self.phase, seg) {
             (PhaseModel::HenyeyGreenstein { .. }, _) => {
                 let g = lanes.phase_w;
@@ -317,14 +363,12 @@ impl HomogeneousMedium {
             }
             (PhaseModel::Tabulated { grid: Some(gr), .. }, Some((j, s))) => {
                 let n = gr.mu.len();
-                let at = |k: usize| {
-                    let v = &gr.values[k * n + j..k * n + j + 2];
-                    v[0] + s * (v[1] - v[0])
-                };
+                let v = &gr.values;
+                let at = |r: usize| v[r] + s * (v[r + 1] - v[r]);
                 let mut out = [0f32; N_LAMBDA];
                 for (i, o) in out.iter_mut().enumerate() {
-                    let (k, t) = (lanes.table[i] as usize, lanes.phase_w[i]);
-                    *o = if t > 0.0 { at(k) * (1.0 - t) + t * at(k + 1) } else { at(k) };
+                    let (r, t) = (lanes.row[i] as usize + j, lanes.phase_w[i]);
+                    *o = if t > 0.0 { at(r) * (1.0 - t) + t * at(r + n) } else { at(r) };
                 }
                 Vec4::from_array(out)
             }
@@ -793,6 +837,25 @@ mod tests {
                 assert!((mean1[i] - 1.0).abs() < 4.0 * se1[i] + 2e-3, "{}: lane {i}: {} (se {})", m.name, mean1[i], se1[i]);
                 let g = m.g_at(wl.lambda_nm[i]);
                 assert!((s2[i] / nf - g).abs() < 4.0 * se1[i] + 3e-3, "{}: lane {i}: mean cos {} vs g {g}", m.name, s2[i] / nf);
+            }
+        }
+        // A path's lane table (the wavelength interpolation done once) gives the phase values
+        // of the per-event evaluation, the same sampled directions and pdfs; only short buffers
+        // and tables without a shared grid get none.
+        let lanes = shared.lanes(&wl());
+        let mut buf = vec![Vec4::ZERO; 3001];
+        assert_eq!(shared.lane_table(&lanes, &mut buf[..3000]), 0);
+        assert_eq!(tab.lane_table(&tab.lanes(&wl()), &mut buf), 0);
+        assert_eq!(shared.lane_table(&lanes, &mut buf), 3001);
+        let mut rng = Pcg32::new(5, 6);
+        let d = Vec3::new(0.3, -0.5, 0.8).normalize();
+        for _ in 0..20_000 {
+            let (uc, u) = (rng.next_f32(), rng.next_2d());
+            let (a, b) = (shared.phase_sample_lanes(&lanes, None, d, uc, u).unwrap(), shared.phase_sample_lanes(&lanes, Some(&buf), d, uc, u).unwrap());
+            assert_eq!(a.wi, b.wi);
+            assert!((a.pdf - b.pdf).abs() <= 2e-6 * a.pdf, "{} vs {}", a.pdf, b.pdf);
+            for i in 0..4 {
+                assert!((a.weight[i] - b.weight[i]).abs() <= 2e-6 * a.weight[i].max(1e-3), "{} vs {}", a.weight, b.weight);
             }
         }
         // Interpolated g at 550 nm is the midpoint of the two tables' g.
