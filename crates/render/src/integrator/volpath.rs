@@ -321,7 +321,7 @@ impl FreeBall {
 
 /// Most cos θ nodes of a phase table that a path interpolates between its wavelengths once (the
 /// milk model's tables have 181).
-const LANE_TABLE_NODES: usize = 512;
+const LANE_TABLE_NODES: usize = 256;
 
 /// Optical depth (in the carried wavelengths' smallest extinction) within which a medium vertex
 /// aims part of its directions at the lights beyond a smooth dielectric boundary.

@@ -631,7 +631,14 @@ impl FreeFlightGrid {
             return 0.0;
         }
         let c = (p - self.min) / self.cell_m;
-        let (i, j, k) = ((c.x as usize).min(self.n[0] - 1), (c.y as usize).min(self.n[1] - 1), (c.z as usize).min(self.n[2] - 1));
+        // `to_faces > 0` puts p inside the grid's box, so c is finite and at least 0, and its
+        // integer parts fit a usize (the cells number a few hundred per axis).
+        let cell = |x: f32, n: usize| {
+            debug_assert!(x >= 0.0 && x < 1e9);
+            // SAFETY: x is finite, non-negative and far below usize::MAX (above).
+            (unsafe { x.to_int_unchecked::<usize>() }).min(n - 1)
+        };
+        let (i, j, k) = (cell(c.x, self.n[0]), cell(c.y, self.n[1]), cell(c.z, self.n[2]));
         self.bound_m[(k * self.n[1] + j) * self.n[0] + i].min(to_faces).max(0.0)
     }
 }
