@@ -319,10 +319,6 @@ impl FreeBall {
     }
 }
 
-/// Most cos θ nodes of a phase table that a path interpolates between its wavelengths once (the
-/// milk model's tables have 181).
-const LANE_TABLE_NODES: usize = 256;
-
 /// Optical depth (in the carried wavelengths' smallest extinction) within which a medium vertex
 /// aims part of its directions at the lights beyond a smooth dielectric boundary.
 const GUIDE_REACH: f32 = 6.0;
@@ -443,9 +439,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     // The current medium's data at this path's wavelengths (computed on entering it).
     let mut lanes: (u32, MediumLanes) = (u32::MAX, MediumLanes::default());
     // Its phase functions on the shared cos θ grid, interpolated between wavelengths once
-    // (`HomogeneousMedium::lane_table`; 0 nodes: evaluated per event instead).
-    let mut lane_buf = [Vec4::ZERO; LANE_TABLE_NODES];
-    let mut lane_nodes = 0usize;
+    // (`HomogeneousMedium::lane_table`; empty: evaluated per event instead).
+    let mut lane_buf: Vec<Vec4> = Vec::new();
     // Real collisions so far, and the count at which the next event-count roulette is played.
     let mut events = 0u32;
     let mut next_event_rr = options.event_rr_start;
@@ -467,11 +462,11 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             let mm = &scene.media[m as usize];
             if lanes.0 != m {
                 lanes = (m, mm.lanes(wl));
-                lane_nodes = mm.lane_table(&lanes.1, &mut lane_buf);
+                mm.lane_table(&lanes.1, &mut lane_buf);
             }
             (mm, lanes.1.sigma_s, lanes.1.sigma_t)
         });
-        let lane_table = (lane_nodes > 0).then(|| &lane_buf[..lane_nodes]);
+        let lane_table = (!lane_buf.is_empty()).then_some(lane_buf.as_slice());
         let mut t_coll = f32::INFINITY;
         if let Some((mm, _, sigma_t)) = med {
             if !mm.pure_absorber && sigma_t.x > 0.0 {

@@ -267,24 +267,21 @@ impl HomogeneousMedium {
 
     /// The carried wavelengths' phase functions at the nodes of a shared cos θ grid, node j in
     /// `out[j]` (sr⁻¹ per lane): the interpolation between the wavelength tables done once, so
-    /// that [`Self::phase_lanes_at`] is one interpolation in cos θ. Returns the number of nodes
-    /// written, 0 (nothing written) without a shared grid or when `out` is too short.
-    pub fn lane_table(&self, lanes: &MediumLanes, out: &mut [Vec4]) -> usize {
-        let PhaseModel::Tabulated { grid: Some(gr), .. } = &self.phase else { return 0 };
+    /// that [`Self::phase_lanes_at`] is one interpolation in cos θ. `out` is resized to the
+    /// number of nodes, and emptied when the phase function has no shared grid.
+    pub fn lane_table(&self, lanes: &MediumLanes, out: &mut Vec<Vec4>) {
+        out.clear();
+        let PhaseModel::Tabulated { grid: Some(gr), .. } = &self.phase else { return };
         let n = gr.mu.len();
-        if out.len() < n {
-            return 0;
-        }
         let v = &gr.values;
         let row = lanes.row.map(|r| r as usize);
         let t = lanes.phase_w.to_array();
-        for (j, o) in out[..n].iter_mut().enumerate() {
-            *o = Vec4::from_array(std::array::from_fn(|i| {
+        out.extend((0..n).map(|j| {
+            Vec4::from_array(std::array::from_fn(|i| {
                 let a = v[row[i] + j];
                 if t[i] > 0.0 { a * (1.0 - t[i]) + t[i] * v[row[i] + n + j] } else { a }
-            }));
-        }
-        n
+            }))
+        }));
     }
 
     /// [`Self::phase_sample`] with the medium's per-wavelength data already at hand. Tables on a
@@ -847,13 +844,14 @@ mod tests {
             }
         }
         // A path's lane table (the wavelength interpolation done once) gives the phase values
-        // of the per-event evaluation, the same sampled directions and pdfs; only short buffers
-        // and tables without a shared grid get none.
+        // of the per-event evaluation, the same sampled directions and pdfs; tables without a
+        // shared grid get none.
         let lanes = shared.lanes(&wl());
-        let mut buf = vec![Vec4::ZERO; 3001];
-        assert_eq!(shared.lane_table(&lanes, &mut buf[..3000]), 0);
-        assert_eq!(tab.lane_table(&tab.lanes(&wl()), &mut buf), 0);
-        assert_eq!(shared.lane_table(&lanes, &mut buf), 3001);
+        let mut buf = vec![Vec4::ONE; 5];
+        tab.lane_table(&tab.lanes(&wl()), &mut buf);
+        assert!(buf.is_empty());
+        shared.lane_table(&lanes, &mut buf);
+        assert_eq!(buf.len(), 3001);
         let mut rng = Pcg32::new(5, 6);
         let d = Vec3::new(0.3, -0.5, 0.8).normalize();
         for _ in 0..20_000 {
