@@ -628,14 +628,15 @@ impl FreeFlightGrid {
             return 0.0;
         }
         let c = (p - self.min) / self.cell_m;
-        // `to_faces > 0` puts p inside the grid's box, so c is finite and at least 0, and its
-        // integer parts fit a usize (the cells number a few hundred per axis).
-        let cell = |x: f32, n: usize| {
-            debug_assert!(x >= 0.0 && x < 1e9);
-            // SAFETY: x is finite, non-negative and far below usize::MAX (above).
-            (unsafe { x.to_int_unchecked::<usize>() }).min(n - 1)
-        };
-        let (i, j, k) = (cell(c.x, self.n[0]), cell(c.y, self.n[1]), cell(c.z, self.n[2]));
+        let n = Vec3::new(self.n[0] as f32, self.n[1] as f32, self.n[2] as f32);
+        // Also false for NaN: past this, 0 ≤ c < n on every axis.
+        if !(c.cmpge(Vec3::ZERO).all() && c.cmplt(n).all()) {
+            return 0.0;
+        }
+        // SAFETY: x is finite and in [0, n) with n a cell count (far below usize::MAX), checked
+        // just above, so its integer part is representable.
+        let cell = |x: f32| unsafe { x.to_int_unchecked::<usize>() };
+        let (i, j, k) = (cell(c.x), cell(c.y), cell(c.z));
         self.bound_m[(k * self.n[1] + j) * self.n[0] + i].min(to_faces).max(0.0)
     }
 }

@@ -416,6 +416,10 @@ radiance = 5
         let g = s.medium_grids[0].as_ref().expect("a grid for the bounded medium");
         let free = g.free_distance(centre);
         assert!(free > 0.3 * size_m && free <= size_m, "free distance {free} m at the centre (size {size_m} m)");
+        // No guarantee (0) outside the grid and for points that are not numbers.
+        for p in [glam::Vec3::splat(f32::NAN), glam::Vec3::new(f32::NAN, 0.0, 0.0), centre + glam::Vec3::splat(10.0), glam::Vec3::splat(f32::INFINITY)] {
+            assert_eq!(g.free_distance(p), 0.0, "{p}");
+        }
         let (on, off) = (VolpathOptions::default(), VolpathOptions { free_flight_grid: false, ..Default::default() });
         let shallow = VolpathOptions { deep_walk: false, ..Default::default() };
         let guided = s.refracted_lights.is_some();
