@@ -8,59 +8,13 @@
 //! modified tangent plane, the mirrored direction and their dot products) is computed once, the
 //! refracted direction is computed once per cloud point (by the caller), and each quadrature node
 //! evaluates its real and virtual monopoles for the four lanes with `glam::Vec4` arithmetic and a
-//! vectorised exponential. The terms are those of the reference, in the same order; a test
+//! vectorised exponential ([`crate::math::fastexp::exp4`]). The terms are those of the reference, in the same order; a test
 //! checks the result against it (relative 1e-4 of the lane's value, absolute 1e-6 of the
 //! configuration's largest lane).
 
+use crate::math::fastexp::exp4;
 use glam::{Vec3, Vec4};
 use optics::bssrdf::{DirectionalLineDipole, LINE_SOURCE_NODES};
-
-const LOG2E: f32 = std::f32::consts::LOG2_E;
-/// ln 2 split in a high part exact in f32 products with small integers and the remainder.
-const LN2_HI: f32 = 0.693_145_75;
-const LN2_LO: f32 = 1.428_606_8e-6;
-/// 1.5·2²³: adding and subtracting it rounds to the nearest integer (round-to-nearest mode).
-const ROUND: f32 = 12_582_912.0;
-
-/// e^x for four lanes (x ≤ 88; below −87 the result is 0). Cody–Waite reduction x = n ln 2 + r,
-/// |r| ≤ ln 2/2, and the degree-6 Taylor polynomial of e^r (truncation error ≤ |r|⁷/7! ≈ 1.2e-7
-/// relative); 2ⁿ is built in the exponent bits.
-#[inline(always)]
-pub fn exp4(x: Vec4) -> Vec4 {
-    let xc = x.clamp(Vec4::splat(-87.0), Vec4::splat(88.0));
-    let n = (xc * LOG2E + Vec4::splat(ROUND)) - Vec4::splat(ROUND);
-    let r = xc - n * LN2_HI - n * LN2_LO;
-    let mut p = Vec4::splat(1.0 / 720.0);
-    p = p * r + Vec4::splat(1.0 / 120.0);
-    p = p * r + Vec4::splat(1.0 / 24.0);
-    p = p * r + Vec4::splat(1.0 / 6.0);
-    p = p * r + Vec4::splat(0.5);
-    p = p * r + Vec4::splat(1.0);
-    p = p * r + Vec4::splat(1.0);
-    let ni = n.as_ivec4() + glam::IVec4::splat(127);
-    let scale: glam::IVec4 = ni << glam::IVec4::splat(23);
-    let two_n = Vec4::from_array(scale.to_array().map(|b| f32::from_bits(b as u32)));
-    let e = p * two_n;
-    Vec4::select(x.cmplt(Vec4::splat(-87.0)), Vec4::ZERO, e)
-}
-
-/// e^x for one value, the same approximation as [`exp4`] (x ≤ 88; below −87 the result is 0).
-#[inline(always)]
-#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= −87)` also sends NaN to 0.
-pub fn exp1(x: f32) -> f32 {
-    if !(x >= -87.0) {
-        return 0.0;
-    }
-    let xc = x.min(88.0);
-    let n = (xc * LOG2E + ROUND) - ROUND;
-    let r = xc - n * LN2_HI - n * LN2_LO;
-    let p = ((((((1.0 / 720.0) * r + 1.0 / 120.0) * r + 1.0 / 24.0) * r + 1.0 / 6.0) * r + 0.5)
-        * r
-        + 1.0)
-        * r
-        + 1.0;
-    p * f32::from_bits(((n as i32 + 127) << 23) as u32)
-}
 
 /// Lane-wise square root (one `sqrtps` after optimisation).
 #[inline(always)]
@@ -197,35 +151,6 @@ pub fn refract_in(wi: Vec3, ni: Vec3, eta: f32) -> Vec3 {
 mod tests {
     use super::*;
     use optics::bssrdf::OpticalProperties;
-
-    #[test]
-    fn exp4_matches_libm() {
-        let mut worst = 0f64;
-        let mut x = -87.0f32;
-        while x < 80.0 {
-            let e = exp4(Vec4::new(x, x + 0.013, x + 0.37, x + 0.71));
-            for (k, dx) in [0.0f32, 0.013, 0.37, 0.71].iter().enumerate() {
-                let xe = (x + dx) as f64;
-                let rel = (e[k] as f64 / xe.exp() - 1.0).abs();
-                worst = worst.max(rel);
-            }
-            x += 0.0917;
-        }
-        assert!(worst < 4e-7, "worst relative error {worst}");
-        let mut worst1 = 0f64;
-        let mut x = -87.0f32;
-        while x < 80.0 {
-            worst1 = worst1.max((exp1(x) as f64 / (x as f64).exp() - 1.0).abs());
-            x += 0.0371;
-        }
-        assert!(worst1 < 4e-7, "worst relative error of exp1 {worst1}");
-        assert_eq!(
-            [exp1(-88.0), exp1(f32::NEG_INFINITY), exp1(f32::NAN), exp1(0.0)],
-            [0.0, 0.0, 0.0, 1.0]
-        );
-        let e = exp4(Vec4::new(-88.0, -1000.0, 0.0, f32::NEG_INFINITY));
-        assert_eq!(e, Vec4::new(0.0, 0.0, 1.0, 0.0));
-    }
 
     /// The packed evaluator against the reference f64 model, lane by lane, over random
     /// configurations on a sphere and a plane (front- and back-lit, near and far).
