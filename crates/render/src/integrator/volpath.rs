@@ -486,10 +486,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
                 // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u).
-                let a = relative_transmittance(sigma_t, t_coll);
-                beta *= a * sigma_s;
-                r_u *= a * sigma_t;
-                if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                if !collide(&mut beta, &mut r_u, &mut r_l, sigma_s, sigma_t, t_coll, wl) {
                     break;
                 }
                 let p = ray.o + ray.d * t_coll;
@@ -498,12 +495,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 if depth >= settings.max_depth {
                     break;
                 }
-                if events == next_event_rr {
-                    next_event_rr = next_event_rr.saturating_mul(4);
-                    if rng.next_f32() < 0.5 {
-                        break;
-                    }
-                    beta *= 2.0;
+                if !event_roulette(events, &mut next_event_rr, &mut beta, rng) {
+                    break;
                 }
                 let mi = medium.unwrap_or(0);
                 let can_nee = mi >= 64 || nee_ok & (1u64 << mi) != 0;
@@ -597,10 +590,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                             pending_flight = Some(t);
                             break;
                         }
-                        let a = relative_transmittance(sigma_t, t);
-                        beta *= a * sigma_s;
-                        r_u *= a * sigma_t;
-                        if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
+                        if !collide(&mut beta, &mut r_u, &mut r_l, sigma_s, sigma_t, t, wl) {
                             break 'path;
                         }
                         depth += 1;
@@ -608,12 +598,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                         if depth >= settings.max_depth {
                             break 'path;
                         }
-                        if events == next_event_rr {
-                            next_event_rr = next_event_rr.saturating_mul(4);
-                            if rng.next_f32() < 0.5 {
-                                break 'path;
-                            }
-                            beta *= 2.0;
+                        if !event_roulette(events, &mut next_event_rr, &mut beta, rng) {
+                            break 'path;
                         }
                         let uc = rng.next_f32();
                         let Some(ps) = mm.phase_sample_lanes(&lanes.1, lane_table, ray.d, uc, rng.next_2d()) else { break 'path };
@@ -773,6 +759,33 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         }
     }
     l
+}
+
+/// A real collision after a free flight of `t` (m): the lanes' weights take σ_s and their
+/// transmittance relative to the smallest, their density ratios σ_t and the same (spectral MIS,
+/// module documentation); false when the path can no longer contribute.
+#[inline(always)]
+fn collide(beta: &mut Vec4, r_u: &mut Vec4, r_l: &mut Vec4, sigma_s: Vec4, sigma_t: Vec4, t: f32, wl: &SampledWavelengths) -> bool {
+    let a = relative_transmittance(sigma_t, t);
+    *beta *= a * sigma_s;
+    *r_u *= a * sigma_t;
+    renormalize(beta, r_u, r_l, wl)
+}
+
+/// The event-count roulette (module documentation) after `events` real collisions: at the
+/// scheduled count the path survives with probability ½ and its throughput doubles, and the
+/// next round is scheduled 4× later; false when the path ends.
+#[inline(always)]
+fn event_roulette(events: u32, next: &mut u32, beta: &mut Vec4, rng: &mut Pcg32) -> bool {
+    if events != *next {
+        return true;
+    }
+    *next = next.saturating_mul(4);
+    if rng.next_f32() < 0.5 {
+        return false;
+    }
+    *beta *= 2.0;
+    true
 }
 
 /// A free-flight distance (m) drawn from the density σ e^{−σ t}.
