@@ -41,9 +41,9 @@
 //! Free flights that end closer to their origin than the medium's free-distance bound
 //! (`Scene::medium_grids`, a conservative distance-to-any-surface grid over the medium's bounding
 //! objects) skip the ray cast: no surface can lie in between, so the result is bit-for-bit the same.
-//! Collisions deeper than the guide's reach inside a path's surface-free ball (below) run in a
-//! short inner loop, the deep walk, with the same arithmetic and random numbers (bit-for-bit the
-//! same result, tested).
+//! Collisions deeper than the guide's reach after a flight that the grid or a path's surface-free
+//! ball (below) proves free of surfaces run in a short inner loop, the deep walk, with the same
+//! arithmetic and random numbers (bit-for-bit the same result, tested).
 //!
 //! Media that do not scatter at any wavelength (pure absorbers) are not sampled at all: the
 //! Beer–Lambert transmittance e^{−σ_a t} multiplies the throughput deterministically.
@@ -95,7 +95,7 @@ use crate::integrator::nee::{self, environment_emission};
 use crate::integrator::settings::IntegratorSettings;
 use crate::interaction::{offset_origin, shadow_t_max};
 use crate::material::Material;
-use crate::medium::{scattered, HomogeneousMedium, MediumLanes};
+use crate::medium::{scattered, FreeFlightGrid, HomogeneousMedium, MediumLanes};
 use crate::interaction::Shading;
 use crate::light::refracted::{RefractedLights, RefractingPlane};
 use crate::math::sampling::{power_heuristic, Frame, Pcg32};
@@ -118,7 +118,8 @@ pub struct VolpathOptions {
     /// Skip the ray cast of a free flight that ends within the medium's free-distance bound
     /// ([`crate::medium::FreeFlightGrid`]; same result, less time).
     pub free_flight_grid: bool,
-    /// Run the collisions deep inside a surface-free ball in a short inner loop (the same
+    /// Run the collisions deep inside the medium, after flights that provably cross no surface,
+    /// in a short inner loop (the same
     /// arithmetic and random numbers as the general loop, so the same result, less time; needs
     /// `free_flight_grid`).
     pub deep_walk: bool,
@@ -294,7 +295,7 @@ struct FreeBall {
 impl FreeBall {
     /// Whether the segment from `a` to `b` lies in the ball, after moving the ball to `a` when
     /// `b` is outside the present one.
-    fn contains(&mut self, scene: &Scene, a: Vec3, b: Vec3, mean_free_path: f32) -> bool {
+    fn contains(&mut self, scene: &Scene, grid: &FreeFlightGrid, a: Vec3, b: Vec3, mean_free_path: f32) -> bool {
         if self.inside(a) && self.inside(b) {
             return true;
         }
@@ -302,7 +303,12 @@ impl FreeBall {
             self.wait -= 1;
             return false;
         }
-        let r = scene.accel.distance(a, f32::INFINITY) * (1.0 - 1e-4) - scene.ray_epsilon_m;
+        // A convex boundary gives the distance by its planes; else the BVH's distance query.
+        let dist = match grid.convex() {
+            Some(c) => c.distance(a).max(0.0),
+            None => scene.accel.distance(a, f32::INFINITY),
+        };
+        let r = dist * (1.0 - 1e-4) - scene.ray_epsilon_m;
         let wait = if r < 2.0 * mean_free_path { 3 } else { 0 };
         *self = FreeBall { centre: a, radius: r.max(0.0), wait };
         self.inside(b)
@@ -346,8 +352,9 @@ fn guide_probability(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Optio
 /// The plane through which the refracted proposal aims from `p` (extinction `sigma_t` per lane,
 /// m⁻¹): a probe ray towards the lights' target finds where it leaves the medium; that surface's
 /// tangent plane, if it is a smooth dielectric within [`GUIDE_REACH`] optical depths. The same
-/// whichever lane is the hero, as spectral MIS requires.
-fn exit_plane(scene: &Scene, rl: &RefractedLights, p: Vec3, sigma_t: Vec4) -> Option<RefractingPlane> {
+/// whichever lane is the hero, as spectral MIS requires. `hint` is the path's last exit facet
+/// of a convex boundary ([`crate::medium::convex::ConvexBoundary::exit_near`]).
+fn exit_plane(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Option<u32>, sigma_t: Vec4, hint: &mut u32) -> Option<RefractingPlane> {
     let s_min = sigma_t.min_element();
     if !(s_min > 0.0) {
         return None;
@@ -357,23 +364,38 @@ fn exit_plane(scene: &Scene, rl: &RefractedLights, p: Vec3, sigma_t: Vec4) -> Op
         return None;
     }
     let probe = Ray { o: p, d, t_min: 0.0, t_max: GUIDE_REACH / s_min };
-    let h = scene.accel.intersect(&probe)?;
-    let obj = &scene.objects[h.object as usize];
+    // Inside a medium's closed convex boundary the first surface is where the probe leaves it
+    // (`medium::convex`); else the BVH finds it.
+    let convex = medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).and_then(|g| g.convex());
+    let exit = convex.and_then(|c| c.exit_near(p, d, hint).map(|e| (c.object(), e)));
+    let (object, point, ng) = match exit {
+        Some((object, (t, n))) => {
+            if !(t <= probe.t_max) {
+                return None;
+            }
+            (object, p + d * t, n)
+        }
+        None => {
+            let h = scene.accel.intersect(&probe)?;
+            let sp = scene.accel.surface_point(&probe, &h);
+            (h.object, sp.p, sp.ng)
+        }
+    };
+    let obj = &scene.objects[object as usize];
     let Material::Dielectric { ior, distrib, roughness: None, .. } = &scene.materials[obj.material as usize] else { return None };
     if !distrib.effectively_smooth() {
         return None;
     }
-    let sp = scene.accel.surface_point(&probe, &h);
     // Leaving the object through its back face: index inside / outside is its ior; entering
     // another object through its front: the inverse.
-    let leaving = sp.ng.dot(d) > 0.0;
-    let normal = if leaving { sp.ng } else { -sp.ng };
+    let leaving = ng.dot(d) > 0.0;
+    let normal = if leaving { ng } else { -ng };
     let ior = ior.eval(GUIDE_LAMBDA_NM);
     let eta = if leaving { ior } else { 1.0 / ior };
-    if !(normal.dot(sp.p - p) > 0.0) || !(eta > 0.0) || !eta.is_finite() {
+    if !(normal.dot(point - p) > 0.0) || !(eta > 0.0) || !eta.is_finite() {
         return None;
     }
-    Some(RefractingPlane { point: sp.p, normal, eta })
+    Some(RefractingPlane { point, normal, eta })
 }
 
 /// A medium vertex whose phase-sampled direction `w` competes with a refracted branch: what the
@@ -382,6 +404,7 @@ fn exit_plane(scene: &Scene, rl: &RefractedLights, p: Vec3, sigma_t: Vec4) -> Op
 struct GuidedVertex<'a> {
     rl: &'a RefractedLights,
     p: Vec3,
+    medium: Option<u32>,
     w: Vec3,
     alpha: Vec4,
     splits: Vec4,
@@ -395,7 +418,7 @@ impl GuidedVertex<'_> {
     /// T(w) = 1, i.e. where `w` refracted through the plane reaches a light). The probe ray is
     /// cast only now.
     fn weight(&self, scene: &Scene, r_u: Vec4, r_l: Vec4, wl: &SampledWavelengths) -> f32 {
-        let Some(plane) = exit_plane(scene, self.rl, self.p, self.sigma_t) else { return 1.0 };
+        let Some(plane) = exit_plane(scene, self.rl, self.p, self.medium, self.sigma_t, &mut 0) else { return 1.0 };
         let q = self.rl.pdf(&plane, self.p, self.w);
         let t = if self.rl.reaches(&plane, self.p, self.w).is_some() { 1.0 } else { 0.0 };
         if !(q > 0.0) && t == 0.0 {
@@ -456,6 +479,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     let mut eta_scale = 1.0f32;
     // A free flight (m) the deep walk drew but did not take: the next flight in the same medium.
     let mut pending_flight: Option<f32> = None;
+    // The facet of the medium's convex boundary where the last guide probe left it.
+    let mut exit_hint = 0u32;
     'path: loop {
         // Free flight in the current medium.
         let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
@@ -481,7 +506,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         // without a ray cast.
         let grid = medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).filter(|_| options.free_flight_grid);
         let surely_inside = t_coll.is_finite()
-            && grid.is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || free.contains(scene, ray.o, ray.o + ray.d * t_coll, med.map_or(0.0, |m| 1.0 / m.2.x)));
+            && grid.is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || free.contains(scene, g, ray.o, ray.o + ray.d * t_coll, med.map_or(0.0, |m| 1.0 / m.2.x)));
         let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
@@ -520,7 +545,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     } else {
                         0
                     };
-                    let plane = if play || n_split > 0 { exit_plane(scene, rl, p, sigma_t) } else { None };
+                    let plane = if play || n_split > 0 { exit_plane(scene, rl, p, medium, sigma_t, &mut exit_hint) } else { None };
                     if let Some(plane) = plane {
                         if play {
                             let (uc, u2) = (rng.next_f32(), rng.next_2d());
@@ -557,7 +582,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // both lane j's weight and the ratio of the direction densities had λ_j been the
                 // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
                 r_l = if can_nee || guide.is_some() { r_u / ps.pdf } else { Vec4::ZERO };
-                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, w: ps.wi, alpha, splits, sigma_t });
+                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, medium, w: ps.wi, alpha, splits, sigma_t });
                 guide_steps = 0;
                 beta *= ps.weight;
                 r_u *= ps.weight;
@@ -574,19 +599,30 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 if !roulette(&mut beta, eta_scale, depth, settings, wl, rng) {
                     break;
                 }
-                // Deep walk: while the collisions stay deeper than the guide's reach inside the
-                // path's surface-free ball, nothing but the free flight, the lane weights and the
-                // phase sample happens at them (no ray cast, no light sample, no branch), so
-                // they run here, each exactly as the general loop would run it; the first flight
-                // that ends outside that core goes back to the general loop, already drawn.
-                if options.deep_walk && !can_nee && guide.is_none() && grid.is_some() && !mm.pure_absorber && sigma_t.x > 0.0 && free.inside(ray.o) {
+                // Deep walk: while the flights provably cross no surface (by the free-flight
+                // grid or the path's surface-free ball) and end deeper than the guide's reach,
+                // nothing but the free flight, the lane weights and the phase sample happens at
+                // the collisions (no ray cast, no light sample, no branch), so they run here,
+                // each exactly as the general loop would run it; the first flight that does not
+                // qualify goes back to the general loop, already drawn.
+                if let (true, false, None, Some(g), false, true) = (options.deep_walk, can_nee, guide, grid, mm.pure_absorber, sigma_t.x > 0.0) {
                     let s_min = sigma_t.min_element();
-                    // Without refracted lights no vertex plays a branch: the ball alone is enough.
+                    // Without refracted lights no vertex plays a branch: any depth will do.
                     let reach = if scene.refracted_lights.is_some() { GUIDE_REACH } else { 0.0 };
                     loop {
                         let t = free_flight(sigma_t.x, rng);
                         let q = ray.o + ray.d * t;
-                        if !(free.bound(q) * s_min > reach) {
+                        // The general loop's two tests, without their side effects: the flight
+                        // crosses no surface (by the grid's bound at its start, or inside the
+                        // ball, which the general loop would leave where it is), and its end
+                        // lies beyond the guide's reach (`guide_probability`'s distance).
+                        let deep = if free.inside(ray.o) && free.bound(q) * s_min > reach {
+                            true
+                        } else {
+                            let free_flight_ok = t < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || (free.inside(ray.o) && free.inside(q));
+                            free_flight_ok && g.free_distance(q).max(free.bound(q)).max(0.0) * s_min > reach
+                        };
+                        if !deep {
                             pending_flight = Some(t);
                             break;
                         }

@@ -218,8 +218,10 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                 return None;
             }
             let mut region: Option<crate::math::geometry::Aabb> = None;
+            let mut bounding = Vec::new();
             for (o, info) in objects.iter().enumerate() {
                 if info.interior_medium == Some(m as u32) {
+                    bounding.push(o);
                     let b = accel.shape(o as u32).bounds();
                     region = Some(match region {
                         None => b,
@@ -227,7 +229,12 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
                     });
                 }
             }
-            region.map(|r| crate::medium::FreeFlightGrid::build(&r, accel.shapes(), 64))
+            // One closed convex mesh around the medium, nothing inside: exact plane distances.
+            let convex = match bounding[..] {
+                [o] => crate::medium::convex::ConvexBoundary::build(accel.shapes(), o),
+                _ => None,
+            };
+            region.map(|r| crate::medium::FreeFlightGrid::build(&r, accel.shapes(), 64).with_convex(convex))
         })
         .collect();
 

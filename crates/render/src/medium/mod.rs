@@ -15,6 +15,8 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod convex;
+
 use crate::math::sampling::Frame;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
 use anyhow::{bail, Result};
@@ -526,6 +528,9 @@ pub struct FreeFlightGrid {
     n: [usize; 3],
     /// Per cell (x fastest), the bound in m (≤ 0: no guarantee).
     bound_m: Vec<f32>,
+    /// The medium's boundary when it is one closed convex mesh with nothing inside: exact
+    /// distances and exits by its face planes ([`convex::ConvexBoundary`]).
+    convex: Option<convex::ConvexBoundary>,
 }
 
 impl FreeFlightGrid {
@@ -540,7 +545,7 @@ impl FreeFlightGrid {
         let n = [0, 1, 2].map(|a| (((ext[a] + 4.0 * h) / h).ceil() as usize).clamp(1, cells.max(1) + 5));
         let max = min + Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * h;
         if !(min.is_finite() && max.is_finite() && h.is_finite()) {
-            return FreeFlightGrid { min: Vec3::ZERO, max: Vec3::ZERO, cell_m: 1.0, n: [1, 1, 1], bound_m: vec![0.0] };
+            return FreeFlightGrid { min: Vec3::ZERO, max: Vec3::ZERO, cell_m: 1.0, n: [1, 1, 1], bound_m: vec![0.0], convex: None };
         }
         let idx = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
         let mut marked = vec![false; n[0] * n[1] * n[2]];
@@ -617,7 +622,19 @@ impl FreeFlightGrid {
             }
         }
         let bound_m = d2.iter().map(|&q| if q >= big * 0.5 { f32::INFINITY } else { (q.sqrt() - 1.7321) * h }).collect();
-        FreeFlightGrid { min, max, cell_m: h, n, bound_m }
+        FreeFlightGrid { min, max, cell_m: h, n, bound_m, convex: None }
+    }
+
+    /// This grid with the medium's convex boundary (see [`Self::convex`]).
+    pub fn with_convex(mut self, convex: Option<convex::ConvexBoundary>) -> FreeFlightGrid {
+        self.convex = convex;
+        self
+    }
+
+    /// The medium's boundary, when it is one closed convex mesh with no other surface inside.
+    #[inline]
+    pub fn convex(&self) -> Option<&convex::ConvexBoundary> {
+        self.convex.as_ref()
     }
 
     /// A distance (m) within which no surface lies around `p` (0 when unknown).
