@@ -405,6 +405,8 @@ struct GuidedVertex<'a> {
     rl: &'a RefractedLights,
     p: Vec3,
     medium: Option<u32>,
+    /// The plane the vertex's probe found, if it probed (a branch or split was drawn).
+    plane: Option<Option<RefractingPlane>>,
     w: Vec3,
     alpha: Vec4,
     splits: Vec4,
@@ -415,10 +417,14 @@ impl GuidedVertex<'_> {
     /// The main path's balance-heuristic weight for emission reached along the branch's chain,
     /// mean(r_u) / mean(r_u (1 + s_j T(w)) + r_l α_j q(w)): against the branch (density α_j q)
     /// and the split phase samples (s_j more samples of the phase function, counted where
-    /// T(w) = 1, i.e. where `w` refracted through the plane reaches a light). The probe ray is
-    /// cast only now.
+    /// T(w) = 1, i.e. where `w` refracted through the plane reaches a light). The plane is the
+    /// one the vertex used, or, where it drew neither, the probe ray is cast only now.
     fn weight(&self, scene: &Scene, r_u: Vec4, r_l: Vec4, wl: &SampledWavelengths) -> f32 {
-        let Some(plane) = exit_plane(scene, self.rl, self.p, self.medium, self.sigma_t, &mut 0) else { return 1.0 };
+        let plane = match self.plane {
+            Some(plane) => plane,
+            None => exit_plane(scene, self.rl, self.p, self.medium, self.sigma_t, &mut 0),
+        };
+        let Some(plane) = plane else { return 1.0 };
         let q = self.rl.pdf(&plane, self.p, self.w);
         let t = if self.rl.reaches(&plane, self.p, self.w).is_some() { 1.0 } else { 0.0 };
         if !(q > 0.0) && t == 0.0 {
@@ -537,6 +543,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // the plane refracts them onto a light, so that the forward-peaked lobe meets
                 // the lights in many small contributions instead of the main path's rare hits.
                 let splits = guide.map_or(Vec4::ZERO, |(rl, alpha)| alpha * (rl.splits / rl.alpha_max));
+                let mut probed = None;
                 if let Some((rl, alpha)) = guide {
                     let play = rng.next_f32() < alpha.x;
                     let n_split = if splits.x > 0.0 {
@@ -546,6 +553,9 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                         0
                     };
                     let plane = if play || n_split > 0 { exit_plane(scene, rl, p, medium, sigma_t, &mut exit_hint) } else { None };
+                    if play || n_split > 0 {
+                        probed = Some(plane);
+                    }
                     if let Some(plane) = plane {
                         if play {
                             let (uc, u2) = (rng.next_f32(), rng.next_2d());
@@ -582,7 +592,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // both lane j's weight and the ratio of the direction densities had λ_j been the
                 // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
                 r_l = if can_nee || guide.is_some() { r_u / ps.pdf } else { Vec4::ZERO };
-                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, medium, w: ps.wi, alpha, splits, sigma_t });
+                guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, medium, plane: probed, w: ps.wi, alpha, splits, sigma_t });
                 guide_steps = 0;
                 beta *= ps.weight;
                 r_u *= ps.weight;
