@@ -190,15 +190,10 @@ impl ConvexBoundary {
     }
 }
 
-/// The mesh's bounding box in f64.
+/// The mesh's bounding box, in f64 for the checks.
 fn bounds(mesh: &TriangleMesh) -> (DVec3, DVec3) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in &mesh.positions {
-        lo = lo.min(p.as_dvec3());
-        hi = hi.max(p.as_dvec3());
-    }
-    (lo, hi)
+    let b = crate::math::geometry::Aabb::from_points(&mesh.positions);
+    (b.min.as_dvec3(), b.max.as_dvec3())
 }
 
 /// The distinct outward face planes (unit n, b = n·x on the plane) of a closed convex mesh and
