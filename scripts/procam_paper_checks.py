@@ -22,6 +22,19 @@ reconstruct` of the first capture (binary, x y z first), used to place the wall 
 3. With --scan: the wall plane is fitted to the scanned points 40 to 300 units behind the first
    capture's board plane, and the residual of 1. is binned by each point's distance in front of
    the wall.
+4. Light reflected onto the paper by the rest of the scene (the wall beside a turned board). In
+   each of the five coarsest column and row bits (frames 0-9 and 20-29), a paper point is dark
+   in one of the pattern and its inverse; there, more than 40 camera pixels from the lit region,
+   (frame - black) / (white - black) is the indirect light from the lit half of the scene (plus
+   the lens's stray light). Twice its mean over the 20 frame pairs estimates the indirect share
+   I of the white frame (a random half of the scene is lit in each pair). The script prints I
+   per capture and the level and within-capture exponent of d of 1. with the white frame's code
+   scaled by (1 - I).
+5. A sheen: with the codes of 4. (indirect light removed), a Lambertian paper plus a GGX lobe
+   of roughness alpha (Smith shadowing, Fresnel of n = 1.5, weight k_s relative to the diffuse
+   term) is fitted by a grid over alpha and k_s, on all captures together and on each capture
+   alone; the latter prints the level it predicts for the other captures (mean ln residual,
+   0 for a right prediction).
 """
 import json, os, sys
 
@@ -60,6 +73,66 @@ def read_ply_xyz(path):
         dt = np.dtype([(name, '<' + sizes[kind]) for kind, name in props if kind in sizes])
         data = np.frombuffer(f.read(dt.itemsize * count), dtype=dt, count=count)
     return np.stack([data['x'], data['y'], data['z']], 1).astype(float)
+
+
+def far_from_edges(mask, r):
+    """True where the (2r + 1)² window around a pixel lies wholly inside or wholly outside
+    `mask` (the window clipped at the image border), by an integral image."""
+    h, w = mask.shape
+    ii = np.zeros((h + 1, w + 1))
+    ii[1:, 1:] = np.cumsum(np.cumsum(mask.astype(float), 0), 1)
+    y0, y1 = np.clip(np.arange(h) - r, 0, h), np.clip(np.arange(h) + r + 1, 0, h)
+    x0, x1 = np.clip(np.arange(w) - r, 0, w), np.clip(np.arange(w) + r + 1, 0, w)
+    s = ii[y1][:, x1] - ii[y0][:, x1] - ii[y1][:, x0] + ii[y0][:, x0]
+    area = (y1 - y0)[:, None] * (x1 - x0)[None, :]
+    return (s == 0) | (s == area)
+
+
+def indirect_share(cap, white, black, px, bits=5, margin=40):
+    """Check 4: the indirect share I of the white frame at camera points `px` (nan where fewer
+    than 3 frame pairs have the point far from a lit edge)."""
+    den = np.maximum(white - black, 1)
+    total, count = np.zeros(len(px)), np.zeros(len(px))
+    for base in (0, 20):
+        for j in range(bits):
+            a, c = frame(cap, base + 2 * j), frame(cap, base + 2 * j + 1)
+            ra, rc = (a - black) / den, (c - black) / den
+            lit = ra > rc
+            dark = np.where(lit, rc, ra)
+            v, ok = sample(dark, px), sample(far_from_edges(lit, margin).astype(float), px) > 0.99
+            total[ok] += v[ok]
+            count[ok] += 1
+    return np.where(count >= 3, 2 * total / np.maximum(count, 1), np.nan)
+
+
+def ggx_sheen(cos_i, cos_v, cos_h, cos_d, alpha, n=1.5):
+    """GGX lobe (Smith shadowing, unpolarised Fresnel of a dielectric of index n) times π, so
+    that 1 + k_s · this is the paper's radiance relative to its diffuse term."""
+    a2 = alpha * alpha
+    D = a2 / (np.pi * (cos_h ** 2 * (a2 - 1) + 1) ** 2)
+
+    def g1(c):
+        return 2 / (1 + np.sqrt(1 + a2 * (1 - c * c) / (c * c)))
+    ct = np.sqrt(np.maximum(0, 1 - (1 - cos_d ** 2) / n ** 2))
+    F = (((cos_d - n * ct) / (cos_d + n * ct)) ** 2 + ((ct - n * cos_d) / (ct + n * cos_d)) ** 2) / 2
+    return np.pi * D * g1(cos_i) * g1(cos_v) * F / (4 * cos_i * cos_v)
+
+
+def sheen_fit(geo, rows, alphas, ks_grid):
+    """Best (rms, alpha, k_s, per-capture mean residual) over the grid for ln(code / (cos θᵢ / d²))
+    = level + ln(1 + k_s · lobe), the level fitted on `rows` (indices into the global lists)."""
+    best = None
+    for a in alphas:
+        lobes = [ggx_sheen(g['cos'], g['cos_v'], g['cos_h'], g['cos_d'], a) for g in geo]
+        for ks in ks_grid:
+            res = [g['y'] - np.log1p(ks * lobe) for g, lobe in zip(geo, lobes)]
+            fitted = np.concatenate([res[k] for k in rows])
+            level = fitted.mean()
+            e = np.sqrt(np.mean((fitted - level) ** 2))
+            if best is None or e < best[0]:
+                best = (e, a, ks, [float(np.mean(r - level)) for r in res])
+    return best
+
 
 
 def edge_profile(cap, index, white, black, offsets):
@@ -113,6 +186,7 @@ def main(argv):
         print(f'wall: {keep.sum()} scanned points, normal {np.round(nw, 3)}, rms {dist[keep].std():.1f}')
     offsets = [-80, -40, -20, -10, -3, 3, 10, 20, 40, 80]
     ref = None
+    geo = []
     for k, cap in enumerate(calib['captures']):
         R, t = rodrigues(cap['rvec']), np.array(cap['tvec'])
         X = np.c_[pts, np.zeros(len(pts))] @ R.T + t
@@ -147,6 +221,35 @@ def main(argv):
             prof = edge_profile(cap['name'], f, white, black, offsets)
             print(f'capture {k}, frame {f:02d} across its edge (px, dark side negative): ' +
                   ' '.join(f'{dx}: {v:.3f}' for dx, v in zip(offsets, prof)))
+        share = indirect_share(cap['name'], white, black, px)[paper]
+        ok = np.isfinite(share)
+        cos_v = to_c @ n
+        geo.append(dict(k=k, share=share[ok], d=d[paper][ok], cos=(to_p @ n)[paper][ok], cos_v=cos_v[paper][ok],
+                        cos_h=(h @ n)[paper][ok], cos_d=np.sum(h * to_p, 1)[paper][ok],
+                        raw=np.log((w - b)[paper][ok] / ((to_p @ n)[paper][ok] / d[paper][ok] ** 2))))
+    print('indirect share I of the white frame (check 4), and ln(code / (cos θᵢ / d²)) before and after removing it:')
+    ref = {}
+    for g in geo:
+        g['y'] = g['raw'] + np.log(1 - g['share'])
+        for key in ('raw', 'y'):
+            ref.setdefault(key, np.median(g[key]))
+        A = np.c_[np.ones(len(g['d'])), np.log(g['d'])]
+        e_raw, e_cor = (np.linalg.lstsq(A, g[key], rcond=None)[0][1] - 2 for key in ('raw', 'y'))
+        print(f"capture {g['k']}: I median {np.median(g['share']):.3f} (10th-90th percentile "
+              f"{np.percentile(g['share'], 10):.3f}-{np.percentile(g['share'], 90):.3f}); level relative to capture 0 "
+              f"{np.exp(np.median(g['raw']) - ref['raw']):.3f} -> {np.exp(np.median(g['y']) - ref['y']):.3f}; "
+              f"exponent of d within the capture {e_raw:.2f} -> {e_cor:.2f}")
+    alphas, ks_grid = [0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6, 0.8], np.linspace(0, 40, 401)
+    print('sheen (check 5), on the codes without indirect light; rms of the ln residual, alpha, k_s, mean ln residual per capture:')
+    flat = np.concatenate([g['y'] for g in geo])
+    print(f'  Lambertian, all captures: {np.sqrt(np.mean((flat - flat.mean()) ** 2)):.3f}, ' +
+          ' '.join(f"{np.mean(g['y'] - flat.mean()):+.3f}" for g in geo))
+    for name, rows in [('all captures', list(range(len(geo))))] + [(f'capture {k} alone', [k]) for k in range(len(geo))]:
+        e, a, ks, means = sheen_fit(geo, rows, alphas, ks_grid)
+        print(f'  {name}: {e:.3f}, alpha {a:.2f}, k_s {ks:.1f}, ' + ' '.join(f'{m:+.3f}' for m in means))
+        if name == 'all captures':
+            share = [np.median(ks * ggx_sheen(g['cos'], g['cos_v'], g['cos_h'], g['cos_d'], a)) for g in geo]
+            print('    median share of that sheen in the white code: ' + ' '.join(f'{x / (1 + x):.3f}' for x in share))
 
 
 if __name__ == '__main__':
