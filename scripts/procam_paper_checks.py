@@ -238,7 +238,7 @@ def main(argv):
         print(f"capture {g['k']}: I median {np.median(g['share']):.3f} (10th-90th percentile "
               f"{np.percentile(g['share'], 10):.3f}-{np.percentile(g['share'], 90):.3f}); level relative to capture 0 "
               f"{np.exp(np.median(g['raw']) - ref['raw']):.3f} -> {np.exp(np.median(g['y']) - ref['y']):.3f}; "
-              f"exponent of d within the capture {e_raw:.2f} -> {e_cor:.2f}")
+              f"exponent of d within the capture {e_raw:.2f} -> {e_cor:.2f}; correlation of I with d {np.corrcoef(g['share'], g['d'])[0, 1]:.2f}")
     alphas, ks_grid = [0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6, 0.8], np.linspace(0, 40, 401)
     print('sheen (check 5), on the codes without indirect light; rms of the ln residual, alpha, k_s, mean ln residual per capture:')
     flat = np.concatenate([g['y'] for g in geo])
