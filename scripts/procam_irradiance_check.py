@@ -56,9 +56,10 @@ def sample(img, px):
     return out / 9
 
 
-def parse_options(argv, opts, usage):
+def parse_options(argv, opts, usage, npos=1):
     """`--name value` options into `opts` (its keys are the known names, its values the
-    defaults) and one positional argument; exits with a one-line message otherwise."""
+    defaults) and `npos` positional arguments (the one, or a list of them when `npos` > 1);
+    exits with a one-line message otherwise."""
     pos, i = [], 0
     while i < len(argv):
         if argv[i] in opts and i + 1 < len(argv):
@@ -69,9 +70,9 @@ def parse_options(argv, opts, usage):
         else:
             pos.append(argv[i])
             i += 1
-    if len(pos) != 1:
+    if len(pos) != npos:
         sys.exit(usage)
-    return opts, pos[0]
+    return opts, (pos[0] if npos == 1 else pos)
 
 
 def square_points(cols, rows, sq):

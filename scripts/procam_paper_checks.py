@@ -75,16 +75,21 @@ def read_ply_xyz(path):
     return np.stack([data['x'], data['y'], data['z']], 1).astype(float)
 
 
-def far_from_edges(mask, r):
-    """True where the (2r + 1)² window around a pixel lies wholly inside or wholly outside
-    `mask` (the window clipped at the image border), by an integral image."""
-    h, w = mask.shape
+def box(a, r):
+    """Sum of `a` over the (2r + 1)² window around each pixel, the window clipped at the image
+    border (an integral image)."""
+    h, w = a.shape
     ii = np.zeros((h + 1, w + 1))
-    ii[1:, 1:] = np.cumsum(np.cumsum(mask.astype(float), 0), 1)
+    ii[1:, 1:] = np.cumsum(np.cumsum(a, 0), 1)
     y0, y1 = np.clip(np.arange(h) - r, 0, h), np.clip(np.arange(h) + r + 1, 0, h)
     x0, x1 = np.clip(np.arange(w) - r, 0, w), np.clip(np.arange(w) + r + 1, 0, w)
-    s = ii[y1][:, x1] - ii[y0][:, x1] - ii[y1][:, x0] + ii[y0][:, x0]
-    area = (y1 - y0)[:, None] * (x1 - x0)[None, :]
+    return ii[y1][:, x1] - ii[y0][:, x1] - ii[y1][:, x0] + ii[y0][:, x0]
+
+
+def far_from_edges(mask, r):
+    """True where the (2r + 1)² window around a pixel lies wholly inside or wholly outside
+    `mask` (the window clipped at the image border)."""
+    s, area = box(mask.astype(float), r), box(np.ones(mask.shape), r)
     return (s == 0) | (s == area)
 
 

@@ -27,37 +27,13 @@ import sys
 import numpy as np
 from PIL import Image
 
-
-def box(a, r):
-    """Sum over the (2r + 1)^2 window around each pixel, clipped at the border (integral image)."""
-    h, w = a.shape
-    ii = np.zeros((h + 1, w + 1))
-    ii[1:, 1:] = np.cumsum(np.cumsum(a, 0), 1)
-    y0, y1 = np.clip(np.arange(h) - r, 0, h), np.clip(np.arange(h) + r + 1, 0, h)
-    x0, x1 = np.clip(np.arange(w) - r, 0, w), np.clip(np.arange(w) + r + 1, 0, w)
-    return ii[y1][:, x1] - ii[y0][:, x1] - ii[y1][:, x0] + ii[y0][:, x0]
-
-
-def far_from_edges(lit, r):
-    s, area = box(lit.astype(float), r), box(np.ones(lit.shape), r)
-    return (s == 0) | (s == area)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from procam_irradiance_check import parse_options  # noqa: E402
+from procam_paper_checks import box, far_from_edges  # noqa: E402
 
 
 def main(argv):
-    opts = {'--bits': '5', '--margin': '40'}
-    pos, i = [], 0
-    while i < len(argv):
-        if argv[i] in opts and i + 1 < len(argv):
-            opts[argv[i]] = argv[i + 1]
-            i += 2
-        elif argv[i].startswith('--'):
-            sys.exit(f'{argv[i]}: unknown option or missing value')
-        else:
-            pos.append(argv[i])
-            i += 1
-    if len(pos) != 2:
-        sys.exit(__doc__.strip().splitlines()[4])
-    src, dst = pos
+    opts, (src, dst) = parse_options(argv, {'--bits': '5', '--margin': '40'}, __doc__.strip().splitlines()[4], npos=2)
     bits, margin, contrast = int(opts['--bits']), int(opts['--margin']), 10.0
     frames = []
     for k in range(42):
