@@ -17,6 +17,7 @@
 pub mod basis;
 pub mod lm;
 pub mod model;
+pub mod response;
 
 use std::time::Instant;
 

@@ -12,6 +12,7 @@ use std::time::Instant;
 use analysis::compare::{compare, error_image, Mask};
 use analysis::photo_fit::basis::{average, projector_size, render_basis, scene_labels};
 use analysis::photo_fit::model::{self, Params};
+use analysis::photo_fit::response::{complementary_pairs, gamma_from_pairs, PairGamma};
 use analysis::photo_fit::{fit, frame_metrics, total, verify_renders, FitOptions, Frame, FrameMetrics, Metrics, PhotoFit};
 use analysis::scene_fit::side_by_side;
 use anyhow::{bail, Context, Result};
@@ -83,6 +84,11 @@ pub struct Args {
     /// Starting camera gamma [default: 2.2].
     #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gamma: Option<String>,
+    /// Find the camera's gamma before any render from the frames of --capture whose patterns are
+    /// complementary (a pattern and its inverse add up to the all-white frame's light; needs the
+    /// all-white and all-black frames too), and hold it in the fit (fit.json `gamma_from_pairs`).
+    #[arg(long, requires = "patterns", conflicts_with = "gamma")]
+    pub gamma_from_pairs: bool,
     /// Starting (or, with --hold gain, known) camera gain [default: 1].
     #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gain: Option<String>,
@@ -165,6 +171,44 @@ fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
     }
     out.sort();
     Ok(out)
+}
+
+/// The camera's gamma from the photographs whose patterns are complementary
+/// (`analysis::photo_fit::response`), at full resolution, every second pixel of every second row
+/// being enough; with the camera's black level `black_level`, or else the 0.5th percentile of the
+/// all-black frame's codes. Returns the result and the black level used. Errors name what is
+/// missing: the all-white or all-black frame, or a complementary pair.
+fn gamma_from_frames(photos: &[PathBuf], patterns: &[Option<Vec<f32>>], black_level: Option<f64>) -> Result<(PairGamma, f64)> {
+    let views: Vec<Option<&[f32]>> = patterns.iter().map(|p| p.as_deref()).collect();
+    let (iw, ik, pairs) = complementary_pairs(&views).map_err(|e| anyhow::anyhow!("--gamma-from-pairs: {e}"))?;
+    // Codes (full scale 1): the file's values, which `read_image` decodes with the sRGB curve;
+    // of a colour photograph the mean of its three channels' codes.
+    let read = |p: &Path| -> Result<(u32, u32, Vec<f32>)> {
+        let img = read_image(p)?;
+        let code = |v: f32| optics::color::srgb_encode(v as f64) as f32;
+        Ok((img.width, img.height, img.rgb.iter().map(|c| (code(c[0]) + code(c[1]) + code(c[2])) / 3.0).collect()))
+    };
+    let (w, h, white) = read(&photos[iw])?;
+    let sub = |v: &[f32]| -> Vec<f32> { (0..h as usize).step_by(2).flat_map(|y| (0..w as usize).step_by(2).map(move |x| v[y * w as usize + x])).collect() };
+    let frame = |i: usize| -> Result<Vec<f32>> {
+        let (fw, fh, v) = read(&photos[i])?;
+        if (fw, fh) != (w, h) {
+            bail!("{}: {fw}×{fh} pixels, but {} is {w}×{h}", photos[i].display(), photos[iw].display());
+        }
+        Ok(sub(&v))
+    };
+    let (white, black) = (sub(&white), frame(ik)?);
+    let b = match black_level {
+        Some(b) => b,
+        None => {
+            let mut sorted = black.clone();
+            sorted.sort_by(|a, b| a.total_cmp(b));
+            sorted[sorted.len() / 200] as f64
+        }
+    };
+    let frames: Vec<(Vec<f32>, Vec<f32>)> = pairs.iter().map(|&(i, j)| Ok((frame(i)?, frame(j)?))).collect::<Result<_>>()?;
+    let views: Vec<(&[f32], &[f32])> = frames.iter().map(|(a, c)| (a.as_slice(), c.as_slice())).collect();
+    Ok((gamma_from_pairs(&views, &white, &black, b, 1)?, b))
 }
 
 /// Pattern `pattern_NN.png` of frame `n` in `dir`.
@@ -281,7 +325,7 @@ pub fn run(args: Args) -> Result<()> {
     if !(0.0..=1.0).contains(&max_background) {
         bail!("--max-background must lie in [0, 1], got {max_background}");
     }
-    let gamma = num("--gamma", &args.gamma, 2.2)?;
+    let mut gamma = num("--gamma", &args.gamma, 2.2)?;
     if !(0.3..=5.0).contains(&gamma) {
         bail!("--gamma must lie in [0.3, 5], got {gamma}");
     }
@@ -370,6 +414,25 @@ pub fn run(args: Args) -> Result<()> {
             .collect::<Result<_>>()?;
         predictions.push((PathBuf::from(d), ps, pf));
     }
+    // The camera's gamma from complementary frames (before any render), then held.
+    let mut hold = args.hold.clone();
+    let mut pair_gamma = None;
+    if args.gamma_from_pairs {
+        let b = args.black_level.as_ref().map(|_| black_level);
+        let r = gamma_from_frames(&photo_paths, &patterns, b)?;
+        say(format!(
+            "gamma from {} complementary pairs: {:.4}, projector additivity {:.4} (black level {:.4}, rms residual {:.4} over {} pixels)",
+            r.0.pairs, r.0.gamma, r.0.additivity, r.1, r.0.rms, r.0.residuals
+        ));
+        gamma = r.0.gamma;
+        if hold.is_empty() {
+            hold.push(if psize.is_some() { "projector" } else { "ambient" }.to_string());
+        }
+        if !hold.iter().any(|h| h == "gamma") {
+            hold.push("gamma".to_string());
+        }
+        pair_gamma = Some(json!({"gamma": r.0.gamma, "additivity": r.0.additivity, "black_level": r.1, "rms": r.0.rms, "residuals": r.0.residuals, "pairs": r.0.pairs}));
+    }
     let out_dir = args.out_dir.clone().unwrap_or_else(|| PathBuf::from("fit-photo"));
     std::fs::create_dir_all(&out_dir).with_context(|| format!("--out-dir {}: cannot create", out_dir.display()))?;
 
@@ -400,7 +463,7 @@ pub fn run(args: Args) -> Result<()> {
         None => None,
     };
     let opts = FitOptions {
-        hold: args.hold.clone(),
+        hold: hold.clone(),
         color_matrix: args.color_matrix,
         vignetting: args.vignetting,
         gamma,
@@ -539,7 +602,8 @@ pub fn run(args: Args) -> Result<()> {
         "scene": args.scene.display().to_string(),
         "width": width, "height": height, "spp": spp, "seed": seed,
         "labels": label_names,
-        "hold": if args.hold.is_empty() { vec![if psize.is_some() { "projector".to_string() } else { "ambient".to_string() }] } else { args.hold.clone() },
+        "hold": if hold.is_empty() { vec![if psize.is_some() { "projector".to_string() } else { "ambient".to_string() }] } else { hold.clone() },
+        "gamma_from_pairs": pair_gamma,
         "residual_variance": result.residual_variance,
         "params": summary["params"], "steps": steps,
         "verify": {"total": metrics_json(&verify_total), "frames": frames_json(&verify_metrics, &label_names)},
