@@ -52,6 +52,14 @@ fn main() {
             let text = e.to_string();
             let first = text.lines().next().unwrap_or("invalid arguments");
             let first = first.strip_prefix("error: ").unwrap_or(first);
+            // A first line that ends in a colon lists what it means on the indented lines after
+            // it ("the following required arguments were not provided:\n  --patterns <DIR>").
+            let listed: Vec<&str> = if first.ends_with(':') {
+                text.lines().skip(1).take_while(|l| l.starts_with(' ') && !l.trim().is_empty()).map(str::trim).collect()
+            } else {
+                vec![]
+            };
+            let first = if listed.is_empty() { first.to_string() } else { format!("{first} {}", listed.join(", ")) };
             let tips: Vec<&str> = text.lines().filter_map(|l| l.trim_start().strip_prefix("tip: ")).collect();
             let tips: String = tips.iter().map(|t| format!("; {t}")).collect();
             eprintln!("lucent: error: {first}{tips} (see `lucent --help`)");

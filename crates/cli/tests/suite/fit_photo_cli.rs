@@ -54,6 +54,9 @@ fn fit_photo_refuses_bad_input_with_one_line() {
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--width", "5", "-q"], "not an integer multiple");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--pattern", "photo.png", "-q"], "the scene has no projector");
     fails_with(&dir, &["fit", "photo", "scene.toml", "-q"], "no photograph");
+    // The gamma from complementary frames needs a capture and its patterns, and excludes --gamma.
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--gamma-from-pairs", "-q"], "not provided: --capture <DIR>, --patterns <DIR>");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--capture", ".", "--patterns", ".", "--gamma", "2", "--gamma-from-pairs", "-q"], "cannot be used with");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--repeat", "photo.png", "--repeat", "photo.png", "-q"], "2 --repeat for 1 --photo");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--edge-px", "-1", "-q"], "--edge-px must be a whole number");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--max-background", "2", "-q"], "--max-background must lie in [0, 1]");
