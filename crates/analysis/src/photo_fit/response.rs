@@ -17,8 +17,8 @@
 //! r = (1 − s)(1 − η^γ) and so fix s; the pixels in between (edges blurred by the lenses, stripes
 //! finer than the camera resolves) fix γ, since a power law bends mid-level codes and not the
 //! ends. For each γ the best s is linear least squares; γ minimises the remaining sum of squares,
-//! by golden-section search on ln γ. At γ = 1 the residual does not depend on b, so b matters
-//! only for a camera that is not linear.
+//! by golden-section search on ln γ. At γ = 1 the law does not involve b (b only scales the
+//! residuals), so b matters only for a camera that is not linear.
 
 use anyhow::{bail, Result};
 
