@@ -77,6 +77,12 @@ impl Scene {
         (self.camera.width, self.camera.height)
     }
 
+    /// The free-flight grid of `medium` (see [`Scene::medium_grids`]), if it has one.
+    #[inline]
+    pub fn medium_grid(&self, medium: Option<u32>) -> Option<&crate::medium::FreeFlightGrid> {
+        medium.and_then(|m| self.medium_grids.get(m as usize)).and_then(|g| g.as_ref())
+    }
+
     /// 64-bit hash (FNV-1a) of the scene's content (scene text, every file it reads) and resolution,
     /// for refusing checkpoints of another scene.
     pub fn content_hash(&self) -> u64 {

@@ -39,6 +39,8 @@ pub struct PairGamma {
     /// The projector's additivity s: the light of a pattern and its inverse together over the
     /// all-white image's, both above the all-black image's (1: additive).
     pub additivity: f64,
+    /// The camera's black level b it was measured with (code, full scale 1).
+    pub black_level: f64,
     /// Root mean square of the residual r at that γ (in units of white's E).
     pub rms: f64,
     /// Pixels × pairs that entered.
@@ -120,7 +122,7 @@ pub fn gamma_from_pairs(pairs: &[(&[f32], &[f32])], white: &[f32], black: &[f32]
     let gamma = (0.5 * (lo + hi)).exp();
     let (sum, additivity) = cost(&s, gamma);
     let rms = (sum / s.len() as f64).sqrt();
-    Ok(PairGamma { gamma, additivity, rms, residuals: s.len(), pairs: pairs.len() })
+    Ok(PairGamma { gamma, additivity, black_level, rms, residuals: s.len(), pairs: pairs.len() })
 }
 
 /// The frames among `patterns` (the projector image of each photograph, values 0–1; `None` where

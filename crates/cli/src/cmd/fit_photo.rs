@@ -176,9 +176,9 @@ fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
 /// The camera's gamma from the photographs whose patterns are complementary
 /// (`analysis::photo_fit::response`), at full resolution, every second pixel of every second row
 /// being enough; with the camera's black level `black_level`, or else the 0.5th percentile of the
-/// all-black frame's codes. Returns the result and the black level used. Errors name what is
-/// missing: the all-white or all-black frame, or a complementary pair.
-fn gamma_from_frames(photos: &[PathBuf], patterns: &[Option<Vec<f32>>], black_level: Option<f64>) -> Result<(PairGamma, f64)> {
+/// all-black frame's codes. Errors name what is missing: the all-white or all-black frame, or a
+/// complementary pair.
+fn gamma_from_frames(photos: &[PathBuf], patterns: &[Option<Vec<f32>>], black_level: Option<f64>) -> Result<PairGamma> {
     let views: Vec<Option<&[f32]>> = patterns.iter().map(|p| p.as_deref()).collect();
     let (iw, ik, pairs) = complementary_pairs(&views).map_err(|e| anyhow::anyhow!("--gamma-from-pairs: {e}"))?;
     // Codes (full scale 1): the file's values, which `read_image` decodes with the sRGB curve;
@@ -208,7 +208,7 @@ fn gamma_from_frames(photos: &[PathBuf], patterns: &[Option<Vec<f32>>], black_le
     };
     let frames: Vec<(Vec<f32>, Vec<f32>)> = pairs.iter().map(|&(i, j)| Ok((frame(i)?, frame(j)?))).collect::<Result<_>>()?;
     let views: Vec<(&[f32], &[f32])> = frames.iter().map(|(a, c)| (a.as_slice(), c.as_slice())).collect();
-    Ok((gamma_from_pairs(&views, &white, &black, b, 1)?, b))
+    gamma_from_pairs(&views, &white, &black, b, 1)
 }
 
 /// Pattern `pattern_NN.png` of frame `n` in `dir`.
@@ -422,16 +422,16 @@ pub fn run(args: Args) -> Result<()> {
         let r = gamma_from_frames(&photo_paths, &patterns, b)?;
         say(format!(
             "gamma from {} complementary pairs: {:.4}, projector additivity {:.4} (black level {:.4}, rms residual {:.4} over {} pixels)",
-            r.0.pairs, r.0.gamma, r.0.additivity, r.1, r.0.rms, r.0.residuals
+            r.pairs, r.gamma, r.additivity, r.black_level, r.rms, r.residuals
         ));
-        gamma = r.0.gamma;
+        gamma = r.gamma;
         if hold.is_empty() {
             hold.push(if psize.is_some() { "projector" } else { "ambient" }.to_string());
         }
         if !hold.iter().any(|h| h == "gamma") {
             hold.push("gamma".to_string());
         }
-        pair_gamma = Some(json!({"gamma": r.0.gamma, "additivity": r.0.additivity, "black_level": r.1, "rms": r.0.rms, "residuals": r.0.residuals, "pairs": r.0.pairs}));
+        pair_gamma = Some(json!({"gamma": r.gamma, "additivity": r.additivity, "black_level": r.black_level, "rms": r.rms, "residuals": r.residuals, "pairs": r.pairs}));
     }
     let out_dir = args.out_dir.clone().unwrap_or_else(|| PathBuf::from("fit-photo"));
     std::fs::create_dir_all(&out_dir).with_context(|| format!("--out-dir {}: cannot create", out_dir.display()))?;

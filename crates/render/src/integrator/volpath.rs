@@ -339,7 +339,7 @@ fn guide_probability(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Optio
     if !(s_min > 0.0) {
         return None;
     }
-    let d = match medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()) {
+    let d = match scene.medium_grid(medium) {
         Some(g) => g.free_distance(p).max(ball_bound).max(0.0),
         None => 0.0,
     };
@@ -366,7 +366,7 @@ fn exit_plane(scene: &Scene, rl: &RefractedLights, p: Vec3, medium: Option<u32>,
     let probe = Ray { o: p, d, t_min: 0.0, t_max: GUIDE_REACH / s_min };
     // Inside a medium's closed convex boundary the first surface is where the probe leaves it
     // (`medium::convex`); else the BVH finds it.
-    let convex = medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).and_then(|g| g.convex());
+    let convex = scene.medium_grid(medium).and_then(|g| g.convex());
     let exit = convex.and_then(|c| c.exit_near(p, d, hint).map(|e| (c.object(), e)));
     let (object, point, ng) = match exit {
         Some((object, (t, n))) => {
@@ -510,7 +510,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         ray.t_max = t_coll;
         // No surface within the free-distance bound around the origin: the collision is real
         // without a ray cast.
-        let grid = medium.and_then(|m| scene.medium_grids.get(m as usize)).and_then(|g| g.as_ref()).filter(|_| options.free_flight_grid);
+        let grid = scene.medium_grid(medium).filter(|_| options.free_flight_grid);
         let surely_inside = t_coll.is_finite()
             && grid.is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || free.contains(scene, g, ray.o, ray.o + ray.d * t_coll, med.map_or(0.0, |m| 1.0 / m.2.x)));
         let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
