@@ -17,7 +17,9 @@
 //! the CIE functions gives the XYZ of the same samples (tested).
 //!
 //! Variance: per pixel and sRGB channel the sums S = Σx and Q = Σx² over the n samples give the
-//! variance of the pixel mean, (Q − S²/n) / (n(n − 1)) (the unbiased sample variance over n).
+//! variance of the pixel mean, (Q − S²/n) / (n(n − 1)) (the unbiased sample variance over n):
+//! exact for independent samples, an upper bound for the passes of one seed, whose wavelength and
+//! film numbers are stratified ([`crate::math::sampling::PixelStrata`]).
 
 use anyhow::{bail, Result};
 

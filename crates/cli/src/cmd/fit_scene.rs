@@ -17,6 +17,9 @@ use render::load::template::{get_param, ParamSpec, SceneTemplate};
 use render::scene::Scene;
 use serde_json::json;
 
+/// XORed into `--seed` for the second half of `--unbiased` (any other seed is independent).
+const SECOND_HALF_SEED: u64 = 0x5EC0_4D4A_1F5E_ED00;
+
 use super::render::{finite_f64, integrator_kind, positive_u64};
 
 /// Arguments of `lucent fit scene`.
@@ -64,7 +67,8 @@ pub struct Args {
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
     pub tolerance: Option<String>,
     /// Minimise an unbiased estimate of the noise-free squared error instead of the RMSE: the
-    /// passes are split into two independent halves a and b and the objective is
+    /// passes are split into two independent halves a and b (the second with a seed derived from
+    /// --seed) and the objective is
     /// mean((a − ref)(b − ref)), whose expectation has no Monte Carlo variance term (a plain RMSE
     /// of a noisy render favours darker parameters, which have less noise). Reported errors stay RMSE.
     #[arg(long)]
@@ -165,9 +169,12 @@ pub fn run(args: Args) -> Result<()> {
         let scene = build(x)?;
         let settings = settings_of(&scene);
         let (img, halves) = if args.unbiased {
+            // The passes of one seed are stratified against each other (the wavelength and
+            // film numbers, `render::math::sampling::PixelStrata`), so the second half takes a
+            // second seed: the halves must be independent for the cross error to be unbiased.
             let half = spp / 2;
             let a = render_image(&scene, &settings, seed, 0..half);
-            let b = render_image(&scene, &settings, seed, half..spp);
+            let b = render_image(&scene, &settings, seed ^ SECOND_HALF_SEED, 0..spp - half);
             let (na, nb) = (half as f32, (spp - half) as f32);
             let rgb = a.rgb.iter().zip(&b.rgb).map(|(p, q)| std::array::from_fn(|c| (na * p[c] + nb * q[c]) / (na + nb))).collect();
             (Image { width: a.width, height: a.height, rgb }, Some((a, b)))

@@ -12,7 +12,7 @@
 //! | `depth` | `depth.T` | distance in metres from the ray's origin to the first hit along the ray (Mitsuba's `depth`, the ray parameter t, not the planar z); 0 where the ray escapes |
 //! | `position` | `P.X`, `.Y`, `.Z` | world-space position of the first hit, metres; 0 where the ray escapes |
 //! | `object_id` | `object_id.I` | index of the object hit (0 = the first object of the scene file), −1 where the ray escapes; fractional where a pixel covers several (as Mitsuba's `shape_index`) |
-//! | `variance` | `variance.R`, `.G`, `.B` | variance of the pixel's mean radiance in linear sRGB, from per-sample second moments: (Σx²/n − x̄²)/(n − 1); 0 below two samples |
+//! | `variance` | `variance.R`, `.G`, `.B` | variance of the pixel's mean radiance in linear sRGB, from per-sample second moments: (Σx²/n − x̄²)/(n − 1); 0 below two samples (exact for independent samples; an upper bound for the passes of one render, whose wavelength and film numbers are stratified) |
 //!
 //! The albedo of a spectrum is estimated at 16 stratified wavelengths per sample (four hero
 //! sets from the sample's own wavelength number), so it converges to the exact colour without

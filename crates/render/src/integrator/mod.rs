@@ -12,7 +12,8 @@
 //!
 //! [`settings`] names them (the one table), [`nee`] is the next-event estimation they share, and
 //! this module runs one pass over the image. A new integrator is a file here, a row in the
-//! settings table and an arm in [`sample_pixel_sss`].
+//! settings table and an arm in `trace_pixel`. The passes take each pixel's wavelength and film
+//! numbers from [`PixelStrata`], stratified over the passes; the rest of a path from [`Pcg32`].
 
 pub mod ao;
 pub mod aov;
@@ -25,7 +26,7 @@ pub mod volpath;
 
 pub use settings::{IntegratorKind, IntegratorSettings};
 
-use crate::math::sampling::Pcg32;
+use crate::math::sampling::{Pcg32, PixelStrata};
 use crate::math::spectral::{SampledWavelengths, N_LAMBDA};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -48,7 +49,8 @@ pub fn render_pass(scene: &Scene, settings: &IntegratorSettings, seed: u64, pass
             let pixel = (j as u64) * (w as u64) + i as u64;
             let mut rng = Pcg32::for_pixel(seed, pass, pixel);
             let p = (sets > 0).then(|| &sss[SubsurfacePass::set_of_pixel(i as u32, j as u32, offset, sets) as usize]);
-            *out = sample_pixel_sss(scene, settings, i as u32, j as u32, &mut rng, p);
+            let u = PixelStrata::for_pixel(seed, pixel).first(pass);
+            *out = trace_pixel(scene, settings, i as u32, j as u32, u, &mut rng, p).0;
         }
     });
 }
@@ -96,7 +98,8 @@ pub fn render_pass_samples(scene: &Scene, settings: &IntegratorSettings, seed: u
         for (i, o) in row.iter_mut().enumerate() {
             let pixel = (j as u64) * (w as u64) + i as u64;
             let mut rng = Pcg32::for_pixel(seed, pass, pixel);
-            let (xyz, ray, u_lambda, wl, l) = trace_pixel(scene, settings, i as u32, j as u32, &mut rng, sss.as_ref());
+            let u = PixelStrata::for_pixel(seed, pixel).first(pass);
+            let (xyz, ray, u_lambda, wl, l) = trace_pixel(scene, settings, i as u32, j as u32, u, &mut rng, sss.as_ref());
             let mut sample = PixelSample { xyz, ..PixelSample::ZERO };
             if extras.first_hit {
                 sample.first_hit = aov::first_hit(scene, &ray, u_lambda);
@@ -114,21 +117,18 @@ pub fn render_pass_samples(scene: &Scene, settings: &IntegratorSettings, seed: u
     });
 }
 
-/// One sample of pixel (`i`, `j`): XYZ estimate; non-finite estimates are replaced by 0.
+/// One sample of pixel (`i`, `j`), its wavelength and film numbers drawn from `rng` too (the
+/// passes of [`render_pass`] take them from [`PixelStrata`] instead): XYZ estimate; non-finite
+/// estimates are replaced by 0.
 #[inline]
 pub fn sample_pixel(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32) -> [f32; 3] {
-    sample_pixel_sss(scene, settings, i, j, rng, None)
-}
-
-/// [`sample_pixel`] with this pass's subsurface state (`None`: translucent materials act as
-/// their dielectric boundary); with it, the path uses the pass's wavelengths.
-#[inline]
-pub fn sample_pixel_sss(scene: &Scene, settings: &IntegratorSettings, i: u32, j: u32, rng: &mut Pcg32, sss: Option<&SubsurfacePass>) -> [f32; 3] {
-    trace_pixel(scene, settings, i, j, rng, sss).0
+    let u = (rng.next_f32(), rng.next_2d());
+    trace_pixel(scene, settings, i, j, u, rng, None).0
 }
 
 /// One sample of pixel (`i`, `j`): its XYZ estimate (0 where not finite), the camera ray, the
-/// wavelength number, the wavelengths as the path left them and the radiance at them (for `ao`,
+/// wavelength number `u_lambda` (with `u_film`, the position in the pixel: stratified over the
+/// passes by [`PixelStrata`]), the wavelengths as the path left them and the radiance at them (for `ao`,
 /// the visibility at every wavelength).
 #[inline(always)]
 fn trace_pixel(
@@ -136,11 +136,10 @@ fn trace_pixel(
     settings: &IntegratorSettings,
     i: u32,
     j: u32,
+    (u_lambda, u_film): (f32, glam::Vec2),
     rng: &mut Pcg32,
     sss: Option<&SubsurfacePass>,
 ) -> ([f32; 3], crate::math::geometry::Ray, f32, SampledWavelengths, crate::math::spectral::SampledSpectrum) {
-    let u_lambda = rng.next_f32();
-    let u_film = rng.next_2d();
     let ray = scene.camera.sample_ray(i, j, u_film, || rng.next_2d());
     let mut wl = match sss {
         Some(p) => p.wl,

@@ -8,12 +8,13 @@ use render::integrator::{render_pass, IntegratorKind};
 use render::math::sampling::Pcg32;
 use render::scene::Scene;
 
-/// Per-pixel mean and standard error of Y over `passes` passes of `direct`.
-fn mean_se(s: &Scene, passes: u64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+/// Per-pixel mean and standard error of Y over `passes` passes of `direct`, and the number of
+/// passes in which the pixel received any light.
+fn mean_se(s: &Scene, passes: u64, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<u32>) {
     let (w, h) = s.resolution();
     let n = (w * h) as usize;
     let st = settings(IntegratorKind::Direct, 2, 5);
-    let (mut s1, mut s2) = (vec![0.0f64; n], vec![0.0f64; n]);
+    let (mut s1, mut s2, mut lit) = (vec![0.0f64; n], vec![0.0f64; n], vec![0u32; n]);
     let mut buf = vec![[0.0f32; 3]; n];
     for pass in 0..passes {
         render_pass(s, &st, seed, pass, &mut buf);
@@ -21,11 +22,12 @@ fn mean_se(s: &Scene, passes: u64, seed: u64) -> (Vec<f64>, Vec<f64>) {
             let y = buf[k][1] as f64;
             s1[k] += y;
             s2[k] += y * y;
+            lit[k] += u32::from(y > 0.0);
         }
     }
     let m: Vec<f64> = s1.iter().map(|a| a / passes as f64).collect();
     let se = (0..n).map(|k| ((s2[k] / passes as f64 - m[k] * m[k]).max(0.0) / (passes - 1) as f64).sqrt()).collect();
-    (m, se)
+    (m, se, lit)
 }
 
 #[test]
@@ -59,8 +61,8 @@ fn projector_and_camera_with_the_same_model_see_the_image_pixel_for_pixel() {
     );
     let s = Scene::from_toml_str(&text, "projector.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
     std::fs::remove_dir_all(&dir).ok();
-    let (m, se) = mean_se(&s, 64, 4);
-    let (mut worst, mut zero_leak) = (0.0f64, 0.0f64);
+    let (m, se, lit) = mean_se(&s, 64, 4);
+    let (mut worst, mut leaks) = (0.0f64, 0u32);
     for j in 0..h {
         for i in 0..w {
             let k = (j * w + i) as usize;
@@ -76,16 +78,20 @@ fn projector_and_camera_with_the_same_model_see_the_image_pixel_for_pixel() {
             }
             let want = rho / std::f64::consts::PI * values[k] as f64 * i0 * g * y_of_one();
             if values[k] == 0.0 {
-                zero_leak = zero_leak.max(m[k]);
+                leaks += lit[k];
             } else {
                 let z = (m[k] - want).abs() / (se[k] + 1e-4 * want);
                 worst = worst.max(z);
             }
         }
     }
-    eprintln!("projector: worst |Δ|/SE {worst:.2} over lit pixels, largest value in a dark pixel {zero_leak:e}");
+    eprintln!("projector: worst |Δ|/SE {worst:.2} over lit pixels, {leaks} lit samples in dark pixels");
     assert!(worst < 5.0, "projected image differs from ρ/π·v·I₀·cosθ/r² by {worst} standard errors");
-    assert_eq!(zero_leak, 0.0, "light leaks into dark pixels: the projection is misaligned");
+    // A sample within about 1e-5 px of a pixel edge can land in the neighbouring projector pixel
+    // through the f32 rounding of the ray (one such sample, 5e-6 px from the edge, in this run):
+    // about one expected among the ~16 000 samples of the dark pixels. A misalignment of 0.001 px
+    // would light about 0.1 % of them, some ten samples.
+    assert!(leaks <= 2, "light leaks into dark pixels in {leaks} samples: the projection is misaligned");
 }
 
 #[test]
@@ -126,7 +132,7 @@ fn projector_irradiance_falls_with_inverse_square_and_cosine() {
             q.join(", ")
         );
         let s = Scene::from_toml_str(&text, "falloff.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
-        let (m, se) = mean_se(&s, 256, 8);
+        let (m, se, _) = mean_se(&s, 256, 8);
         let centre = [27usize, 28, 35, 36];
         let got: f64 = centre.iter().map(|&k| m[k]).sum::<f64>() / 4.0;
         let err: f64 = (centre.iter().map(|&k| se[k] * se[k]).sum::<f64>()).sqrt() / 4.0;
