@@ -13,7 +13,8 @@ export PATH="$venv/bin:$PATH"
 "$venv/bin/python" -m pip install --quiet --upgrade pip
 "$venv/bin/python" -m pip install --quiet maturin pytest numpy miepython
 "$venv/bin/python" -m pip install --no-build-isolation ./python
-[ -x target/debug/lucent ] || cargo build -p lucent
+# Always build: a binary left from an older checkout would test the package against old code.
+cargo build -p lucent
 # Run from the repository root so that `import lucent` finds the installed package, not python/lucent.
 LUCENT_BIN="$PWD/target/debug/lucent" "$venv/bin/python" -m pytest -q python/tests
 echo "python package: built and tested in $(( $(date +%s) - start )) s"
