@@ -20,6 +20,9 @@
 //! by golden-section search on ln γ. At γ = 1 the law does not involve b (b only scales the
 //! residuals), so b matters only for a camera that is not linear.
 
+// `!(x > y)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use anyhow::{bail, Result};
 
 /// Smallest γ searched.
@@ -125,11 +128,14 @@ pub fn gamma_from_pairs(pairs: &[(&[f32], &[f32])], white: &[f32], black: &[f32]
     Ok(PairGamma { gamma, additivity, black_level, rms, residuals: s.len(), pairs: pairs.len() })
 }
 
+/// Indices of the all-white frame, the all-black frame and the complementary pairs.
+pub type FrameRoles = (usize, usize, Vec<(usize, usize)>);
+
 /// The frames among `patterns` (the projector image of each photograph, values 0–1; `None` where
 /// unknown) that are all-white and all-black, and the pairs that are a pattern and its inverse
 /// (the two add up to 1 at every projector pixel, to 1e-3), each frame in at most one pair, in
 /// order of the first. Errors name what is missing.
-pub fn complementary_pairs(patterns: &[Option<&[f32]>]) -> Result<(usize, usize, Vec<(usize, usize)>)> {
+pub fn complementary_pairs(patterns: &[Option<&[f32]>]) -> Result<FrameRoles> {
     let constant = |v: f32| patterns.iter().position(|p| p.is_some_and(|p| !p.is_empty() && p.iter().all(|&x| (x - v).abs() <= 1e-3)));
     let Some(white) = constant(1.0) else { bail!("no all-white frame among the photographs (a pattern that is 1 everywhere)") };
     let Some(black) = constant(0.0) else { bail!("no all-black frame among the photographs (a pattern that is 0 everywhere)") };

@@ -416,6 +416,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     // The camera's gamma from complementary frames (before any render), then held.
     let mut hold = args.hold.clone();
+    // What the fit holds when --hold names nothing (as `photo_fit::fit` chooses it).
+    let default_hold = || vec![if psize.is_some() { "projector" } else { "ambient" }.to_string()];
     let mut pair_gamma = None;
     if args.gamma_from_pairs {
         let b = args.black_level.as_ref().map(|_| black_level);
@@ -426,7 +428,7 @@ pub fn run(args: Args) -> Result<()> {
         ));
         gamma = r.gamma;
         if hold.is_empty() {
-            hold.push(if psize.is_some() { "projector" } else { "ambient" }.to_string());
+            hold = default_hold();
         }
         if !hold.iter().any(|h| h == "gamma") {
             hold.push("gamma".to_string());
@@ -602,7 +604,7 @@ pub fn run(args: Args) -> Result<()> {
         "scene": args.scene.display().to_string(),
         "width": width, "height": height, "spp": spp, "seed": seed,
         "labels": label_names,
-        "hold": if hold.is_empty() { vec![if psize.is_some() { "projector".to_string() } else { "ambient".to_string() }] } else { hold.clone() },
+        "hold": if hold.is_empty() { default_hold() } else { hold.clone() },
         "gamma_from_pairs": pair_gamma,
         "residual_variance": result.residual_variance,
         "params": summary["params"], "steps": steps,
