@@ -17,6 +17,9 @@ capture if the projector, the camera's exposure and the paper's reflectance were
 image-wide mean and 99th percentile of the white frame's codes, the exponent of d fitted within
 each capture alone (where the exposure is one constant; −2 for the point projector), and the
 residual of two fits over all captures: one factor per capture, and one exponent of d for all.
+It repeats the first of these for a projector whose pixels all pass the same power (lucent's
+`profile = "irradiance"`, Mitsuba 3's `projector`): intensity ∝ 1/cos³θ_p, θ_p the angle off the
+projector's optical axis.
 """
 import json, math, os, sys
 
@@ -119,7 +122,9 @@ def main(argv):
         lit = paper & (white < 250)
         L = (white[lit] / 255) ** gamma - (black[lit] / 255) ** gamma
         keep = L > 0
-        data.append(dict(k=k, L=L[keep], cos=cos_i[lit][keep], d=d[lit][keep], img=frames[0]))
+        Xp = X @ Rp.T + Tp
+        cos_p = Xp[:, 2] / np.linalg.norm(Xp, axis=1)
+        data.append(dict(k=k, L=L[keep], cos=cos_i[lit][keep], d=d[lit][keep], cos_p=cos_p[lit][keep], img=frames[0]))
     ratio0 = None
     print('capture | cos θᵢ | d | measured / predicted (rel. capture 0) | white frame mean, p99 codes')
     for c in data:
@@ -146,6 +151,14 @@ def main(argv):
         rms = ' '.join(f'{np.sqrt(np.mean(res[cap == k] ** 2)):.3f}' for k in range(len(data)))
         extra = f'factors {np.round(np.exp(coef - coef[0]), 3)}' if name.startswith('one factor') else f'irradiance ∝ d^{coef[1] - 2:.2f}'
         print(f'{name}: rms of ln residual per capture {rms}; {extra}')
+    y3 = y + np.concatenate([3 * np.log(c['cos_p']) for c in data])
+    X = fits['one factor per capture']
+    coef = np.linalg.lstsq(X, y3, rcond=None)[0]
+    res = y3 - X @ coef
+    rms = ' '.join(f'{np.sqrt(np.mean(res[cap == k] ** 2)):.3f}' for k in range(len(data)))
+    print(f'one factor per capture, projector of equal power per pixel (intensity ∝ 1/cos³θ_p, θ_p '
+          f'{np.degrees(np.arccos(max(c["cos_p"].max() for c in data))):.1f}–{np.degrees(np.arccos(min(c["cos_p"].min() for c in data))):.1f}°): '
+          f'rms of ln residual per capture {rms}; factors {np.round(np.exp(coef - coef[0]), 3)}')
 
 
 if __name__ == '__main__':

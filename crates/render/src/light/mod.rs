@@ -224,7 +224,7 @@ impl Light {
             Light::Projector(pr) => {
                 let d = pr.position() - p;
                 let r2 = d.length_squared();
-                let v = pr.value_at(p);
+                let v = pr.weight_at(p);
                 if !(r2 > 0.0) || !(v > 0.0) {
                     return None;
                 }

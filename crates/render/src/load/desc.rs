@@ -145,6 +145,7 @@ pub(crate) struct LightDesc {
     /// Projector: image file, its response, and the camera model it projects through.
     pub(crate) image: Option<String>,
     pub(crate) response: Option<toml::Value>,
+    pub(crate) profile: Option<String>,
     pub(crate) camera: Option<Spanned<CameraDesc>>,
     /// Image of an `envmap` light (relative to the scene file).
     pub(crate) file: Option<String>,

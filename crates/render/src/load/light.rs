@@ -44,6 +44,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 ("two_sided", l.two_sided.is_some()),
                 ("image", l.image.is_some()),
                 ("response", l.response.is_some()),
+                ("profile", l.profile.is_some()),
                 ("camera", l.camera.is_some()),
                 ("file", l.file.is_some()),
                 ("transform", l.transform.is_some()),
@@ -217,7 +218,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 Light::Area { object: oi as u32, emitter, area_m2, radiance, two_sided }
             }
             "projector" => {
-                check_keys(&["image", "response", "camera", "intensity"])?;
+                check_keys(&["image", "response", "profile", "camera", "intensity"])?;
                 projector(cx, sp, unit_m, l, &span, &field, &scaled, need(&l.intensity, "intensity")?)?
             }
             other => {
@@ -272,7 +273,7 @@ fn projector(
     scaled: impl Fn(DenseSpectrum, f64) -> Result<DenseSpectrum>,
     intensity: DenseSpectrum,
 ) -> Result<Light> {
-    use crate::light::projector::{read_projector_image, Projector, Response};
+    use crate::light::projector::{read_projector_image, Profile, Projector, Response};
     let rel = l.image.as_ref().ok_or_else(|| cx.err(span, &format!("{field}.image"), "missing (the image to project)"))?;
     let response = match &l.response {
         None => Response::Srgb,
@@ -282,6 +283,11 @@ fn projector(
             Some(g) if g > 0.0 && g.is_finite() => Response::Gamma(g),
             _ => return Err(cx.err(span, &format!("{field}.response"), format!("unknown response {v} (use \"linear\", \"srgb\" or a gamma > 0)"))),
         },
+    };
+    let profile = match &l.profile {
+        None => Profile::Intensity,
+        Some(name) => Profile::from_name(name)
+            .ok_or_else(|| cx.err(span, &format!("{field}.profile"), format!("unknown profile {} (use \"intensity\" or \"irradiance\")", quote(name))))?,
     };
     let path = sp.files.path(rel).map_err(|e| cx.err(span, &format!("{field}.image"), e))?;
     let (w, h, values) = read_projector_image(&path, response).map_err(|e| cx.err(span, &format!("{field}.image"), format!("{e:#}")))?;
@@ -297,7 +303,7 @@ fn projector(
     if camera.lens.is_some() {
         return Err(cx.err(span, &cfield, "a projector has no lens (aperture_radius, f_number)"));
     }
-    let p = Projector::new(camera, values, intensity).map_err(|e| cx.err(span, &format!("{field}.image"), e))?;
+    let p = Projector::new(camera, values, intensity).map_err(|e| cx.err(span, &format!("{field}.image"), e))?.with_profile(profile);
     let intensity = scaled(p.intensity.clone(), p.weighted_solid_angle_sr as f64)?;
     Ok(Light::Projector(Box::new(Projector { intensity, ..p })))
 }

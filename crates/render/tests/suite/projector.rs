@@ -1,6 +1,8 @@
 //! Projector lights: a projector and a camera with the same intrinsics, distortion and pose see
 //! the projected image on a Lambertian plane pixel for pixel (ρ/π · v · I₀ · cos θ / r²), and the
-//! irradiance falls with the inverse square of distance and the cosine of incidence.
+//! irradiance falls with the inverse square of distance and the cosine of incidence; in the
+//! `irradiance` profile (Mitsuba 3's) a constant image lights a plane perpendicular to the axis
+//! evenly, in the `intensity` profile (pbrt-v4's) with cos³ of the angle off the axis.
 
 use crate::common::{settings, y_of_one};
 use render::image_io::{write_image, Image};
@@ -143,6 +145,89 @@ fn projector_irradiance_falls_with_inverse_square_and_cosine() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+#[test]
+fn irradiance_profile_lights_a_perpendicular_plane_evenly() {
+    // A 60° pinhole projector and a camera with the same model at the origin, a white plane at
+    // z = D. Irradiance profile: E = π·v·I₀/cos³θ · cos θ / (D/cos θ)² = π·v·I₀/D² everywhere,
+    // so Y = ρ·I₀/D² in every pixel. Intensity profile: E = I₀·cos³θ/D², averaged over the
+    // pixel's footprint.
+    let dir = std::env::temp_dir().join(format!("lucent-projector-profile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let n = 16usize;
+    write_image(&dir.join("white.pfm"), &Image::from_rgb(n as u32, n as u32, vec![[1.0; 3]; n * n]).unwrap(), 0.0).unwrap();
+    let (rho, i0, d) = (0.8f64, 2.0f64, 2.0f64);
+    let f = (n as f64 / 2.0) / 30f64.to_radians().tan();
+    // Mean of cos³θ over pixel (i, j), by a 32 × 32 midpoint rule in the pixel (film samples are
+    // uniform over it).
+    let cos3 = |i: usize, j: usize| -> f64 {
+        let m = 32;
+        let mut acc = 0.0;
+        for a in 0..m {
+            for b in 0..m {
+                let x = (i as f64 + (a as f64 + 0.5) / m as f64 - n as f64 / 2.0) / f;
+                let y = (j as f64 + (b as f64 + 0.5) / m as f64 - n as f64 / 2.0) / f;
+                acc += (1.0 + x * x + y * y).powf(-1.5);
+            }
+        }
+        acc / (m * m) as f64
+    };
+    for profile in ["irradiance", "intensity"] {
+        let text = format!(
+            r#"
+            camera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 60, width = {n}, height = {n} }}
+            [materials.white]
+            type = "lambertian"
+            albedo = {rho}
+            [[objects]]
+            material = "white"
+            quad = [[-5, -5, {d}], [5, -5, {d}], [5, 5, {d}], [-5, 5, {d}]]
+            [[lights]]
+            type = "projector"
+            image = "white.pfm"
+            response = "linear"
+            profile = "{profile}"
+            intensity = {i0}
+            camera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 60 }}
+            "#
+        );
+        let s = Scene::from_toml_str(&text, "profile.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
+        let (m, se, _) = mean_se(&s, 64, 9);
+        let mut worst = 0.0f64;
+        for j in 0..n {
+            for i in 0..n {
+                let k = j * n + i;
+                let want = match profile {
+                    "irradiance" => rho * i0 / (d * d),
+                    _ => rho / std::f64::consts::PI * i0 * cos3(i, j) / (d * d),
+                } * y_of_one();
+                let z = (m[k] - want).abs() / (se[k] + 2e-3 * want);
+                worst = worst.max(z);
+                assert!(z < 5.0, "{profile}: pixel ({i}, {j}) {} vs {want}", m[k]);
+            }
+        }
+        eprintln!("{profile}: worst |Δ|/(SE + 0.2 %) {worst:.2}; corner / centre {:.3}", m[0] / m[(n / 2) * n + n / 2]);
+    }
+    // The projector's power in the irradiance profile: π · v · I₀ over the image plane at unit
+    // distance, (2 tan 30°)² m².
+    let s = Scene::from_toml_str(
+        &format!(
+            "camera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 60 }}\n[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = {{ center = [0, 0, 5], radius = 1 }}\n[[lights]]\ntype = \"projector\"\nimage = \"white.pfm\"\nresponse = \"linear\"\nprofile = \"irradiance\"\nintensity = 1\ncamera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 60 }}\n"
+        ),
+        "power.toml",
+        &dir,
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    let render::light::Light::Projector(p) = &s.lights[0] else { panic!("not a projector") };
+    let want = std::f64::consts::PI * (2.0 * 30f64.to_radians().tan()).powi(2);
+    let got = p.weighted_solid_angle_sr as f64;
+    assert!((got / want - 1.0).abs() < 1e-4, "weighted solid angle {got} vs π·A = {want}");
+    // In the intensity profile, the solid angle of a 60° × 60° pyramid: 4 asin(sin² 30°).
+    let q = (**p).clone().with_profile(render::light::projector::Profile::Intensity);
+    let want = 4.0 * (30f64.to_radians().sin().powi(2)).asin();
+    let got = q.weighted_solid_angle_sr as f64;
+    assert!((got / want - 1.0).abs() < 1e-4, "solid angle {got} vs {want}");
+    std::fs::remove_dir_all(&dir).ok();
+}
 
 #[test]
 fn bad_projector_input_is_one_line_naming_the_field() {
@@ -155,6 +240,7 @@ fn bad_projector_input_is_one_line_naming_the_field() {
         ("image = \"missing.png\"\ncamera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40 }\n", "image"),
         ("image = \"p.pfm\"\ncamera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40, width = 8, height = 8 }\n", "camera"),
         ("image = \"p.pfm\"\n", "camera"),
+        ("image = \"p.pfm\"\nprofile = \"radiance\"\ncamera = { eye = [0, 0, 0], look_at = [0, 0, 1], vfov_deg = 40 }\n", "profile"),
     ] {
         let e = Scene::from_toml_str(&format!("{base}{extra}"), "bad.toml", &dir).err().unwrap();
         let msg = format!("{e:#}");

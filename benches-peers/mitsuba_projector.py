@@ -1,0 +1,169 @@
+#!/usr/bin/env python3
+"""lucent's `projector` light against Mitsuba 3's `projector` emitter, pixel by pixel.
+
+Mitsuba 3 reads the projected image as the irradiance on the virtual image plane at unit
+distance: its emitter's intensity towards a point at angle θ off the optical axis is
+π · E · scale / cos³θ (`src/emitters/projector.cpp`). lucent's `profile = "irradiance"` is that
+model; its default `profile = "intensity"` (pbrt-v4's) has intensity v · I₀ in every direction,
+i.e. cos³θ / π times Mitsuba's. This script renders the same scene in both renderers and prints,
+for each lucent profile, the ratio lucent / Mitsuba of the luminance Y over the lit pixels: its
+median and its spread (10th and 90th percentiles). The irradiance profile should give 1 and 1
+everywhere; the intensity profile the median of cos³θ / π with a spread across the image.
+
+Scene: a 64 × 64 pinhole camera and the projector at the origin, both looking along +z with +y
+up and a 50° field of view (square images, so fov_axis does not matter); a Lambertian plane of
+albedo 0.5 through (0, 0, 2), tilted 30° about the x axis; the projector's 32 × 32 float image
+(PFM, linear) is a ramp across x with a bright block in one corner, so that a flip of either
+image axis would show. White is D65 in both (Mitsuba: the emitter's D65 times `scale`; lucent:
+`intensity = { rgb = [1, 1, 1] }`, D65 scaled to luminance 1). Both use the `direct` integrator
+(one light sample, delta light) and a box pixel filter; Mitsuba's bitmap uses nearest lookup, as
+lucent's projector does.
+
+    /tmp/pyvenv/bin/python benches-peers/mitsuba_projector.py [--lucent target/release/lucent]
+        [--spp 64] [--variant scalar_spectral] [--save DIR] [--json]
+
+Needs numpy and mitsuba==3.9.1.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+N_CAM, N_PROJ, FOV_DEG, ALBEDO, TILT_DEG, DIST = 64, 32, 50.0, 0.5, 30.0, 2.0
+
+
+def write_pfm(path, rgb):
+    h, w, _ = rgb.shape
+    with open(path, "wb") as f:
+        f.write(b"PF\n%d %d\n-1.0\n" % (w, h))
+        f.write(np.ascontiguousarray(rgb[::-1], dtype="<f4").tobytes())
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        assert f.readline().strip() == b"PF", f"{path}: not an RGB PFM"
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        a = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
+    return a[::-1].astype(np.float64)
+
+
+def pattern():
+    x = (np.arange(N_PROJ) + 0.5) / N_PROJ
+    v = np.tile(0.2 + 0.8 * x, (N_PROJ, 1))
+    v[2:10, 2:10] = 1.5
+    return np.repeat(v[:, :, None], 3, axis=2)
+
+
+def plane_corners():
+    """A 4 m square through (0, 0, DIST), tilted TILT_DEG about the x axis."""
+    s, c = np.sin(np.radians(TILT_DEG)), np.cos(np.radians(TILT_DEG))
+    return [[u, v * c, DIST + v * s] for u, v in [(-2, -2), (2, -2), (2, 2), (-2, 2)]]
+
+
+def render_lucent(lucent, work, profile, spp):
+    q = ", ".join("[%g, %g, %g]" % tuple(p) for p in plane_corners())
+    cam = f"eye = [0, 0, 0], look_at = [0, 0, 1], up = [0, 1, 0], vfov_deg = {FOV_DEG}"
+    scene = f"""unit = "m"
+camera = {{ {cam}, width = {N_CAM}, height = {N_CAM} }}
+[integrator]
+type = "direct"
+[materials.plane]
+type = "lambertian"
+albedo = {ALBEDO}
+[[objects]]
+material = "plane"
+quad = [{q}]
+[[lights]]
+type = "projector"
+image = "pattern.pfm"
+response = "linear"
+profile = "{profile}"
+intensity = {{ rgb = [1, 1, 1] }}
+camera = {{ {cam} }}
+"""
+    path = os.path.join(work, f"lucent-{profile}.toml")
+    with open(path, "w") as f:
+        f.write(scene)
+    out = os.path.join(work, f"lucent-{profile}.pfm")
+    subprocess.run([lucent, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
+    return read_pfm(out)
+
+
+def render_mitsuba(variant, work, spp):
+    import mitsuba as mi
+
+    mi.set_variant(variant)
+    T = mi.ScalarTransform4f
+    look = T().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0])
+    corners = np.array(plane_corners())
+    centre = corners.mean(0)
+    # Mitsuba's `rectangle` spans [-1, 1]² in z = 0: scale, tilt about x, move to the centre.
+    to_world = T().translate(centre.tolist()) @ T().rotate([1, 0, 0], TILT_DEG) @ T().scale([2, 2, 1])
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0},
+        "sensor": {
+            "type": "perspective", "fov": FOV_DEG, "to_world": look,
+            "film": {"type": "hdrfilm", "width": N_CAM, "height": N_CAM, "pixel_format": "rgb", "rfilter": {"type": "box"}},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+        "plane": {"type": "rectangle", "to_world": to_world, "flip_normals": False,
+                  "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": ALBEDO}}}},
+        "projector": {"type": "projector", "fov": FOV_DEG, "to_world": look, "scale": 1.0,
+                      "irradiance": {"type": "bitmap", "filename": os.path.join(work, "pattern.pfm"), "filter_type": "nearest"}},
+    })
+    img = np.array(mi.render(scene, seed=1), dtype=np.float64)
+    return img
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--lucent", default=os.environ.get("LUCENT", os.path.join(ROOT, "target", "release", "lucent")))
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--variant", default="scalar_spectral")
+    ap.add_argument("--save", help="keep the scenes and images in this folder")
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args()
+    tmp = None
+    if a.save:
+        os.makedirs(a.save, exist_ok=True)
+        work = a.save
+    else:
+        tmp = tempfile.TemporaryDirectory()
+        work = tmp.name
+    write_pfm(os.path.join(work, "pattern.pfm"), pattern())
+    mts = render_mitsuba(a.variant, work, a.spp)
+    y_m = mts @ LUMA
+    lit = y_m > 0.05 * y_m.max()
+    res = {"mitsuba_variant": a.variant, "spp": a.spp, "lit_px": int(lit.sum()), "profiles": {}}
+    # cos³θ / π at each camera pixel centre (camera and projector share the model).
+    f = (N_CAM / 2) / np.tan(np.radians(FOV_DEG / 2))
+    c = (np.arange(N_CAM) + 0.5 - N_CAM / 2) / f
+    cos3 = (1 + c[None, :] ** 2 + c[:, None] ** 2) ** -1.5
+    for profile in ("irradiance", "intensity"):
+        y_l = render_lucent(a.lucent, work, profile, a.spp) @ LUMA
+        r = y_l[lit] / y_m[lit]
+        p10, p50, p90 = np.percentile(r, [10, 50, 90])
+        entry = {"ratio_p10": p10, "ratio_median": p50, "ratio_p90": p90}
+        if profile == "intensity":
+            entry["ratio_over_cos3_per_pi_median"] = float(np.median(r / (cos3[lit] / np.pi)))
+        res["profiles"][profile] = entry
+    if a.json:
+        print(json.dumps(res, indent=1))
+    else:
+        print(f"Mitsuba 3 {a.variant}, {a.spp} spp, {res['lit_px']} lit pixels; lucent / Mitsuba luminance:")
+        for p, e in res["profiles"].items():
+            extra = f"; divided by cos³θ/π: median {e['ratio_over_cos3_per_pi_median']:.4f}" if "ratio_over_cos3_per_pi_median" in e else ""
+            print(f"  profile = {p}: median {e['ratio_median']:.4f} (10th–90th percentile {e['ratio_p10']:.4f}–{e['ratio_p90']:.4f}){extra}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
