@@ -118,6 +118,10 @@ pub struct CoatedDiffuse {
     pub distrib: TrowbridgeReitz,
     /// Albedo table of the coating (from [`CoatingTable::get`] with the same α and η).
     pub table: &'static CoatingTable,
+    /// `albedo` is the base's (true, the default): the light the base returns is
+    /// ρ(1 − F_in)/(1 − ρF_in) after its internal reflections. False: `albedo` is that
+    /// effective albedo itself (Mitsuba 3's `plastic` with `nonlinear = false`, its default).
+    pub nonlinear: bool,
 }
 
 impl CoatedDiffuse {
@@ -128,6 +132,7 @@ impl CoatedDiffuse {
             eta,
             distrib: TrowbridgeReitz::isotropic(alpha),
             table: CoatingTable::get(alpha, eta),
+            nonlinear: true,
         }
     }
 
@@ -138,6 +143,9 @@ impl CoatedDiffuse {
 
     #[inline]
     fn rho_eff(&self) -> Vec4 {
+        if !self.nonlinear {
+            return self.albedo;
+        }
         let fi = self.table.f_dr_in;
         self.albedo * (1.0 - fi) / (Vec4::ONE - self.albedo * fi)
     }

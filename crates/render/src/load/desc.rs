@@ -90,6 +90,7 @@ pub(crate) struct MaterialDesc {
     pub(crate) k: Option<Spanned<toml::Value>>,
     pub(crate) roughness: Option<Spanned<toml::Value>>,
     pub(crate) alpha: Option<Spanned<toml::Value>>,
+    pub(crate) nonlinear: Option<bool>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

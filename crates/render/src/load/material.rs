@@ -27,6 +27,9 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                 }
             }
         }
+        if m.nonlinear.is_some() && m.kind != "plastic" {
+            return Err(cx.err(&span, &format!("{field}.nonlinear"), format!("only allowed for a plastic material, not {}", quote(&m.kind))));
+        }
         if m.subsurface.is_some() && m.kind != "translucent" {
             return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", quote(&m.kind))));
         }
@@ -90,7 +93,7 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
     let allowed: &[&str] = match kind {
         "dielectric" | "rough_dielectric" => &["ior", "roughness", "alpha"],
         "conductor" | "rough_conductor" => &["metal", "eta", "k", "roughness", "alpha"],
-        _ => &["albedo", "ior", "roughness", "alpha"],
+        _ => &["albedo", "ior", "roughness", "alpha", "nonlinear"],
     };
     for (name, present) in [
         ("albedo", m.albedo.is_some()),
@@ -100,6 +103,7 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
         ("k", m.k.is_some()),
         ("roughness", m.roughness.is_some()),
         ("alpha", m.alpha.is_some()),
+        ("nonlinear", m.nonlinear.is_some()),
     ] {
         if present && !allowed.contains(&name) {
             return Err(cx.err(span, &f(name), format!("not allowed for a {kind} material (allowed: {})", allowed.join(", "))));
@@ -210,7 +214,8 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
             if distrib.alpha_x != distrib.alpha_y {
                 return Err(cx.err(span, &f("alpha"), "a plastic coating is isotropic (one alpha)"));
             }
-            Ok(Material::plastic(albedo, ior as f32, distrib.alpha_x))
+            let mat = Material::plastic(albedo, ior as f32, distrib.alpha_x);
+            Ok(mat.with_nonlinear(m.nonlinear.unwrap_or(true)).expect("a plastic takes nonlinear"))
         }
     }
 }

@@ -66,6 +66,9 @@ pub enum Material {
         alpha: f32,
         /// Albedo table of the coating (computed once per (α, ior)).
         table: &'static CoatingTable,
+        /// Whether `albedo` is the base's (true) or the effective albedo under the coating
+        /// ([`CoatedDiffuse::nonlinear`]).
+        nonlinear: bool,
     },
     /// Translucent object (closed mesh) rendered with a dipole BSSRDF ([`crate::integrator::subsurface`]); as a
     /// BSDF it is its smooth or rough dielectric boundary (what volumetric path tracing sees).
@@ -102,7 +105,15 @@ impl Material {
 
     /// Plastic: a coating of index `ior` and roughness `alpha` over a Lambertian base `albedo`.
     pub fn plastic(albedo: impl Into<SpectrumTexture>, ior: f32, alpha: f32) -> Material {
-        Material::Plastic { albedo: albedo.into(), ior, alpha, table: CoatingTable::get(alpha, ior) }
+        Material::Plastic { albedo: albedo.into(), ior, alpha, table: CoatingTable::get(alpha, ior), nonlinear: true }
+    }
+
+    /// This material with `nonlinear` set, if it is a plastic ([`CoatedDiffuse::nonlinear`]).
+    pub fn with_nonlinear(self, nonlinear: bool) -> Option<Material> {
+        match self {
+            Material::Plastic { albedo, ior, alpha, table, .. } => Some(Material::Plastic { albedo, ior, alpha, table, nonlinear }),
+            _ => None,
+        }
     }
 
     /// This material with its roughness given by `roughness` (r ∈ [0, 1] over the surface,
@@ -180,11 +191,12 @@ impl Material {
                     Bsdf::RoughConductor(RoughConductor { distrib: *distrib, eta, k })
                 }
             }
-            Material::Plastic { albedo, ior, alpha, table } => Bsdf::Coated(CoatedDiffuse {
+            Material::Plastic { albedo, ior, alpha, table, nonlinear } => Bsdf::Coated(CoatedDiffuse {
                 albedo: albedo.eval_with(wl, uv),
                 eta: *ior,
                 distrib: TrowbridgeReitz::isotropic(*alpha),
                 table,
+                nonlinear: *nonlinear,
             }),
             Material::Translucent(t) => t.boundary_dielectric(),
         }

@@ -604,6 +604,18 @@ fn furnace_rough_dielectric_and_plastic() {
             assert!((m - expect).abs() < 4.0 * se + 1e-4, "grey plastic: {m} vs {expect}");
         }
         assert!(m < 0.6, "grey plastic α {alpha}: {m}");
+        // `nonlinear = false` (Mitsuba 3's default): the albedo is the effective one, so the
+        // directional albedo is E(μ) + (1 − E(μ)) ρ: at normal incidence on a smooth coating
+        // 0.04 + 0.96 · 0.5. A white base is unchanged.
+        let lin = Bsdf::Coated(CoatedDiffuse { nonlinear: false, ..CoatedDiffuse::new(Vec4::splat(0.5), 1.5, alpha) });
+        let (m, se) = albedo(&lin, Vec3::Z, 60_000, 15, 1.0);
+        if alpha == 0.0 {
+            let expect = 0.04 + 0.96 * 0.5;
+            assert!((m - expect).abs() < 4.0 * se + 1e-4, "linear grey plastic: {m} vs {expect}");
+        }
+        let white = Bsdf::Coated(CoatedDiffuse { nonlinear: false, ..CoatedDiffuse::new(Vec4::ONE, 1.5, alpha) });
+        let (m, se) = albedo(&white, Vec3::new(0.6, 0.0, 0.8), 60_000, 16, 1.0);
+        assert!((m - 1.0).abs() < 4.0 * se + 1e-3, "linear white plastic α {alpha}: {m} ± {se}");
     }
 }
 

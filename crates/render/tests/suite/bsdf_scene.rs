@@ -152,6 +152,8 @@ fn bad_material_input_gives_one_line_errors() {
         "type = \"lambertian\"\nalbedo = 0.5\nior = 1.5",
         &["materials.m.ior", "not allowed"],
     );
+    fails_with("type = \"lambertian\"\nalbedo = 0.5\nnonlinear = false", &["materials.m.nonlinear", "plastic"]);
+    fails_with("type = \"plastic\"\nalbedo = 0.5\nnonlinear = 1", &["bad.toml:", "boolean"]);
     fails_with("type = \"glass\"", &["materials.m.type", "glass", "dielectric"]);
     fails_with(
         "type = \"dielectric\"\nior = 1.5\nroughnes = 0.1",
