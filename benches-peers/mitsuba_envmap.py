@@ -22,16 +22,16 @@ would break.
 Needs numpy and mitsuba==3.9.1.
 """
 
-import argparse
 import json
 import os
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from peer_common import ROOT, read_pfm, write_pfm, peer_args  # noqa: E402
+
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 W_MAP, H_MAP, N_CAM, FOV_DEG = 64, 32, 48, 60.0
 ROTATE = ([0.0, 1.0, 0.0], 30.0)  # the map's transform: 30° about +y
@@ -39,22 +39,6 @@ ROTATE = ([0.0, 1.0, 0.0], 30.0)  # the map's transform: 30° about +y
 VIEWS = [("+z", [0, 0, 1], [0, 1, 0]), ("+x", [1, 0, 0], [0, 1, 0]), ("-x", [-1, 0, 0], [0, 1, 0]),
          ("-z", [0, 0, -1], [0, 1, 0]), ("up", [0, 1, 0], [0, 0, 1])]
 SPHERE = ([0.0, 0.0, 4.0], 1.0)
-
-
-def write_pfm(path, rgb):
-    h, w, _ = rgb.shape
-    with open(path, "wb") as f:
-        f.write(b"PF\n%d %d\n-1.0\n" % (w, h))
-        f.write(np.ascontiguousarray(rgb[::-1], dtype="<f4").tobytes())
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF", f"{path}: not an RGB PFM"
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        a = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
-    return a[::-1].astype(np.float64)
 
 
 def env_map():
@@ -126,20 +110,7 @@ def render_mitsuba(variant, work, spp):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--lucent", default=os.environ.get("LUCENT", os.path.join(ROOT, "target", "release", "lucent")))
-    ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--variant", default="scalar_spectral")
-    ap.add_argument("--save", help="keep the scenes and images in this folder")
-    ap.add_argument("--json", action="store_true")
-    a = ap.parse_args()
-    tmp = None
-    if a.save:
-        os.makedirs(a.save, exist_ok=True)
-        work = a.save
-    else:
-        tmp = tempfile.TemporaryDirectory()
-        work = tmp.name
+    a, work, _tmp = peer_args(__doc__, 16)
     write_pfm(os.path.join(work, "map.pfm"), env_map())
     luc = render_lucent(a.lucent, work, a.spp)
     mts = render_mitsuba(a.variant, work, a.spp)

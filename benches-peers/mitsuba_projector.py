@@ -25,34 +25,18 @@ lucent's projector does.
 Needs numpy and mitsuba==3.9.1.
 """
 
-import argparse
 import json
 import os
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from peer_common import ROOT, read_pfm, write_pfm, peer_args  # noqa: E402
+
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 N_CAM, N_PROJ, FOV_DEG, ALBEDO, TILT_DEG, DIST = 64, 32, 50.0, 0.5, 30.0, 2.0
-
-
-def write_pfm(path, rgb):
-    h, w, _ = rgb.shape
-    with open(path, "wb") as f:
-        f.write(b"PF\n%d %d\n-1.0\n" % (w, h))
-        f.write(np.ascontiguousarray(rgb[::-1], dtype="<f4").tobytes())
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF", f"{path}: not an RGB PFM"
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        a = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
-    return a[::-1].astype(np.float64)
 
 
 def pattern():
@@ -125,20 +109,7 @@ def render_mitsuba(variant, work, spp):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--lucent", default=os.environ.get("LUCENT", os.path.join(ROOT, "target", "release", "lucent")))
-    ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--variant", default="scalar_spectral")
-    ap.add_argument("--save", help="keep the scenes and images in this folder")
-    ap.add_argument("--json", action="store_true")
-    a = ap.parse_args()
-    tmp = None
-    if a.save:
-        os.makedirs(a.save, exist_ok=True)
-        work = a.save
-    else:
-        tmp = tempfile.TemporaryDirectory()
-        work = tmp.name
+    a, work, _tmp = peer_args(__doc__, 64)
     write_pfm(os.path.join(work, "pattern.pfm"), pattern())
     mts = render_mitsuba(a.variant, work, a.spp)
     y_m = mts @ LUMA

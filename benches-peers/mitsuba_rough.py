@@ -28,19 +28,17 @@ the median and 10th–90th percentile of the per-pixel ratio. Materials (lucent 
 (All materials run in one go, about 20 s.) Needs numpy and mitsuba==3.9.1.
 """
 
-import argparse
 import json
 import os
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from mitsuba_envmap import env_map, read_pfm, write_pfm, ROTATE  # noqa: E402
+from mitsuba_envmap import env_map, ROTATE  # noqa: E402
+from peer_common import read_pfm, write_pfm, peer_args  # noqa: E402
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 N_CAM, FOV_DEG, Z = 64, 30.0, 4.0
 MATERIALS = {
@@ -108,20 +106,7 @@ def render_mitsuba(variant, work, mat, spp, seed):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--lucent", default=os.environ.get("LUCENT", os.path.join(ROOT, "target", "release", "lucent")))
-    ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--variant", default="scalar_spectral")
-    ap.add_argument("--save", help="keep the scenes and images in this folder")
-    ap.add_argument("--json", action="store_true")
-    a = ap.parse_args()
-    tmp = None
-    if a.save:
-        os.makedirs(a.save, exist_ok=True)
-        work = a.save
-    else:
-        tmp = tempfile.TemporaryDirectory()
-        work = tmp.name
+    a, work, _tmp = peer_args(__doc__, 64)
     write_pfm(os.path.join(work, "map.pfm"), env_map())
     f = (N_CAM / 2) / np.tan(np.radians(FOV_DEG / 2))
     c = (np.arange(N_CAM) + 0.5 - N_CAM / 2) / f

@@ -72,6 +72,8 @@ pub enum Light {
         cos_total: f32,
         /// Cosine of the half-angle where the falloff starts.
         cos_falloff_start: f32,
+        /// The shape of the falloff between the two.
+        falloff: SpotFalloff,
         /// Spectral intensity on the axis (W·sr⁻¹·nm⁻¹).
         intensity: DenseSpectrum,
     },
@@ -180,9 +182,7 @@ impl Light {
         let integral = |s: &DenseSpectrum| -> f32 { (0..=470).map(|i| s.eval(360.0 + i as f32)).sum::<f32>() };
         match self {
             Light::Point { intensity, .. } => 4.0 * PI * integral(intensity),
-            Light::Spot { intensity, cos_total, cos_falloff_start, .. } => {
-                2.0 * PI * (1.0 - 0.5 * (cos_total + cos_falloff_start)) * integral(intensity)
-            }
+            Light::Spot { intensity, cos_total, cos_falloff_start, falloff, .. } => falloff.solid_angle(*cos_total, *cos_falloff_start) * integral(intensity),
             Light::Directional { irradiance, .. } => PI * scene_radius_m * scene_radius_m * integral(irradiance),
             Light::Area { area_m2, radiance, two_sided, .. } => {
                 PI * area_m2 * integral(&radiance.representative()) * if *two_sided { 2.0 } else { 1.0 }
@@ -206,7 +206,7 @@ impl Light {
                 let dist = r2.sqrt();
                 Some(LightSample { wi: d / dist, dist, li: wl.eval(intensity) / r2, pdf: 1.0, delta: true })
             }
-            Light::Spot { position, frame, cos_total, cos_falloff_start, intensity } => {
+            Light::Spot { position, frame, cos_total, cos_falloff_start, falloff, intensity } => {
                 let d = *position - p;
                 let r2 = d.length_squared();
                 if !(r2 > 0.0) {
@@ -215,7 +215,7 @@ impl Light {
                 let dist = r2.sqrt();
                 let wi = d / dist;
                 let cos = (-wi).dot(frame.n);
-                let k = smooth_falloff(cos, *cos_total, *cos_falloff_start);
+                let k = falloff.eval(cos, *cos_total, *cos_falloff_start);
                 if k <= 0.0 {
                     return None;
                 }
@@ -372,6 +372,70 @@ fn textured_radiance(radiance: &SpectrumTexture, emitter: &Emitter, tri: usize, 
         Emitter::Sphere { .. } => texture_uv(n),
     };
     radiance.eval(wl, uv)
+}
+
+/// How a spot light falls from full intensity at the inner cone's edge to 0 at the outer one's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SpotFalloff {
+    /// Smoothstep in the cosine of the angle off the axis (pbrt-v4's `spot`).
+    #[default]
+    Smoothstep,
+    /// Linear in the angle itself (Mitsuba 3's `spot`, between `beam_width` and `cutoff_angle`).
+    Linear,
+}
+
+impl SpotFalloff {
+    /// The name the scene format uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpotFalloff::Smoothstep => "smoothstep",
+            SpotFalloff::Linear => "linear",
+        }
+    }
+
+    /// The falloff named `name`.
+    pub fn from_name(name: &str) -> Option<SpotFalloff> {
+        [SpotFalloff::Smoothstep, SpotFalloff::Linear].into_iter().find(|f| f.name() == name)
+    }
+
+    /// Intensity relative to the axis at `cos_theta` off it, for a cone of cosine `cos_total`
+    /// whose falloff starts at cosine `cos_falloff_start`.
+    #[inline]
+    pub fn eval(self, cos_theta: f32, cos_total: f32, cos_falloff_start: f32) -> f32 {
+        match self {
+            SpotFalloff::Smoothstep => smooth_falloff(cos_theta, cos_total, cos_falloff_start),
+            SpotFalloff::Linear => {
+                if cos_theta >= cos_falloff_start {
+                    return 1.0;
+                }
+                if cos_theta <= cos_total {
+                    return 0.0;
+                }
+                let (total, start) = (cos_total.acos(), cos_falloff_start.acos());
+                ((total - cos_theta.clamp(-1.0, 1.0).acos()) / (total - start)).clamp(0.0, 1.0)
+            }
+        }
+    }
+
+    /// ∫ falloff dω over the sphere (sr): 2π(1 − cos β) inside the inner cone (half-angle β) plus
+    /// the falloff ring out to γ. Smoothstep in cos θ integrates to half the ring's cosine span,
+    /// 2π(cos β − cos γ)/2; linear in θ to 2π(cos β − (sin γ − sin β)/(γ − β)).
+    pub fn solid_angle(self, cos_total: f32, cos_falloff_start: f32) -> f32 {
+        let (cg, cb) = (cos_total as f64, cos_falloff_start as f64);
+        let inner = 1.0 - cb;
+        let ring = match self {
+            SpotFalloff::Smoothstep => 0.5 * (cb - cg),
+            SpotFalloff::Linear => {
+                let (g, b) = (cg.acos(), cb.acos());
+                if g - b > 1e-9 {
+                    cb - (g.sin() - b.sin()) / (g - b)
+                } else {
+                    0.0
+                }
+            }
+        };
+        (2.0 * std::f64::consts::PI * (inner + ring)) as f32
+    }
 }
 
 /// Spot-light falloff: 1 inside the inner cone, 0 outside the outer one, smoothstep in between.

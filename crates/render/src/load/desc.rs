@@ -143,6 +143,8 @@ pub(crate) struct LightDesc {
     pub(crate) scale: Option<f64>,
     pub(crate) power_w: Option<f64>,
     pub(crate) two_sided: Option<bool>,
+    /// Spot: the falloff's shape.
+    pub(crate) falloff: Option<String>,
     /// Projector: image file, its response, and the camera model it projects through.
     pub(crate) image: Option<String>,
     pub(crate) response: Option<toml::Value>,

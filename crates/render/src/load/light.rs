@@ -42,6 +42,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 ("intensity", l.intensity.is_some()),
                 ("irradiance", l.irradiance.is_some()),
                 ("two_sided", l.two_sided.is_some()),
+                ("falloff", l.falloff.is_some()),
                 ("image", l.image.is_some()),
                 ("response", l.response.is_some()),
                 ("profile", l.profile.is_some()),
@@ -112,7 +113,7 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 Light::Point { position, intensity: scaled(need(&l.intensity, "intensity")?, 4.0 * std::f64::consts::PI)? }
             }
             "spot" => {
-                check_keys(&["position", "look_at", "cone_deg", "falloff_start_deg", "intensity"])?;
+                check_keys(&["position", "look_at", "cone_deg", "falloff_start_deg", "falloff", "intensity"])?;
                 let position = need_point(&l.position, "position")? * unit_m as f32;
                 let target = need_point(&l.look_at, "look_at")? * unit_m as f32;
                 let axis = (target - position).normalize_or_zero();
@@ -129,12 +130,18 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 }
                 let cos_total = (cone.to_radians().cos()) as f32;
                 let cos_falloff_start = (start.to_radians().cos()) as f32;
-                let solid = 2.0 * std::f64::consts::PI * (1.0 - 0.5 * (cos_total as f64 + cos_falloff_start as f64));
+                let falloff = match &l.falloff {
+                    None => crate::light::SpotFalloff::Smoothstep,
+                    Some(name) => crate::light::SpotFalloff::from_name(name)
+                        .ok_or_else(|| cx.err(&span, &format!("{field}.falloff"), format!("unknown falloff {} (use \"smoothstep\" or \"linear\")", quote(name))))?,
+                };
+                let solid = falloff.solid_angle(cos_total, cos_falloff_start) as f64;
                 Light::Spot {
                     position,
                     frame: crate::math::sampling::Frame::from_normal(axis),
                     cos_total,
                     cos_falloff_start,
+                    falloff,
                     intensity: scaled(need(&l.intensity, "intensity")?, solid)?,
                 }
             }

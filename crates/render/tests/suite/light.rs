@@ -98,3 +98,36 @@ fn spot_falloff_is_smooth_and_bounded() {
         prev = f;
     }
 }
+
+#[test]
+fn spot_falloffs_integrate_to_their_closed_forms() {
+    use render::light::SpotFalloff;
+    // ∫ falloff dω by a midpoint rule in θ (2π sin θ dθ, 200 000 steps) against
+    // `SpotFalloff::solid_angle`, and the linear falloff's value halfway in angle (Mitsuba 3's
+    // spot: (γ − θ)/(γ − β)) against the smoothstep's halfway in cosine.
+    for (cone, start) in [(30.0f64, 22.5f64), (60.0, 10.0), (90.0, 0.0), (20.0, 20.0)] {
+        let (ct, cs) = (cone.to_radians().cos() as f32, start.to_radians().cos() as f32);
+        for f in [SpotFalloff::Smoothstep, SpotFalloff::Linear] {
+            let n = 200_000;
+            let h = std::f64::consts::PI / n as f64;
+            let numeric: f64 = (0..n)
+                .map(|i| {
+                    let th = (i as f64 + 0.5) * h;
+                    2.0 * std::f64::consts::PI * th.sin() * h * f.eval(th.cos() as f32, ct, cs) as f64
+                })
+                .sum();
+            let closed = f.solid_angle(ct, cs) as f64;
+            assert!((numeric / closed - 1.0).abs() < 1e-4, "{f:?} cone {cone} start {start}: {numeric} vs {closed}");
+        }
+        if cone > start {
+            let mid = (0.5 * (cone + start)).to_radians().cos() as f32;
+            let v = SpotFalloff::Linear.eval(mid, ct, cs);
+            assert!((v - 0.5).abs() < 1e-4, "linear halfway in angle: {v}");
+            let mid_cos = 0.5 * (ct + cs);
+            let v = SpotFalloff::Smoothstep.eval(mid_cos, ct, cs);
+            assert!((v - 0.5).abs() < 1e-6, "smoothstep halfway in cosine: {v}");
+        }
+    }
+    assert_eq!(SpotFalloff::from_name("linear"), Some(SpotFalloff::Linear));
+    assert_eq!(SpotFalloff::from_name("cubic"), None);
+}
