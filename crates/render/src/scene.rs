@@ -56,6 +56,11 @@ pub struct Scene {
     pub integrator: IntegratorSettings,
     /// Ambient-occlusion ray length in metres (infinite by default).
     pub ao_distance_m: f32,
+    /// Light and BSDF samples per camera sample of the `direct` integrator.
+    pub direct_samples: crate::integrator::direct::DirectSamples,
+    /// Whether a ray can find emission by hitting something: an area light or the environment
+    /// (point, spot, directional and projector lights are only found by light sampling).
+    pub emitters_to_hit: bool,
     /// Offset (m) for spawning rays off surfaces, relative to the scene's size.
     pub ray_epsilon_m: f32,
     /// Metres per scene length unit.
@@ -91,6 +96,12 @@ impl Scene {
         h.write(&self.camera.width.to_le_bytes());
         h.write(&self.camera.height.to_le_bytes());
         h.finish()
+    }
+
+    /// Whether a BSDF-sampled ray can reach emission (see [`Scene::emitters_to_hit`]).
+    #[inline]
+    pub fn has_emitters_to_hit(&self) -> bool {
+        self.emitters_to_hit
     }
 
     /// Index of the light chosen for next-event estimation with uniform `u`, and its probability.

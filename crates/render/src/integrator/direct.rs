@@ -1,16 +1,37 @@
-//! `direct`: emission seen by the camera ray plus one light sample (lights chosen in proportion
-//! to power, a point chosen on the light, visibility tested) at the first hit — light sampling
-//! only, the tutorial's soft-shadow estimator.
+//! `direct`: emission seen by the camera ray plus direct lighting at the first hit, estimated as
+//! Mitsuba 3's `direct` integrator does it: `emitter_samples` light samples (a light chosen in
+//! proportion to power, a point on it, visibility tested) and `bsdf_samples` BSDF samples whose
+//! rays are followed to the emitter they reach, combined by multi-sample MIS with the power
+//! heuristic (Veach 1997, §9.2: each technique's density counted with its number of samples).
+//! `bsdf_samples = 0` leaves light sampling alone, the tutorial's soft-shadow estimator; a
+//! smooth (delta) surface is lit only by its BSDF samples, so a mirror shows the lights and the
+//! environment it reflects. Paths end at the emitter a BSDF sample reaches: no indirect light.
 
 use crate::integrator::nee;
 use crate::interaction::Shading;
 use crate::math::geometry::Ray;
-use crate::math::sampling::Pcg32;
+use crate::math::sampling::{power_heuristic, Pcg32};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
 
-/// Emission seen along `ray` plus one light sample at the first hit (no MIS).
+/// How many samples of each technique `direct` takes per camera sample (`[integrator]`
+/// `emitter_samples` and `bsdf_samples`; Mitsuba 3's names and defaults).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DirectSamples {
+    /// Light samples per camera sample.
+    pub emitter: u32,
+    /// BSDF samples per camera sample.
+    pub bsdf: u32,
+}
+
+impl Default for DirectSamples {
+    fn default() -> Self {
+        DirectSamples { emitter: 1, bsdf: 1 }
+    }
+}
+
+/// Emission seen along `ray` plus direct lighting at the first hit (see the module documentation).
 pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
     let Some(hit) = scene.accel.intersect(&ray) else {
         return match scene.environment {
@@ -26,8 +47,55 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
         l += scene.lights[li_idx as usize].le(s.ng_raw, wo, || s.uv(scene), wl);
     }
     let bsdf = scene.materials[obj.material as usize].bsdf_with(wl, || s.uv(scene)).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
-    if !bsdf.is_delta() && !bsdf.is_black() {
-        l += nee::surface_light(scene, &s, wo, &bsdf, wl, rng, false);
+    if bsdf.is_black() {
+        return l;
+    }
+    let DirectSamples { emitter: n_e, bsdf: n_b } = scene.direct_samples;
+    let (ne, nb) = (n_e as f32, n_b as f32);
+    if !bsdf.is_delta() {
+        for _ in 0..n_e {
+            let Some(c) = nee::sample_light(scene, s.p, wl, rng) else { continue };
+            let Some((f, wo_l, wi_l)) = nee::surface_bsdf(&s, wo, &bsdf, c.ls.wi) else { continue };
+            if !s.unoccluded(scene, c.ls.wi, c.ls.dist) {
+                continue;
+            }
+            let w = if c.ls.delta { 1.0 } else { power_heuristic(ne, c.pdf(), nb, bsdf.pdf(wo_l, wi_l)) };
+            l += f * c.ls.li * (wi_l.z.abs() * w / (c.pdf() * ne));
+        }
+    }
+    // BSDF samples can only find area lights and the environment: skip them in scenes without.
+    if n_b == 0 || !scene.has_emitters_to_hit() {
+        return l;
+    }
+    let wo_l = s.frame.to_local(wo);
+    for _ in 0..n_b {
+        let uc = rng.next_f32();
+        let Some(bs) = bsdf.sample(wo_l, uc, rng.next_2d()) else { continue };
+        let wi = s.frame.to_world(bs.wi);
+        // Reject directions whose side of the geometric surface disagrees with the shading frame.
+        if (wi.dot(s.ng) > 0.0) == bs.transmission || !(bs.pdf > 0.0) {
+            continue;
+        }
+        let beta = bs.f * (bs.wi.z.abs() / (bs.pdf * nb));
+        let r = s.spawn(scene, wi);
+        let (le, light_pdf) = match scene.accel.intersect(&r) {
+            None => {
+                let Some(ei) = scene.environment else { continue };
+                let env = &scene.lights[ei as usize];
+                (env.le(Vec3::ZERO, -wi, || glam::Vec2::ZERO, wl), scene.light_pmf[ei as usize] * env.pdf_li(s.p, wi, Vec3::ZERO, Vec3::ZERO))
+            }
+            Some(h2) => {
+                let s2 = Shading::at(scene, &r, &h2);
+                let Some(li_idx) = scene.objects[s2.object as usize].light else { continue };
+                let le = scene.lights[li_idx as usize].le(s2.ng_raw, -wi, || s2.uv(scene), wl);
+                (le, nee::area_light_pdf(scene, li_idx, s.p, wi, s2.p, s2.ng_raw))
+            }
+        };
+        if le == Vec4::ZERO {
+            continue;
+        }
+        let w = if bs.delta { 1.0 } else { power_heuristic(nb, bs.pdf, ne, light_pdf) };
+        l += beta * le * w;
     }
     l
 }

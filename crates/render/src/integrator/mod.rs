@@ -7,7 +7,7 @@
 //!   combined by multiple importance sampling with the power heuristic (Veach 1997); translucent
 //!   materials through the point-cloud BSSRDF of [`subsurface`].
 //! - [`volpath`]: volumetric path tracing through homogeneous media with spectral MIS.
-//! - [`direct`]: emission plus one light sample at the first hit (the tutorial's soft shadows).
+//! - [`direct`]: emission plus direct lighting at the first hit, light and BSDF samples with MIS (Mitsuba 3's `direct`).
 //! - [`ao`]: ambient occlusion.
 //!
 //! [`settings`] names them (the one table), [`nee`] is the next-event estimation they share, and

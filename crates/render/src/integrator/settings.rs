@@ -7,7 +7,7 @@ pub enum IntegratorKind {
     /// Unidirectional path tracing with next-event estimation, MIS and Russian roulette
     /// ([`crate::integrator::path`]).
     Path,
-    /// Emission plus one light sample at the first hit (soft shadows, no indirect light).
+    /// Emission plus direct lighting at the first hit: light and BSDF samples with MIS, no indirect light ([`crate::integrator::direct`]).
     Direct,
     /// Ambient occlusion by cosine-weighted hemisphere sampling.
     Ao,

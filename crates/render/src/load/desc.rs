@@ -75,6 +75,8 @@ pub(crate) struct IntegratorDesc {
     pub(crate) ao_distance: Option<f64>,
     pub(crate) refraction_guiding: Option<f64>,
     pub(crate) refraction_splits: Option<f64>,
+    pub(crate) emitter_samples: Option<u32>,
+    pub(crate) bsdf_samples: Option<u32>,
 }
 
 #[derive(Deserialize)]

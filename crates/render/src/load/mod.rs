@@ -179,7 +179,8 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let spectra_hash = ld.sp.hash.borrow().finish();
     ld.hash.write(&spectra_hash.to_le_bytes());
     let camera = camera::camera(&mut ld, &desc)?;
-    let (integrator, ao_distance_m, refraction_guiding, refraction_splits) = integrator::integrator(cx, &desc, unit_m)?;
+    let integrator::IntegratorParams { settings: integrator, ao_distance_m, guiding: refraction_guiding, splits: refraction_splits, direct: direct_samples } =
+        integrator::integrator(cx, &desc, unit_m)?;
 
     if shapes.is_empty() {
         return Err(anyhow!("{}: the scene has no objects", cx.file));
@@ -238,6 +239,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         })
         .collect();
 
+    let emitters_to_hit = environment.is_some() || lights.iter().any(|l| matches!(l, crate::light::Light::Area { .. }));
     let refracted_lights = if media.is_empty() { None } else { crate::light::refracted::RefractedLights::new(&lights, &light_pmf, refraction_guiding, refraction_splits) };
     Ok(Scene {
         medium_grids,
@@ -255,6 +257,8 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         global_medium,
         integrator,
         ao_distance_m,
+        direct_samples,
+        emitters_to_hit,
         ray_epsilon_m,
         unit_m,
         source: cx.file.to_string(),

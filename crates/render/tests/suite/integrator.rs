@@ -206,8 +206,7 @@ fn direct_lighting_of_a_plane_by_a_rectangular_area_light_matches_the_form_facto
 #[test]
 fn path_and_direct_agree_on_a_one_bounce_scene() {
     // The plane cannot see itself and the lamp is black: every path has at most one bounce, so
-    // the MIS path tracer (light + BSDF sampling) and the light-sampling-only direct integrator
-    // estimate the same image. Compared region by region, tolerance from both standard errors.
+    // the path tracer and the direct integrator estimate the same image. Compared region by region, tolerance from both standard errors.
     let s = scene(
         r#"
         [camera]
@@ -244,6 +243,68 @@ fn path_and_direct_agree_on_a_one_bounce_scene() {
             assert!((m1 - m2).abs() <= 4.5 * se + 1e-7, "region ({ri},{rj}) c{c}: path {m1} ± {s1}, direct {m2} ± {s2}");
         }
     }
+}
+
+#[test]
+fn direct_light_and_bsdf_samples_each_give_the_form_factor() {
+    // `direct` with light samples only, BSDF samples only, and MIS over several of each: three
+    // estimators of the same closed form (the plane under a rectangle of the test above).
+    let (rho, l, a, b, h) = (0.5, 2.0, 0.3, 0.15, 0.4);
+    let expect = rho * l * 4.0 * form_factor_corner(a, b, h) * y_of_one();
+    for (n_e, n_b, seed) in [(1u32, 0u32, 43u64), (0, 1, 44), (2, 3, 45)] {
+        let text = plane_under_rect_light(rho, l, a, b, h) + &format!("\n[integrator]\nemitter_samples = {n_e}\nbsdf_samples = {n_b}\n");
+        let s = scene(&text);
+        let (m, se) = region_stats(&s, &settings(IntegratorKind::Direct, 8, 5), seed, 400, 1, |_, _| true);
+        assert_close(&format!("direct, {n_e} light and {n_b} BSDF samples"), m, se, expect, 4.5);
+    }
+}
+
+#[test]
+fn direct_shows_the_environment_in_a_smooth_dielectric() {
+    // A smooth glass plane (n = 1.5) over a black plane under a uniform environment L, seen at
+    // 45° through a narrow field of view: the reflection is R(45°) L (Fresnel, unpolarised), the
+    // refracted ray ends on the black plane. Light samples cannot reach a delta BSDF, so only the
+    // BSDF samples find it; with bsdf_samples = 0 the plane is black.
+    let (n, l): (f64, f64) = (1.5, 1.3);
+    let ci = (45f64).to_radians().cos();
+    let ct = (1.0 - (1.0 - ci * ci) / (n * n)).sqrt();
+    let rs = ((ci - n * ct) / (ci + n * ct)).powi(2);
+    let rp = ((n * ci - ct) / (n * ci + ct)).powi(2);
+    let r = 0.5 * (rs + rp);
+    let text = |n_b: u32| {
+        format!(
+            r#"
+            unit = "m"
+            [camera]
+            eye = [0, 2, -2]
+            look_at = [0, 0, 0]
+            vfov_deg = 0.5
+            width = 4
+            height = 4
+            [integrator]
+            bsdf_samples = {n_b}
+            [materials.glass]
+            type = "dielectric"
+            ior = {n}
+            [materials.black]
+            type = "black"
+            [[objects]]
+            material = "glass"
+            quad = [[-20, 0, -20], [-20, 0, 20], [20, 0, 20], [20, 0, -20]]
+            [[objects]]
+            material = "black"
+            quad = [[-20, -0.5, -20], [-20, -0.5, 20], [20, -0.5, 20], [20, -0.5, -20]]
+            [[lights]]
+            type = "environment"
+            radiance = {l}
+            "#
+        )
+    };
+    let (m, se) = region_stats(&scene(&text(1)), &settings(IntegratorKind::Direct, 8, 5), 46, 32, 1, |_, _| true);
+    assert_close("glass plane, direct", m, se, r * l * y_of_one(), 4.5);
+    assert!((r - 0.0503).abs() < 1e-3, "Fresnel at 45° for n = 1.5: {r}");
+    let (m0, _) = region_stats(&scene(&text(0)), &settings(IntegratorKind::Direct, 8, 5), 47, 4, 1, |_, _| true);
+    assert_eq!(m0, 0.0, "light samples alone cannot see a smooth surface's reflection");
 }
 
 #[test]

@@ -213,6 +213,10 @@ fn bad_input_gives_one_line_errors_naming_file_line_and_field() {
     fails_with(&MINIMAL.replace("object = \"panel\"", "object = \"lamp\""), &["lights[0] (area).object", "lamp"]);
     fails_with(&MINIMAL.replace("type = \"area\"", "type = \"laser\""), &["lights[0] (laser).type", "laser"]);
     fails_with(&MINIMAL.replace("radius = 1 }", "radius = nan }"), &["sphere.radius"]);
+    let direct = |keys: &str| format!("{MINIMAL}\n[integrator]\ntype = \"direct\"\n{keys}\n");
+    fails_with(&direct("emitter_samples = 0\nbsdf_samples = 0"), &["bad.toml:", "integrator.emitter_samples", "cannot both be 0"]);
+    fails_with(&direct("bsdf_samples = 5000"), &["bad.toml:", "integrator.bsdf_samples", "[0, 1024]"]);
+    fails_with(&direct("bsdf_samples = -1"), &["bad.toml:27:", "expected u32"]);
 }
 
 #[test]
