@@ -1,5 +1,5 @@
 //! The scene: camera, geometry with its acceleration structure, materials, lights and media, and
-//! the queries integrators make of it (light choice by power). Scenes are made by [`crate::load`].
+//! the queries integrators make of it (light choice by power, lights at infinity capped). Scenes are made by [`crate::load`].
 
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -35,7 +35,7 @@ pub struct Scene {
     pub material_names: Vec<String>,
     /// All lights.
     pub lights: Vec<Light>,
-    /// Probability of choosing each light for next-event estimation (proportional to power).
+    /// Probability of choosing each light for next-event estimation ([`crate::light::selection_pmf`]: by power, lights at infinity capped).
     pub light_pmf: Vec<f32>,
     /// Cumulative of `light_pmf`.
     pub light_cdf: Vec<f32>,

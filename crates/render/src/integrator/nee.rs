@@ -44,7 +44,7 @@ impl LightChoice {
     }
 }
 
-/// Choose a light in proportion to power and sample it from `p`. Always draws three numbers from
+/// Choose a light by [`Scene::light_pmf`] (power, lights at infinity capped: [`crate::light::selection_pmf`]) and sample it from `p`. Always draws three numbers from
 /// `rng` (the choice, then the point), so the random sequence does not depend on the outcome.
 /// `None` when the scene has no light or the sample carries no light.
 #[inline]

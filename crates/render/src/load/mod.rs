@@ -191,7 +191,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let ray_epsilon_m = (extent * 2e-6).max(1e-9);
     let scene_radius = 0.5 * (b.max - b.min).length();
 
-    // Light selection proportional to power.
+    // Light selection: by power, lights at infinity capped (`light::selection_pmf`).
     let powers: Vec<f32> = lights.iter().map(|l| l.power_w(scene_radius).max(0.0)).collect();
     let total: f32 = powers.iter().sum();
     if !total.is_finite() {
@@ -202,11 +202,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         };
         return Err(anyhow!("{}: {which} overflows f32 at this scene's size ({scene_radius:.3e} m radius): lower the scale", cx.file));
     }
-    let light_pmf: Vec<f32> = if total > 0.0 {
-        powers.iter().map(|p| p / total).collect()
-    } else {
-        vec![1.0 / lights.len().max(1) as f32; lights.len()]
-    };
+    let light_pmf = crate::light::selection_pmf(&lights, &powers);
     let mut acc = 0.0;
     let light_cdf = light_pmf.iter().map(|p| {
         acc += p;

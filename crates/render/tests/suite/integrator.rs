@@ -260,6 +260,33 @@ fn direct_light_and_bsdf_samples_each_give_the_form_factor() {
 }
 
 #[test]
+fn environment_and_lamp_share_the_light_samples_and_the_plane_gets_both() {
+    // The plane under the rectangle, with a uniform environment L_e as well. The lamp's back is
+    // black and hides L_e over its solid angle, so the plane's irradiance is
+    // π (L F + L_e (1 − F)) and it returns ρ (L F + L_e (1 − F)) (no other bounce exists).
+    // By power the environment (4π² r² L_e, r the scene's radius) would take almost every light
+    // sample; capped, it takes half.
+    let (rho, l, a, b, h, le) = (0.5, 2.0, 0.3, 0.15, 0.4, 0.2);
+    let text = plane_under_rect_light(rho, l, a, b, h) + &format!("\n[[lights]]\ntype = \"environment\"\nradiance = {le}\n");
+    let s = scene(&text);
+    assert_eq!(s.lights.len(), 2);
+    let env = s.environment.unwrap() as usize;
+    let powers: Vec<f32> = s.lights.iter().map(|x| x.power_w(20.0 * 2f32.sqrt())).collect();
+    assert!(powers[env] / (powers[0] + powers[1]) > 0.99, "{powers:?}");
+    assert!((s.light_pmf[env] - 0.5).abs() < 1e-6 && (s.light_pmf[1 - env] - 0.5).abs() < 1e-6, "{:?}", s.light_pmf);
+    let f = 4.0 * form_factor_corner(a, b, h);
+    let expect = rho * (l * f + le * (1.0 - f)) * y_of_one();
+    for (kind, seed) in [(IntegratorKind::Direct, 48u64), (IntegratorKind::Path, 49)] {
+        let (m, se) = region_stats(&s, &settings(kind, 8, 5), seed, 200, 1, |_, _| true);
+        assert_close(&format!("lamp and environment, {kind:?}"), m, se, expect, 4.5);
+    }
+    // A faint environment keeps its share by power: the cap only lowers it.
+    let faint = scene(&(plane_under_rect_light(rho, l, a, b, h) + "\n[[lights]]\ntype = \"environment\"\nradiance = 1e-9\n"));
+    let env = faint.environment.unwrap() as usize;
+    assert!(faint.light_pmf[env] < 1e-3, "{:?}", faint.light_pmf);
+}
+
+#[test]
 fn direct_shows_the_environment_in_a_smooth_dielectric() {
     // A smooth glass plane (n = 1.5) over a black plane under a uniform environment L, seen at
     // 45° through a narrow field of view: the reflection is R(45°) L (Fresnel, unpolarised), the
