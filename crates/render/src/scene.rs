@@ -57,7 +57,7 @@ pub struct Scene {
     /// Ambient-occlusion ray length in metres (infinite by default).
     pub ao_distance_m: f32,
     /// Light and BSDF samples per camera sample of the `direct` integrator.
-    pub direct_samples: crate::integrator::direct::DirectSamples,
+    pub direct_samples: crate::integrator::settings::DirectSamples,
     /// Whether a ray can find emission by hitting something: an area light or the environment
     /// (point, spot, directional and projector lights are only found by light sampling).
     pub emitters_to_hit: bool,

@@ -7,6 +7,7 @@
 //! smooth (delta) surface is lit only by its BSDF samples, so a mirror shows the lights and the
 //! environment it reflects. Paths end at the emitter a BSDF sample reaches: no indirect light.
 
+pub use crate::integrator::settings::DirectSamples;
 use crate::integrator::nee;
 use crate::interaction::Shading;
 use crate::math::geometry::Ray;
@@ -14,22 +15,6 @@ use crate::math::sampling::{power_heuristic, Pcg32};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
-
-/// How many samples of each technique `direct` takes per camera sample (`[integrator]`
-/// `emitter_samples` and `bsdf_samples`; Mitsuba 3's names and defaults).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DirectSamples {
-    /// Light samples per camera sample.
-    pub emitter: u32,
-    /// BSDF samples per camera sample.
-    pub bsdf: u32,
-}
-
-impl Default for DirectSamples {
-    fn default() -> Self {
-        DirectSamples { emitter: 1, bsdf: 1 }
-    }
-}
 
 /// Emission seen along `ray` plus direct lighting at the first hit (see the module documentation).
 pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {

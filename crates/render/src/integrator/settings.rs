@@ -95,3 +95,19 @@ impl Default for IntegratorSettings {
         IntegratorSettings { kind: IntegratorKind::Path, max_depth: 8, rr_depth: 5 }
     }
 }
+
+/// How many samples of each technique `direct` takes per camera sample (`[integrator]`
+/// `emitter_samples` and `bsdf_samples`; Mitsuba 3's names and defaults).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DirectSamples {
+    /// Light samples per camera sample.
+    pub emitter: u32,
+    /// BSDF samples per camera sample.
+    pub bsdf: u32,
+}
+
+impl Default for DirectSamples {
+    fn default() -> Self {
+        DirectSamples { emitter: 1, bsdf: 1 }
+    }
+}

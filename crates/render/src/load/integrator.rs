@@ -4,8 +4,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
-use crate::integrator::direct::DirectSamples;
-use crate::integrator::settings::{IntegratorKind, IntegratorSettings};
+use crate::integrator::settings::{DirectSamples, IntegratorKind, IntegratorSettings};
 use crate::load::desc::SceneDesc;
 use crate::load::error::{quote, Cx};
 use anyhow::Result;
