@@ -195,7 +195,10 @@ def blocks(a, k=4):
 
 
 def stats(l, m):
-    keep = m > 0.01 * m.max()
+    """Ratios over the pixels above 1 % of the peer's maximum; pixels that are not finite in either
+    image are left out (Mitsuba 3.9.1's `roughdielectric` leaves a few NaN pixels at high spp)."""
+    finite = np.isfinite(l) & np.isfinite(m)
+    keep = finite & (np.where(finite, m, 0.0) > 0.01 * np.max(m[finite]))
     r = l[keep] / m[keep]
     p10, p50, p90 = np.percentile(r, [10, 50, 90])
     return {"median": p50, "p10": p10, "p90": p90, "pixels": int(keep.sum()), "mean_ratio": l[keep].sum() / m[keep].sum()}
