@@ -26,6 +26,28 @@ pub fn roughness_to_alpha(roughness: f32) -> f32 {
     r * r
 }
 
+/// How the Smith masking–shadowing term of a pair of directions is formed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Masking {
+    /// G2 = 1/(1 + Λ(ωo) + Λ(ωi)): masking and shadowing correlated through the microsurface's
+    /// heights (Heitz 2014, the more accurate form; pbrt-v4's).
+    #[default]
+    HeightCorrelated,
+    /// G2 = G1(ωo) G1(ωi), never larger (Mitsuba 3's).
+    Separable,
+}
+
+impl Masking {
+    /// The form named in scene files: `"height-correlated"` or `"separable"`.
+    pub fn from_name(name: &str) -> Option<Masking> {
+        match name {
+            "height-correlated" => Some(Masking::HeightCorrelated),
+            "separable" => Some(Masking::Separable),
+            _ => None,
+        }
+    }
+}
+
 /// Trowbridge–Reitz (GGX) distribution, possibly anisotropic (αx along local x, αy along local y).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrowbridgeReitz {
@@ -33,6 +55,8 @@ pub struct TrowbridgeReitz {
     pub alpha_x: f32,
     /// Roughness α along local y (dimensionless, > 0).
     pub alpha_y: f32,
+    /// Form of the masking–shadowing term [`TrowbridgeReitz::g`].
+    pub masking: Masking,
 }
 
 #[inline]
@@ -50,7 +74,13 @@ impl TrowbridgeReitz {
         TrowbridgeReitz {
             alpha_x: alpha,
             alpha_y: alpha,
+            masking: Masking::HeightCorrelated,
         }
+    }
+
+    /// The same distribution with masking–shadowing term `masking`.
+    pub fn with_masking(self, masking: Masking) -> TrowbridgeReitz {
+        TrowbridgeReitz { masking, ..self }
     }
 
     /// True when both α are below [`SMOOTH_ALPHA`] (use the delta lobe).
@@ -94,10 +124,14 @@ impl TrowbridgeReitz {
         1.0 / (1.0 + self.lambda(w))
     }
 
-    /// Height-correlated masking–shadowing G2(wo, wi) = 1/(1 + Λ(wo) + Λ(wi)).
+    /// Masking–shadowing G2(wo, wi): 1/(1 + Λ(wo) + Λ(wi)) (height-correlated) or G1(wo) G1(wi)
+    /// (separable), as [`TrowbridgeReitz::masking`] says.
     #[inline]
     pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
+        match self.masking {
+            Masking::HeightCorrelated => 1.0 / (1.0 + self.lambda(wo) + self.lambda(wi)),
+            Masking::Separable => self.g1(wo) * self.g1(wi),
+        }
     }
 
     /// Density per steradian of visible normals D_w(m) = G1(w)·max(0, w·m)·D(m)/|cos θ_w|, with w
@@ -184,6 +218,7 @@ mod tests {
             let d = TrowbridgeReitz {
                 alpha_x: ax,
                 alpha_y: ay,
+                masking: Masking::HeightCorrelated,
             };
             // substitute t = tan θ to resolve the narrow peak: dω = sinθ dθ dφ, θ = atan t
             let (nt, np) = (4000, 256);
@@ -218,6 +253,7 @@ mod tests {
             let d = TrowbridgeReitz {
                 alpha_x: ax,
                 alpha_y: ay,
+                masking: Masking::HeightCorrelated,
             };
             for w in [
                 Vec3::new(0.0, 0.0, 1.0),
@@ -257,6 +293,7 @@ mod tests {
         let d = TrowbridgeReitz {
             alpha_x: 0.3,
             alpha_y: 0.6,
+            masking: Masking::HeightCorrelated,
         };
         let mut r = Pcg32::new(3, 4);
         for _ in 0..10_000 {

@@ -93,6 +93,7 @@ pub(crate) struct MaterialDesc {
     pub(crate) roughness: Option<Spanned<toml::Value>>,
     pub(crate) alpha: Option<Spanned<toml::Value>>,
     pub(crate) nonlinear: Option<bool>,
+    pub(crate) masking: Option<Spanned<String>>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

@@ -30,6 +30,9 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
         if m.nonlinear.is_some() && m.kind != "plastic" {
             return Err(cx.err(&span, &format!("{field}.nonlinear"), format!("only allowed for a plastic material, not {}", quote(&m.kind))));
         }
+        if m.masking.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor") {
+            return Err(cx.err(&span, &format!("{field}.masking"), format!("only allowed for a dielectric or conductor material, not {}", quote(&m.kind))));
+        }
         if m.subsurface.is_some() && m.kind != "translucent" {
             return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", quote(&m.kind))));
         }
@@ -138,7 +141,7 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
                 if v.len() != 2 || xs.len() != 2 || !v.iter().all(|x| (0.0..=4.0).contains(x)) {
                     return Err(cx.err(&a.span(), &f("alpha"), "expected [alpha_x, alpha_y], each in [0, 4]"));
                 }
-                TrowbridgeReitz { alpha_x: v[0] as f32, alpha_y: v[1] as f32 }
+                TrowbridgeReitz { alpha_x: v[0] as f32, alpha_y: v[1] as f32, masking: Default::default() }
             }
             _ => TrowbridgeReitz::isotropic(number(a, "alpha", 0.0, 4.0)? as f32),
         },
@@ -148,6 +151,13 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
             }
             TrowbridgeReitz::isotropic(0.0)
         }
+    };
+    let distrib = match &m.masking {
+        None => distrib,
+        Some(mk) => match crate::bsdf::microfacet::Masking::from_name(mk.get_ref()) {
+            Some(masking) => distrib.with_masking(masking),
+            None => return Err(cx.err(&mk.span(), &f("masking"), format!("unknown masking {} (height-correlated or separable)", quote(mk.get_ref())))),
+        },
     };
     if kind.starts_with("rough_") && distrib.effectively_smooth() {
         return Err(cx.err(span, &f("roughness"), format!("a {kind} material needs α ≥ {} (use the smooth type)", crate::bsdf::microfacet::SMOOTH_ALPHA)));

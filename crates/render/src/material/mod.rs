@@ -208,6 +208,6 @@ impl Material {
 fn textured_distrib(distrib: &TrowbridgeReitz, roughness: &Option<FloatTexture>, uv: impl FnOnce() -> Vec2) -> TrowbridgeReitz {
     match roughness {
         None => *distrib,
-        Some(r) => TrowbridgeReitz::isotropic(crate::bsdf::microfacet::roughness_to_alpha(r.eval_with(uv).clamp(0.0, 1.0))),
+        Some(r) => TrowbridgeReitz::isotropic(crate::bsdf::microfacet::roughness_to_alpha(r.eval_with(uv).clamp(0.0, 1.0))).with_masking(distrib.masking),
     }
 }

@@ -154,6 +154,8 @@ fn bad_material_input_gives_one_line_errors() {
     );
     fails_with("type = \"lambertian\"\nalbedo = 0.5\nnonlinear = false", &["materials.m.nonlinear", "plastic"]);
     fails_with("type = \"plastic\"\nalbedo = 0.5\nnonlinear = 1", &["bad.toml:", "boolean"]);
+    fails_with("type = \"plastic\"\nalbedo = 0.5\nroughness = 0.3\nmasking = \"separable\"", &["materials.m.masking", "plastic"]);
+    fails_with("type = \"rough_conductor\"\nmetal = \"au\"\nalpha = 0.3\nmasking = \"smith\"", &["bad.toml:", "materials.m.masking", "smith", "separable"]);
     fails_with("type = \"glass\"", &["materials.m.type", "glass", "dielectric"]);
     fails_with(
         "type = \"dielectric\"\nior = 1.5\nroughnes = 0.1",
