@@ -26,7 +26,6 @@ image, a wrong falloff or a misplaced plane of focus shows as ratios far from 1.
 
 Needs numpy and mitsuba==3.9.1.
 """
-import json
 import os
 import subprocess
 import sys
@@ -34,7 +33,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from peer_common import peer_args, read_pfm  # noqa: E402
+from peer_common import compare_cases, peer_args, read_pfm  # noqa: E402
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 W, H = 96, 64
@@ -189,35 +188,10 @@ def run_mitsuba(case, spp, variant):
     return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ LUMA
 
 
-def blocks(a, k=4):
-    h, w = a.shape
-    return a[: h - h % k, : w - w % k].reshape(h // k, k, w // k, k).mean(axis=(1, 3))
-
-
-def stats(l, m):
-    """Ratios over the pixels above 1 % of the peer's maximum; pixels that are not finite in either
-    image are left out (Mitsuba 3.9.1's `roughdielectric` leaves a few NaN pixels at high spp)."""
-    finite = np.isfinite(l) & np.isfinite(m)
-    keep = finite & (np.where(finite, m, 0.0) > 0.01 * np.max(m[finite]))
-    r = l[keep] / m[keep]
-    p10, p50, p90 = np.percentile(r, [10, 50, 90])
-    return {"median": p50, "p10": p10, "p90": p90, "pixels": int(keep.sum()), "mean_ratio": l[keep].sum() / m[keep].sum()}
-
-
 def main():
     a, work, _tmp = peer_args(__doc__, 64)
-    report = {}
-    for case in ("point", "directional", "thinlens", "direct"):
-        l = run_lucent(a.lucent, work, case, a.spp)
-        m = run_mitsuba(case, a.spp, a.variant)
-        report[case] = {"pixels": stats(l, m), "blocks_4x4": stats(blocks(l), blocks(m))}
-    if a.json:
-        print(json.dumps(report, indent=2))
-        return
-    for case, r in report.items():
-        p, b = r["pixels"], r["blocks_4x4"]
-        print(f"{case:12s} lucent / Mitsuba: pixels median {p['median']:.4f} ({p['p10']:.4f}–{p['p90']:.4f}), "
-              f"4×4 blocks median {b['median']:.4f} ({b['p10']:.4f}–{b['p90']:.4f}), sum ratio {p['mean_ratio']:.4f} over {p['pixels']} pixels")
+    compare_cases(a, ("point", "directional", "thinlens", "direct"),
+                  lambda case: run_lucent(a.lucent, work, case, a.spp), lambda case: run_mitsuba(case, a.spp, a.variant))
 
 
 if __name__ == "__main__":

@@ -30,7 +30,6 @@ and the ratio of the image sums.
 
 Needs numpy and mitsuba==3.9.1.
 """
-import json
 import os
 import subprocess
 import sys
@@ -38,8 +37,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from mitsuba_lights import blocks, stats  # noqa: E402
-from peer_common import peer_args, read_pfm  # noqa: E402
+from peer_common import compare_cases, peer_args, read_pfm  # noqa: E402
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 W, H = 96, 64
@@ -156,18 +154,8 @@ def run_mitsuba(case, spp, variant):
 
 def main():
     a, work, _tmp = peer_args(__doc__, 128)
-    report = {}
-    for case in ("null", "rough", "rough_separable", "spherelight"):
-        l = run_lucent(a.lucent, work, case, a.spp)
-        m = run_mitsuba(case, a.spp, a.variant)
-        report[case] = {"pixels": stats(l, m), "blocks_4x4": stats(blocks(l), blocks(m))}
-    if a.json:
-        print(json.dumps(report, indent=2))
-        return
-    for case, r in report.items():
-        p, b = r["pixels"], r["blocks_4x4"]
-        print(f"{case:12s} lucent / Mitsuba: pixels median {p['median']:.4f} ({p['p10']:.4f}–{p['p90']:.4f}), "
-              f"4×4 blocks median {b['median']:.4f} ({b['p10']:.4f}–{b['p90']:.4f}), sum ratio {p['mean_ratio']:.4f} over {p['pixels']} pixels")
+    compare_cases(a, ("null", "rough", "rough_separable", "spherelight"),
+                  lambda case: run_lucent(a.lucent, work, case, a.spp), lambda case: run_mitsuba(case, a.spp, a.variant))
 
 
 if __name__ == "__main__":
