@@ -27,15 +27,13 @@ image, a wrong falloff or a misplaced plane of focus shows as ratios far from 1.
 Needs numpy and mitsuba==3.9.1.
 """
 import os
-import subprocess
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from peer_common import compare_cases, peer_args, read_pfm  # noqa: E402
+from peer_common import LUMA, compare_cases, peer_args, render_luminance  # noqa: E402
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 W, H = 96, 64
 EYE, TARGET, FOV = [0.0, 1.5, -4.0], [0.0, 0.3, 0.0], 40.0
 LIGHTS = {
@@ -126,12 +124,7 @@ sphere = {{ center = [0, 0.6, 0], radius = 0.6 }}
 
 
 def run_lucent(binary, work, case, spp):
-    path = os.path.join(work, f"{case}.toml")
-    with open(path, "w") as f:
-        f.write(lucent_scene(case))
-    out = os.path.join(work, f"{case}.pfm")
-    subprocess.run([binary, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
-    return read_pfm(out) @ LUMA
+    return render_luminance(binary, work, case, lucent_scene(case), spp)
 
 
 def run_mitsuba(case, spp, variant):
@@ -168,7 +161,7 @@ def run_mitsuba(case, spp, variant):
                  "lamp": {"type": "rectangle", "to_world": lamp, "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": 0.0}},
                           "emitter": {"type": "area", "radiance": {"type": "d65", "scale": 5.0}}},
                  "env": {"type": "constant", "radiance": {"type": "d65", "scale": 0.3}}}
-        return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ LUMA
+        return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ np.array(LUMA)
     if case == "thinlens":
         sensor.update({"type": "thinlens", "aperture_radius": 0.05, "focus_distance": 3.0})
         # Mitsuba's focus_distance is measured along the optical axis, as lucent's.
@@ -185,7 +178,7 @@ def run_mitsuba(case, spp, variant):
             scene["light"] = {"type": "point", "position": [1.0, 3.0, -1.0], "intensity": {"type": "d65", "scale": 1.0}}
         else:
             scene["light"] = {"type": "directional", "direction": [1, -2, 1], "irradiance": {"type": "d65", "scale": 1.0}}
-    return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ LUMA
+    return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ np.array(LUMA)
 
 
 def main():

@@ -31,15 +31,13 @@ and the ratio of the image sums.
 Needs numpy and mitsuba==3.9.1.
 """
 import os
-import subprocess
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from peer_common import compare_cases, peer_args, read_pfm  # noqa: E402
+from peer_common import LUMA, compare_cases, peer_args, render_luminance  # noqa: E402
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 W, H = 96, 64
 EYE, TARGET, FOV = [0.0, 1.4, -4.0], [0.0, 0.5, 0.0], 40.0
 LAMBDA = [360, 450, 550, 650, 830]
@@ -105,12 +103,7 @@ radiance = {{ rgb = [0.2, 0.2, 0.2] }}
 
 
 def run_lucent(binary, work, case, spp):
-    path = os.path.join(work, f"{case}.toml")
-    with open(path, "w") as f:
-        f.write(lucent_scene(case))
-    out = os.path.join(work, f"{case}.pfm")
-    subprocess.run([binary, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
-    return read_pfm(out) @ LUMA
+    return render_luminance(binary, work, case, lucent_scene(case), spp)
 
 
 def run_mitsuba(case, spp, variant):
@@ -149,7 +142,7 @@ def run_mitsuba(case, spp, variant):
     else:
         scene["body"] = {"type": "sphere", "center": [0, 0.6, 0], "radius": 0.6,
                          "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": 0.6}}}
-    return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ LUMA
+    return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ np.array(LUMA)
 
 
 def main():

@@ -3,11 +3,13 @@
 import argparse
 import json
 import os
+import subprocess
 import tempfile
 
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LUMA = [0.2126, 0.7152, 0.0722]  # Y of linear sRGB
 
 
 def write_pfm(path, rgb):
@@ -75,3 +77,14 @@ def compare_cases(a, cases, lucent, mitsuba):
         print(f"{case:12s} lucent / Mitsuba: pixels median {p['median']:.4f} ({p['p10']:.4f}–{p['p90']:.4f}), "
               f"4×4 blocks median {b['median']:.4f} ({b['p10']:.4f}–{b['p90']:.4f}), sum ratio {p['mean_ratio']:.4f} over {p['pixels']} pixels")
     return report
+
+
+def render_luminance(binary, work, name, scene_text, spp, seed=1):
+    """Write `scene_text` to WORK/NAME.toml, render it with lucent at `spp` and `seed`, and return
+    the luminance (Y of linear sRGB) of the image, rows top to bottom."""
+    path = os.path.join(work, f"{name}.toml")
+    with open(path, "w") as f:
+        f.write(scene_text)
+    out = os.path.join(work, f"{name}.pfm")
+    subprocess.run([binary, "render", path, "--spp", str(spp), "--seed", str(seed), "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
+    return read_pfm(out) @ np.array(LUMA)
