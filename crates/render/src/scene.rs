@@ -58,9 +58,10 @@ pub struct Scene {
     pub ao_distance_m: f32,
     /// Light and BSDF samples per camera sample of the `direct` integrator.
     pub direct_samples: crate::integrator::settings::DirectSamples,
-    /// Whether a ray can find emission by hitting something: an area light or the environment
-    /// (point, spot, directional and projector lights are only found by light sampling).
-    pub emitters_to_hit: bool,
+    /// Whether any light is an area light, set on loading (with the environment, the emitters a
+    /// ray can hit; point, spot, directional and projector lights are only found by light
+    /// sampling). Code that replaces `lights` may leave it true: it only lets `direct` skip work.
+    pub has_area_lights: bool,
     /// Offset (m) for spawning rays off surfaces, relative to the scene's size.
     pub ray_epsilon_m: f32,
     /// Metres per scene length unit.
@@ -98,10 +99,11 @@ impl Scene {
         h.finish()
     }
 
-    /// Whether a BSDF-sampled ray can reach emission (see [`Scene::emitters_to_hit`]).
+    /// Whether a BSDF-sampled ray can reach emission: the scene has an environment now, or had an
+    /// area light when it was loaded ([`Scene::has_area_lights`]).
     #[inline]
     pub fn has_emitters_to_hit(&self) -> bool {
-        self.emitters_to_hit
+        self.environment.is_some() || self.has_area_lights
     }
 
     /// Index of the light chosen for next-event estimation with uniform `u`, and its probability.

@@ -235,7 +235,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         })
         .collect();
 
-    let emitters_to_hit = environment.is_some() || lights.iter().any(|l| matches!(l, crate::light::Light::Area { .. }));
+    let has_area_lights = lights.iter().any(|l| matches!(l, crate::light::Light::Area { .. }));
     let refracted_lights = if media.is_empty() { None } else { crate::light::refracted::RefractedLights::new(&lights, &light_pmf, refraction_guiding, refraction_splits) };
     Ok(Scene {
         medium_grids,
@@ -254,7 +254,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         integrator,
         ao_distance_m,
         direct_samples,
-        emitters_to_hit,
+        has_area_lights,
         ray_epsilon_m,
         unit_m,
         source: cx.file.to_string(),
