@@ -17,7 +17,9 @@ use crate::scene::Scene;
 use glam::{Vec3, Vec4};
 
 /// Emission seen along `ray` plus direct lighting at the first hit (see the module documentation).
-pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+/// A BSDF sample refracted through dispersive glass leaves only the hero wavelength in `wl`, as
+/// the path tracer does: convert the result with `wl` as it is on return.
+pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
     let Some(hit) = scene.accel.intersect(&ray) else {
         return match scene.environment {
             Some(ei) => scene.lights[ei as usize].le(Vec3::ZERO, -ray.d, || glam::Vec2::ZERO, wl),
@@ -60,6 +62,9 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &SampledWavelengths, rng: &mut Pcg
         // Reject directions whose side of the geometric surface disagrees with the shading frame.
         if (wi.dot(s.ng) > 0.0) == bs.transmission || !(bs.pdf > 0.0) {
             continue;
+        }
+        if bs.terminate_secondary {
+            wl.terminate_secondary();
         }
         let beta = bs.f * (bs.wi.z.abs() / (bs.pdf * nb));
         let r = s.spawn(scene, wi);

@@ -164,7 +164,7 @@ fn trace_pixel(
             (wl.to_xyz(l), l)
         }
         IntegratorKind::Direct => {
-            let l = direct::li_direct(scene, ray, &wl, rng);
+            let l = direct::li_direct(scene, ray, &mut wl, rng);
             (wl.to_xyz(l), l)
         }
     };
