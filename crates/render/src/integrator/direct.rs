@@ -71,8 +71,7 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut
         let (le, light_pdf) = match scene.accel.intersect(&r) {
             None => {
                 let Some(ei) = scene.environment else { continue };
-                let env = &scene.lights[ei as usize];
-                (env.le(Vec3::ZERO, -wi, || glam::Vec2::ZERO, wl), scene.light_pmf[ei as usize] * env.pdf_li(s.p, wi, Vec3::ZERO, Vec3::ZERO))
+                (scene.lights[ei as usize].le(Vec3::ZERO, -wi, || glam::Vec2::ZERO, wl), nee::environment_light_pdf(scene, ei, s.p, wi))
             }
             Some(h2) => {
                 let s2 = Shading::at(scene, &r, &h2);

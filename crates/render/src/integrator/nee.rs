@@ -100,7 +100,7 @@ pub fn environment_emission(scene: &Scene, ray: &Ray, beta: SampledSpectrum, pre
     let w = if no_mis {
         1.0
     } else {
-        power_heuristic(1.0, prev_pdf, 1.0, scene.light_pmf[ei as usize] * env.pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO))
+        power_heuristic(1.0, prev_pdf, 1.0, environment_light_pdf(scene, ei, prev_p, ray.d))
     };
     beta * le * w
 }
@@ -118,4 +118,11 @@ pub fn area_emission_weight(scene: &Scene, light: u32, prev_p: Vec3, d: Vec3, q:
 #[inline]
 pub fn area_light_pdf(scene: &Scene, light: u32, prev_p: Vec3, d: Vec3, q: Vec3, ng: Vec3) -> f32 {
     scene.light_pmf[light as usize] * scene.lights[light as usize].pdf_li(prev_p, d, q, ng)
+}
+
+/// Density per steradian with which next-event estimation from `p` picks the environment light
+/// `ei` and the direction `d` towards it.
+#[inline]
+pub fn environment_light_pdf(scene: &Scene, ei: u32, p: Vec3, d: Vec3) -> f32 {
+    scene.light_pmf[ei as usize] * scene.lights[ei as usize].pdf_li(p, d, Vec3::ZERO, Vec3::ZERO)
 }

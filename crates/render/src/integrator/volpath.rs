@@ -691,7 +691,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             } else if prev_medium_mis {
                 let e = environment_emission(scene, &ray, beta, prev_p, prev_pdf, true, wl);
                 if let Some(ei) = scene.environment {
-                    let lp = scene.light_pmf[ei as usize] * scene.lights[ei as usize].pdf_li(prev_p, ray.d, Vec3::ZERO, Vec3::ZERO);
+                    let lp = nee::environment_light_pdf(scene, ei, prev_p, ray.d);
                     l += e * spectral_balance(r_u, r_l, lp, wl);
                 }
             } else {
