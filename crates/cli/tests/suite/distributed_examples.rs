@@ -191,8 +191,8 @@ fn slurm_task_passes_sigint_on_so_lucent_saves_and_exits_130() {
     let bin = bin_dir(&t.0, &[]);
     let run_dir = t.0.join("run");
     std::fs::create_dir_all(&run_dir).unwrap();
-    let mut task = Command::new("bash")
-        .arg(format!("{REPO}/examples/slurm/render-array.sh"))
+    let mut task = Command::new("bash");
+    task.arg(format!("{REPO}/examples/slurm/render-array.sh"))
         .current_dir(&run_dir)
         .env("PATH", path_with(&bin))
         .env("LUCENT_PHASE", "render")
@@ -205,9 +205,19 @@ fn slurm_task_passes_sigint_on_so_lucent_saves_and_exits_130() {
         .env("EXTRA_ARGS", "--width 16 --height 12 --checkpoint-interval 0.05")
         .env_remove("LUCENT")
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+        .stderr(std::process::Stdio::null());
+    // Slurm starts the batch script with SIGINT at its default action. A test run started in the
+    // background of a non-interactive shell (`nohup cargo test &`) inherits SIGINT ignored, and a
+    // shell cannot trap a signal ignored on entry (POSIX), so give the script Slurm's disposition.
+    // SAFETY: `signal` is async-signal-safe, as `pre_exec` requires.
+    unsafe {
+        use std::os::unix::process::CommandExt;
+        task.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut task = task.spawn().unwrap();
     let ckpt = run_dir.join("seed-12.ckpt");
     let deadline = Instant::now() + Duration::from_secs(120);
     while !ckpt.exists() {
