@@ -117,16 +117,27 @@ pub struct Capture {
 /// The frame files of a capture folder in pattern order: `graycode_NN.png`, `.jpg` or `.jpeg`
 /// (any number of digits, case-insensitive extension); other files are ignored. An error naming
 /// the file for a missing frame, a frame past the sequence, or two files for one frame.
+///
+/// A folder without any `graycode_` frame is read as other capture tools write theirs (`0001.png`,
+/// `img_1.jpg`, `pattern-01.png` …): its PNG and JPEG files in natural order (digit runs compared
+/// as numbers, so `img_2` comes before `img_10`), which must be exactly the sequence's frames.
 pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> {
     let n = patterns.len();
     let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
     let mut slots: Vec<Option<PathBuf>> = vec![None; n];
+    let mut others: Vec<PathBuf> = Vec::new();
     let sequence = || format!("the {}x{} step-{} sequence has {n} frames, graycode_00 … graycode_{:02}", patterns.width, patterns.height, patterns.step, n - 1);
     for entry in entries {
         let entry = entry.with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
         let path = entry.path();
         let Some(name) = path.file_name().and_then(|s| s.to_str()) else { continue };
-        let Some(rest) = name.strip_prefix("graycode_") else { continue };
+        let is_image = |file: &str| file.rsplit_once('.').is_some_and(|(_, e)| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"));
+        let Some(rest) = name.strip_prefix("graycode_") else {
+            if is_image(name) && !name.starts_with('.') && path.is_file() {
+                others.push(path);
+            }
+            continue;
+        };
         let Some((digits, ext)) = rest.split_once('.') else { continue };
         if !matches!(ext.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg") {
             continue;
@@ -143,11 +154,60 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
         }
         slots[index] = Some(path);
     }
+    if slots.iter().all(Option::is_none) && !others.is_empty() {
+        if others.len() != n {
+            bail!(
+                "{}: no graycode_NN frames, and {} PNG/JPEG files in natural order where {}",
+                dir.display(),
+                others.len(),
+                sequence()
+            );
+        }
+        others.sort_by(|a, b| natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
+        return Ok(others);
+    }
     slots
         .into_iter()
         .enumerate()
         .map(|(i, p)| p.ok_or_else(|| anyhow!("{}: missing image ({})", dir.join(format!("graycode_{i:02}.png")).display(), sequence())))
         .collect()
+}
+
+/// Natural order of file names: runs of ASCII digits compare as numbers (`img_2` < `img_10`,
+/// leading zeros ignored, then fewer zeros first), everything else byte by byte.
+pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+    use std::cmp::Ordering;
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if a[i].is_ascii_digit() && b[j].is_ascii_digit() {
+            let (si, sj) = (i, j);
+            while i < a.len() && a[i].is_ascii_digit() {
+                i += 1;
+            }
+            while j < b.len() && b[j].is_ascii_digit() {
+                j += 1;
+            }
+            let (da, db) = (&a[si..i], &b[sj..j]);
+            let (ta, tb) = (trim_zeros(da), trim_zeros(db));
+            let ord = ta.len().cmp(&tb.len()).then_with(|| ta.cmp(tb)).then_with(|| da.len().cmp(&db.len()));
+            if ord != Ordering::Equal {
+                return ord;
+            }
+        } else {
+            if a[i] != b[j] {
+                return a[i].cmp(&b[j]);
+            }
+            i += 1;
+            j += 1;
+        }
+    }
+    (a.len() - i).cmp(&(b.len() - j))
+}
+
+fn trim_zeros(d: &[u8]) -> &[u8] {
+    let k = d.iter().position(|&c| c != b'0').unwrap_or(d.len());
+    &d[k..]
 }
 
 /// Reads one camera frame as 8-bit grey (colour is converted to luma; 16-bit scaled to 8).

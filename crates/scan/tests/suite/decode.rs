@@ -245,6 +245,43 @@ fn bad_capture_folders_name_the_file() {
     assert!(e.contains("nope"), "{e}");
 }
 
+/// A folder named the way other capture tools write theirs (`img_1.png` … `img_N.png`, unpadded,
+/// so that byte order would put `img_10` before `img_2`) is read in natural order and decodes to
+/// exactly the map of the same frames named `graycode_NN.png`; a wrong number of such files is
+/// one error naming the folder and both counts.
+#[test]
+fn other_frame_names_are_read_in_natural_order() {
+    use scan::decode::natural_cmp;
+    use std::cmp::Ordering::*;
+    assert_eq!(natural_cmp("img_2.png", "img_10.png"), Less);
+    assert_eq!(natural_cmp("img_10.png", "img_9.png"), Greater);
+    assert_eq!(natural_cmp("a007.png", "a7.png"), Greater);
+    assert_eq!(natural_cmp("a7.png", "a7.png"), Equal);
+    assert_eq!(natural_cmp("b1.png", "a2.png"), Greater);
+
+    let p = PatternSet::new(40, 24, 1).unwrap();
+    let good = ideal_capture(&p);
+    let reference = scratch("natural-ref");
+    write_capture(&reference, &good);
+    let dir = scratch("natural");
+    // Written in reverse so that the directory's own order is no help.
+    for i in (0..p.len()).rev() {
+        std::fs::copy(reference.join(format!("graycode_{i:02}.png")), dir.join(format!("img_{}.png", i + 1))).unwrap();
+    }
+    std::fs::write(dir.join("notes.txt"), b"not a frame").unwrap();
+    let a = read_capture(&reference, &p, &|| {}).unwrap();
+    let b = read_capture(&dir, &p, &|| {}).unwrap();
+    assert!(a.frames == b.frames, "frames read in another order");
+    let (ma, _) = decode(&a, &p, &DecodeSettings::default()).unwrap();
+    let (mb, _) = decode(&b, &p, &DecodeSettings::default()).unwrap();
+    assert_eq!(ma.col, mb.col);
+    assert_eq!(ma.row, mb.row);
+
+    std::fs::remove_file(dir.join("img_7.png")).unwrap();
+    let e = format!("{:#}", read_capture(&dir, &p, &|| {}).unwrap_err());
+    assert!(e.contains("natural") && e.contains(&format!("{} PNG/JPEG", p.len() - 1)) && e.contains(&format!("has {} frames", p.len())), "{e}");
+}
+
 /// Hole filling against a known map: camera pixels see a plane whose projector coordinates are
 /// affine in the pixel (col = 3 + 0.8 x + 0.1 y, row = 5 − 0.05 x + 0.9 y) left of x = 40 and
 /// jump by 200 projector pixels right of it (a depth step). With 30 % of the pixels undecided at

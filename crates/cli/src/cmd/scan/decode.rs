@@ -13,7 +13,7 @@ use super::{parse_size, Progress};
 /// Arguments of `lucent scan decode`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Folder with graycode_00.png … in pattern order (the last two: white, black).
+    /// Folder with graycode_00.png … in pattern order (the last two: white, black); without them, its PNG/JPEG files in natural order.
     pub capture: PathBuf,
     /// Projector resolution WIDTHxHEIGHT (pixels).
     #[arg(long, value_name = "WxH", value_parser = parse_size)]

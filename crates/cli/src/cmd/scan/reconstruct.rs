@@ -16,7 +16,7 @@ use super::Progress;
 /// Arguments of `lucent scan reconstruct`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Folder with graycode_00.png … (the projector size comes from the calibration).
+    /// Folder with graycode_00.png … or other frame names, as for `lucent scan decode` (the projector size comes from the calibration).
     pub capture: PathBuf,
     /// Calibration JSON as `lucent scan calibrate` writes it.
     #[arg(long, value_name = "CALIB.json")]
