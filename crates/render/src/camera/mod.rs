@@ -4,15 +4,18 @@
 //! - [`pinhole`]: the tutorial's pinhole (eye, look-at, up, field of view or camera constant).
 //! - [`opencv`]: OpenCV's calibrated model (intrinsics, radial/tangential distortion, R, t).
 //! - [`thin_lens`]: depth of field for either model.
+//! - [`filter`]: the pixel reconstruction filter, importance-sampled into the film position.
 //!
 //! Film coordinates: pixel (i, j) (i right, j down, (0, 0) top left) sampled at offset
 //! u ∈ [0,1)² is the continuous position (i + uₓ, j + u_y), so pixel centres sit at half
 //! integers; OpenCV's pixel coordinates are these minus ½ (see [`opencv`]).
 
+pub mod filter;
 pub mod opencv;
 pub mod pinhole;
 pub mod thin_lens;
 
+pub use filter::{GaussianFilter, PixelFilter};
 pub use opencv::{Distortion, Extrinsics, Intrinsics, OpenCv};
 pub use pinhole::Pinhole;
 pub use thin_lens::ThinLens;
@@ -40,6 +43,8 @@ pub struct Camera {
     pub width: u32,
     /// Resolution in pixels.
     pub height: u32,
+    /// Pixel reconstruction filter (box by default), applied by [`Camera::sample_ray`].
+    pub filter: PixelFilter,
 }
 
 impl Camera {
@@ -54,13 +59,13 @@ impl Camera {
     pub fn with_constant(eye: Vec3, look_at: Vec3, up: Vec3, d: f32, width: u32, height: u32) -> anyhow::Result<Camera> {
         let p = Pinhole::new(eye, look_at, up, d)?;
         check_resolution(width, height)?;
-        Ok(Camera { model: CameraModel::Pinhole(p), lens: None, width, height })
+        Ok(Camera { model: CameraModel::Pinhole(p), lens: None, width, height, filter: PixelFilter::Box })
     }
 
     /// OpenCV camera built for this resolution (see [`OpenCv::new`]).
     pub fn opencv(cam: OpenCv, width: u32, height: u32) -> anyhow::Result<Camera> {
         check_resolution(width, height)?;
-        Ok(Camera { model: CameraModel::OpenCv(cam), lens: None, width, height })
+        Ok(Camera { model: CameraModel::OpenCv(cam), lens: None, width, height, filter: PixelFilter::Box })
     }
 
     /// The pinhole model, if this is one.
@@ -142,11 +147,12 @@ impl Camera {
         }
     }
 
-    /// Primary ray through pixel (`i`, `j`) at offset `u`; with a lens, `lens_u` is called once for
-    /// the aperture sample (uniform in [0,1)²), without one it is not called.
+    /// A camera sample's ray for pixel (`i`, `j`): `u` uniform in [0,1)² is placed by the pixel
+    /// filter (for the box, the offset itself; [`filter`]); with a lens, `lens_u` is called once
+    /// for the aperture sample (uniform in [0,1)²), without one it is not called.
     #[inline]
     pub fn sample_ray(&self, i: u32, j: u32, u: Vec2, lens_u: impl FnOnce() -> Vec2) -> Ray {
-        let ray = self.generate_ray(i, j, u);
+        let ray = self.generate_ray(i, j, self.filter.film_offset(u));
         match &self.lens {
             None => ray,
             Some(lens) => {

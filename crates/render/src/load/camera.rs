@@ -1,12 +1,13 @@
 //! `[camera]`: the pinhole (eye, look_at, up, vfov_deg or camera_constant, resolution), the
 //! OpenCV model (`model = "opencv"`: fx, fy, cx, cy, k1…k6, p1, p2 or `dist`, R/rvec + t, pose,
 //! or eye/look_at; or a `calibration` file), and a thin lens (aperture_radius or f_number with
-//! focal_length_mm, focus_distance). Lengths are in the scene unit.
+//! focal_length_mm, focus_distance), and the pixel filter (`filter`). Lengths are in the scene
+//! unit.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::camera::{Camera, CameraModel, Distortion, Extrinsics, Intrinsics, OpenCv, ThinLens};
+use crate::camera::{Camera, CameraModel, Distortion, Extrinsics, GaussianFilter, Intrinsics, OpenCv, PixelFilter, ThinLens};
 use crate::load::calibration::{parse_calibration, Calibration, CalibrationNodes};
 use crate::load::desc::{CameraDesc, SceneDesc};
 use crate::load::object::{finite3, v3};
@@ -71,7 +72,61 @@ pub(crate) fn camera_from(
         other => return Err(err("model", &format!("unknown camera model `{other}` (use pinhole or opencv)"))),
     };
     camera.lens = lens(c, unit_m).map_err(|(k, e)| err(k, &e))?;
+    if let Some(f) = &c.filter {
+        if default_size.is_some() {
+            return Err(err("filter", &"a projector has no pixel filter (only the scene camera's samples are filtered)"));
+        }
+        camera.filter = filter(f).map_err(|(k, e)| err(&k, &e))?;
+    }
     Ok(camera)
+}
+
+/// The pixel filter of `filter = "box" | "tent" | "gaussian"` or of a table
+/// `{ type = …, stddev_px = …, radius_px = … }` (defaults as Mitsuba 3: tent radius 1, Gaussian
+/// σ = 0.5 and radius 4σ); errors name the key under `filter`.
+fn filter(v: &toml::Value) -> std::result::Result<PixelFilter, (String, String)> {
+    let (kind, table) = match v {
+        toml::Value::String(s) => (s.as_str(), None),
+        toml::Value::Table(t) => match t.get("type") {
+            Some(toml::Value::String(s)) => (s.as_str(), Some(t)),
+            Some(_) => return Err(("filter.type".into(), "must be a string".into())),
+            None => return Err(("filter.type".into(), "missing (box, tent or gaussian)".into())),
+        },
+        _ => return Err(("filter".into(), "must be a name (box, tent, gaussian) or a table with `type`".into())),
+    };
+    let allowed: &[&str] = match kind {
+        "box" => &["type"],
+        "tent" => &["type", "radius_px"],
+        "gaussian" => &["type", "stddev_px", "radius_px"],
+        other => return Err(("filter.type".into(), format!("unknown filter `{other}` (use box, tent or gaussian)"))),
+    };
+    let get = |key: &str| -> std::result::Result<Option<f64>, (String, String)> {
+        let Some(t) = table else { return Ok(None) };
+        match t.get(key) {
+            None => Ok(None),
+            Some(x) => {
+                let v = x.as_float().or_else(|| x.as_integer().map(|i| i as f64));
+                match v {
+                    Some(v) if v > 0.0 && v.is_finite() => Ok(Some(v)),
+                    _ => Err((format!("filter.{key}"), "must be a positive number (pixels)".into())),
+                }
+            }
+        }
+    };
+    if let Some(t) = table {
+        if let Some(k) = t.keys().find(|k| !allowed.contains(&k.as_str())) {
+            return Err((format!("filter.{k}"), format!("unknown key for the {kind} filter (allowed: {})", allowed.join(", "))));
+        }
+    }
+    Ok(match kind {
+        "box" => PixelFilter::Box,
+        "tent" => PixelFilter::Tent { radius_px: get("radius_px")?.unwrap_or(1.0) },
+        _ => {
+            let stddev = get("stddev_px")?.unwrap_or(0.5);
+            let radius = get("radius_px")?.unwrap_or(4.0 * stddev);
+            PixelFilter::Gaussian(GaussianFilter::new(stddev, radius).map_err(|e| ("filter".to_string(), e.to_string()))?)
+        }
+    })
 }
 
 /// Keys only the OpenCV model reads, present in `c`.
@@ -277,6 +332,7 @@ pub fn calibrated_camera(cal: &Calibration, base: &Camera, scene_unit_m: f64) ->
     let cam = OpenCv::new(cal.intrinsics, cal.distortion, extrinsics, w, h)?;
     let mut camera = Camera::opencv(cam, w, h)?;
     camera.lens = base.lens;
+    camera.filter = base.filter.clone();
     Ok(camera)
 }
 

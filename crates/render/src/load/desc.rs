@@ -63,6 +63,8 @@ pub(crate) struct CameraDesc {
     pub(crate) f_number: Option<f64>,
     pub(crate) focal_length_mm: Option<f64>,
     pub(crate) focus_distance: Option<f64>,
+    /// Pixel reconstruction filter: a name or a table (see `load::camera::filter`).
+    pub(crate) filter: Option<toml::Value>,
 }
 
 #[derive(Deserialize)]
