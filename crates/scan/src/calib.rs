@@ -41,6 +41,10 @@ pub struct CapturePose {
     pub tvec: [f64; 3],
     /// RMS reprojection error over both devices for this capture (pixels).
     pub rms_px: f64,
+    /// Corners with a projector position (the others are outside the projector's throw or
+    /// shadowed, and count for the camera only); 0 in files written before this was recorded.
+    #[serde(default)]
+    pub projector_corners: usize,
 }
 
 /// A projector–camera calibration as `lucent scan calibrate` writes it.
@@ -61,7 +65,8 @@ pub struct ProcamCalibration {
 }
 
 /// One capture's corners: in the camera image and in the projector image (pixels, OpenCV
-/// convention), both in the board's row-major order.
+/// convention), both in the board's row-major order; a corner without a projector position
+/// (see [`procam::projector_corners`]) is NaN in `proj`.
 #[derive(Clone, Debug)]
 pub struct CaptureCorners {
     /// The capture's name (its folder).
@@ -118,7 +123,9 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
     let mono = |pts: &dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, size: (u32, u32), what: &str| -> anyhow::Result<State> {
         let mut hs = Vec::new();
         for c in captures {
-            hs.push(homography::fit_homography(&obj, pts(c)).with_context(|| format!("{what}, capture {}: the corners do not determine a homography", c.name))?);
+            // The corners this device observed (a projector may miss some: NaN).
+            let (o, q): (Vec<_>, Vec<_>) = obj.iter().zip(pts(c)).filter(|(_, q)| bundle::observed(**q)).map(|(o, q)| (*o, *q)).unzip();
+            hs.push(homography::fit_homography(&o, &q).with_context(|| format!("{what}, capture {}: the corners do not determine a homography", c.name))?);
         }
         let lens = zhang::intrinsics(&hs, size.0, size.1).with_context(|| what.to_string())?;
         let mut poses = Vec::new();
@@ -189,7 +196,13 @@ fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], vi
         captures: captures
             .iter()
             .zip(fit.poses.iter().zip(&e.per_view))
-            .map(|(c, (p, &r))| CapturePose { name: c.name.clone(), rvec: [p.rvec[0], p.rvec[1], p.rvec[2]], tvec: [p.t[0], p.t[1], p.t[2]], rms_px: r })
+            .map(|(c, (p, &r))| CapturePose {
+                name: c.name.clone(),
+                rvec: [p.rvec[0], p.rvec[1], p.rvec[2]],
+                tvec: [p.t[0], p.t[1], p.t[2]],
+                rms_px: r,
+                projector_corners: c.proj.iter().filter(|q| bundle::observed(**q)).count(),
+            })
             .collect(),
     })
 }

@@ -635,7 +635,13 @@ pub fn truth(rig: &Rig, board: &Board, targets: &[(String, Target)], settings: &
     let mut meshes = Vec::new();
     for (name, t) in targets {
         match t {
-            Target::Board { rvec, tvec_mm } => captures.push(CapturePose { name: name.clone(), rvec: *rvec, tvec: *tvec_mm, rms_px: 0.0 }),
+            Target::Board { rvec, tvec_mm } => captures.push(CapturePose {
+                name: name.clone(),
+                rvec: *rvec,
+                tvec: *tvec_mm,
+                rms_px: 0.0,
+                projector_corners: (board.corners[0] * board.corners[1]) as usize,
+            }),
             Target::Sphere { centre_mm, radius_mm, .. } => spheres.push(SphereTruth { name: name.clone(), centre: *centre_mm, radius: *radius_mm }),
             Target::Mesh { path, matrix, .. } => meshes.push(MeshTruth { name: name.clone(), mesh: path.display().to_string(), matrix: *matrix }),
         }

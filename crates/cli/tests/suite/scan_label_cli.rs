@@ -122,7 +122,7 @@ fn label_keeps_the_board_plane_and_moves_it_to_another_capture() {
     let i = inputs("label-board");
     let s = &i.s;
     let mut calib = calibration(64, 48);
-    let pose = |name: &str, rvec: [f64; 3], tvec: [f64; 3]| scan::calib::CapturePose { name: name.into(), rvec, tvec, rms_px: 0.0 };
+    let pose = |name: &str, rvec: [f64; 3], tvec: [f64; 3]| scan::calib::CapturePose { name: name.into(), rvec, tvec, rms_px: 0.0, projector_corners: 63 };
     calib.captures = vec![pose("c0", [0.0, 0.0, 0.0], [0.0, 0.0, 10.0]), pose("c1", [0.0, 0.3, 0.0], [1.0, 0.5, 12.0])];
     std::fs::write(s.path("calib.json"), serde_json::to_string(&calib).unwrap()).unwrap();
     // The board: the left half of the view at z = 10; the wall: the right half at z = 11.5.

@@ -13,9 +13,10 @@ use nalgebra::{DMatrix, DVector, Dyn, Owned, Vector3};
 /// Observations of one board view: the corners in each device (pixels), in object-point order.
 #[derive(Clone, Debug)]
 pub struct ViewObs {
-    /// Corners seen by the first device (the camera).
+    /// Corners seen by the first device (the camera); NaN where a corner is not observed.
     pub cam: Vec<Point2>,
-    /// Corners seen by the second device (the projector); empty for a single-device fit.
+    /// Corners seen by the second device (the projector), NaN where not observed; empty for a
+    /// single-device fit.
     pub proj: Vec<Point2>,
 }
 
@@ -87,14 +88,19 @@ impl Problem<'_> {
             let base = v * per_view;
             for (k, xo) in self.obj.iter().enumerate() {
                 let xc = rot * xo + pose.t;
-                let p = cam.project(&xc);
-                r[base + 2 * k] = p[0] - obs.cam[k][0];
-                r[base + 2 * k + 1] = p[1] - obs.cam[k][1];
+                // A corner without an observation (NaN) contributes no residual.
+                if observed(obs.cam[k]) {
+                    let p = cam.project(&xc);
+                    r[base + 2 * k] = p[0] - obs.cam[k][0];
+                    r[base + 2 * k + 1] = p[1] - obs.cam[k][1];
+                }
                 if let (Some(pl), Some((rs, ts))) = (&proj, &stereo) {
-                    let xp = rs * xc + ts;
-                    let q = pl.project(&xp);
-                    r[base + 2 * n + 2 * k] = q[0] - obs.proj[k][0];
-                    r[base + 2 * n + 2 * k + 1] = q[1] - obs.proj[k][1];
+                    if observed(obs.proj[k]) {
+                        let xp = rs * xc + ts;
+                        let q = pl.project(&xp);
+                        r[base + 2 * n + 2 * k] = q[0] - obs.proj[k][0];
+                        r[base + 2 * n + 2 * k + 1] = q[1] - obs.proj[k][1];
+                    }
                 }
             }
         }
@@ -178,7 +184,13 @@ fn unpack(x: &DVector<f64>, stereo: bool, nviews: usize) -> State {
     State { cam, proj, stereo: st, poses }
 }
 
-/// RMS reprojection errors of `state` against the observations.
+/// Whether a corner observation is present (a missing one is NaN).
+#[inline]
+pub fn observed(p: Point2) -> bool {
+    p[0].is_finite() && p[1].is_finite()
+}
+
+/// RMS reprojection errors of `state` against the observations (over the observed corners).
 pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let stereo = state.proj.is_some();
@@ -186,21 +198,24 @@ pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     let r = pr.residuals_of(&pr.x);
     let n = obj.len();
     let per_view = if stereo { 4 * n } else { 2 * n };
-    let (mut sc, mut sp) = (0.0, 0.0);
+    let (mut sc, mut sp, mut nc, mut np) = (0.0, 0.0, 0usize, 0usize);
     let mut pv = Vec::new();
-    for v in 0..views.len() {
+    for (v, obs) in views.iter().enumerate() {
         let b = v * per_view;
         let c: f64 = r.rows(b, 2 * n).norm_squared();
         let p: f64 = if stereo { r.rows(b + 2 * n, 2 * n).norm_squared() } else { 0.0 };
+        let vc = obs.cam.iter().filter(|q| observed(**q)).count();
+        let vp = if stereo { obs.proj.iter().filter(|q| observed(**q)).count() } else { 0 };
         sc += c;
         sp += p;
-        pv.push(((c + p) / ((per_view / 2) as f64)).sqrt());
+        nc += vc;
+        np += vp;
+        pv.push(((c + p) / (vc + vp).max(1) as f64).sqrt());
     }
-    let nv = (views.len() * n) as f64;
     Rms {
-        cam: (sc / nv).sqrt(),
-        proj: if stereo { (sp / nv).sqrt() } else { f64::NAN },
-        all: ((sc + sp) / (nv * if stereo { 2.0 } else { 1.0 })).sqrt(),
+        cam: (sc / nc.max(1) as f64).sqrt(),
+        proj: if stereo { (sp / np.max(1) as f64).sqrt() } else { f64::NAN },
+        all: ((sc + sp) / (nc + np).max(1) as f64).sqrt(),
         per_view: pv,
     }
 }

@@ -128,6 +128,62 @@ fn levenberg_marquardt_recovers_noiseless_truth() {
     }
 }
 
+/// Corners outside the projector's throw: with a third of each view's projector corners missing
+/// (NaN, a different third per view: the right-hand columns, the top rows, a checkerboard of
+/// corners), noiseless data still give the truth to 1e-9, the missing corners add nothing to
+/// the projector's RMS, and each capture reports how many it had.
+#[test]
+fn missing_projector_corners_leave_noiseless_truth_exact() {
+    let truth = rig(true);
+    let views = observe(&truth, &board());
+    let mut caps = corners(&views);
+    let (cols, rows) = (RIG.cols, RIG.rows);
+    for (v, c) in caps.iter_mut().enumerate() {
+        for k in 0..cols * rows {
+            let (x, y) = (k % cols, k / cols);
+            let drop = match v % 3 {
+                0 => x >= 6,
+                1 => y < 2,
+                _ => (x + y) % 3 == 0,
+            };
+            if drop {
+                c.proj[k] = [f64::NAN, f64::NAN];
+            }
+        }
+    }
+    let kept: Vec<usize> = caps.iter().map(|c| c.proj.iter().filter(|p| p[0].is_finite()).count()).collect();
+    assert!(kept.iter().all(|&k| k < cols * rows && k >= 8), "{kept:?}");
+    let c = calibrate_corners(&RIG, &caps).unwrap();
+    let d = deviation(&c, &truth);
+    assert!(d < 1e-9, "deviation {d:e}");
+    assert!(c.rms_px < 1e-9 && c.projector.rms_px < 1e-9, "{} {}", c.rms_px, c.projector.rms_px);
+    assert_eq!(c.captures.iter().map(|p| p.projector_corners).collect::<Vec<_>>(), kept);
+}
+
+/// With noise, the RMS counts only the observed corners: σ = 0.1 px on every observed coordinate
+/// gives a projector RMS near σ√2 whether or not a third of its corners are missing (an RMS
+/// that divided by all corners would come out √(2/3) of it).
+#[test]
+fn missing_projector_corners_do_not_dilute_the_rms() {
+    let truth = rig(false);
+    let views = observe(&truth, &board());
+    let mut rng = Pcg::new(17);
+    let sigma = 0.1;
+    let noisy: Vec<CaptureCorners> = views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| CaptureCorners {
+            name: format!("v{i}"),
+            cam: v.cam.iter().map(|p| [p[0] + sigma * rng.normal(), p[1] + sigma * rng.normal()]).collect(),
+            proj: v.proj.iter().enumerate().map(|(k, p)| if k % 3 == 0 { [f64::NAN, f64::NAN] } else { [p[0] + sigma * rng.normal(), p[1] + sigma * rng.normal()] }).collect(),
+        })
+        .collect();
+    let c = calibrate_corners(&RIG, &noisy).unwrap();
+    let want = sigma * 2f64.sqrt();
+    assert!((c.projector.rms_px / want - 1.0).abs() < 0.15, "projector RMS {} against about {want}", c.projector.rms_px);
+    assert!((c.camera.rms_px / want - 1.0).abs() < 0.15, "camera RMS {} against about {want}", c.camera.rms_px);
+}
+
 #[test]
 fn levenberg_marquardt_on_noisy_corners_stays_within_the_expected_spread() {
     // σ = 0.1 px Gaussian noise on each coordinate of every corner of both devices. The RMS is

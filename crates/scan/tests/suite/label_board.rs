@@ -11,7 +11,7 @@ use scan::label::Mesh;
 use crate::common::Pcg;
 
 fn pose(rvec: [f64; 3], tvec: [f64; 3]) -> BoardPose {
-    BoardPose::from_capture(&CapturePose { name: String::new(), rvec, tvec, rms_px: 0.0 })
+    BoardPose::from_capture(&CapturePose { name: String::new(), rvec, tvec, rms_px: 0.0, projector_corners: 63 })
 }
 
 fn apply(m: &nalgebra::Matrix4<f64>, p: [f64; 3]) -> [f64; 3] {

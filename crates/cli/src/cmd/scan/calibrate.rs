@@ -96,7 +96,9 @@ pub fn run(args: Args) -> Result<()> {
     let angle = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
     println!("camera → projector: rotation {angle:.3}°, T ({:.3}, {:.3}, {:.3}) squares·{} = |T| {:.3}", t[0], t[1], t[2], args.square, (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt());
     for c in &calib.captures {
-        println!("  {}: board at {:.1} units, RMS {:.3} px", c.name, (c.tvec[0].powi(2) + c.tvec[1].powi(2) + c.tvec[2].powi(2)).sqrt(), c.rms_px);
+        let n = (args.corners.0 * args.corners.1) as usize;
+        let partial = if c.projector_corners < n { format!(", {} of {n} corners lit by the projector", c.projector_corners) } else { String::new() };
+        println!("  {}: board at {:.1} units, RMS {:.3} px{partial}", c.name, (c.tvec[0].powi(2) + c.tvec[1].powi(2) + c.tvec[2].powi(2)).sqrt(), c.rms_px);
     }
     println!("stereo RMS {:.3} px", calib.rms_px);
     if let Some(out) = &args.out {
