@@ -147,7 +147,8 @@ fn parse_frames(text: &str) -> Result<Vec<usize>> {
     Ok(out)
 }
 
-/// `graycode_NN.png` (or .jpg) files of a capture folder by frame number.
+/// `graycode_NN.png` (or .jpg) files of a capture folder by frame number; without any, the
+/// folder's PNG/JPEG files in natural order.
 fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
     let rd = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
     let mut out = vec![];
@@ -167,7 +168,21 @@ fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
         }
     }
     if out.is_empty() {
-        bail!("{}: no graycode_NN.png frames", dir.display());
+        // Frames named as other capture tools name them: every PNG/JPEG in natural order, frame
+        // k being the k-th (as `lucent scan decode` reads such a folder).
+        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+            .with_context(|| format!("{}: cannot read the capture folder", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                !name.starts_with('.') && p.is_file() && name.rsplit_once('.').is_some_and(|(_, e)| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
+            })
+            .collect();
+        files.sort_by(|a, b| scan::decode::natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
+        out = files.into_iter().enumerate().collect();
+    }
+    if out.is_empty() {
+        bail!("{}: no graycode_NN.png frames and no other PNG/JPEG files", dir.display());
     }
     out.sort();
     Ok(out)
