@@ -30,15 +30,29 @@ pub struct Label {
     pub name: String,
     /// Index into `Scene::materials`.
     pub material: usize,
-    /// The material's albedo as linear sRGB under D65 (the starting guess).
+    /// The material's albedo as linear sRGB under D65 (the starting guess); for a glossy label
+    /// the albedo seen under its coating (ρ_eff, `plastic` with `nonlinear = false`).
     pub albedo: [f64; 3],
+    /// The coating of a `plastic` label (None: Lambertian).
+    pub gloss: Option<Gloss>,
+}
+
+/// The dielectric coating of a glossy (`plastic`) label: the fit keeps its index and roughness
+/// (the roughness can be searched, [`crate::photo_fit::fit_roughness`]) and fits the albedo under it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gloss {
+    /// Coating index relative to the outside.
+    pub ior: f32,
+    /// GGX roughness α.
+    pub alpha: f32,
 }
 
 /// Linear-sRGB image data, row-major from the top row.
 pub type Plane = Vec<[f32; 3]>;
 
 /// The basis renders of a scene for a set of frames. Index `labels.len()` of each per-label list
-/// is the rest of the scene.
+/// is the rest of the scene; with glossy labels, index `labels.len() + 1` is their coatings'
+/// specular reflection (albedo-independent, lit like the rest).
 pub struct Basis {
     /// Width in pixels.
     pub width: u32,
@@ -52,12 +66,15 @@ pub struct Basis {
     pub flood: Vec<Plane>,
     /// Per frame, per label (+ rest): under the frame's pattern.
     pub frames: Vec<Vec<Plane>>,
+    /// Whether the lists hold the glossy labels' specular reflection after the rest.
+    pub specular: bool,
     /// Wall-clock seconds of each render made, in order.
     pub render_seconds: Vec<f64>,
 }
 
 /// The labels of `scene`: every material whose name starts with `label`, which must be an
-/// untextured Lambertian. Errors when there is none.
+/// untextured Lambertian or `plastic` (glossy: its albedo is fitted as the albedo seen under the
+/// coating, as `nonlinear = false` takes it). Errors when there is none.
 pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
     let white = DenseSpectrum::from_fn(optics::spectrum::d65_normalized);
     let white_rgb = spectrum_rgb(&DenseSpectrum::from_fn(|_| 1.0), &white);
@@ -75,11 +92,27 @@ pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
                 None => bail!("materials.{name}: a fitted label must have a constant albedo, not a texture"),
             },
             Material::Black => [0.0; 3],
-            Material::Dielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Translucent(_) => {
-                bail!("materials.{name}: a fitted label must be lambertian")
+            Material::Plastic { albedo, nonlinear, table, .. } => match albedo.as_constant() {
+                Some(s) => {
+                    let rgb = spectrum_rgb(s, &white);
+                    let f = table.f_dr_in as f64;
+                    std::array::from_fn(|c| {
+                        let r = (rgb[c] / white_rgb[c]).clamp(0.0, 1.0);
+                        // The albedo under the coating (the base's, darkened by its internal reflections).
+                        if *nonlinear { r * (1.0 - f) / (1.0 - r * f) } else { r }
+                    })
+                }
+                None => bail!("materials.{name}: a fitted label must have a constant albedo, not a texture"),
+            },
+            Material::Dielectric { .. } | Material::Conductor { .. } | Material::Translucent(_) => {
+                bail!("materials.{name}: a fitted label must be lambertian or plastic")
             }
         };
-        labels.push(Label { name: name.clone(), material: i, albedo });
+        let gloss = match m {
+            Material::Plastic { ior, alpha, .. } => Some(Gloss { ior: *ior, alpha: *alpha }),
+            _ => None,
+        };
+        labels.push(Label { name: name.clone(), material: i, albedo, gloss });
     }
     if labels.is_empty() {
         bail!("{}: no material named label* to fit", scene.source);
@@ -149,6 +182,29 @@ fn render_one_light(scene: &mut Scene, index: usize, settings: &IntegratorSettin
 enum Target {
     Label(usize),
     Rest,
+    /// The glossy labels' coatings alone (their albedo 0).
+    Specular,
+}
+
+/// A label's material in a render: albedo `albedo` (a spectrum), Lambertian or under its coating.
+fn label_material(gloss: Option<Gloss>, albedo: DenseSpectrum) -> Material {
+    match gloss {
+        None => Material::Lambertian { albedo: SpectrumTexture::from(albedo) },
+        Some(g) => Material::plastic(albedo, g.ior, g.alpha).with_nonlinear(false).expect("a plastic"),
+    }
+}
+
+/// Sets every glossy label's roughness to `alpha` in `scene` and in `labels`.
+pub fn set_roughness(scene: &mut Scene, labels: &mut [Label], alpha: f32) {
+    for l in labels.iter_mut() {
+        if let Some(g) = &mut l.gloss {
+            g.alpha = alpha;
+            if let Material::Plastic { albedo, ior, nonlinear, .. } = &scene.materials[l.material] {
+                let m = Material::plastic(albedo.clone(), *ior, alpha).with_nonlinear(*nonlinear).expect("a plastic");
+                scene.materials[l.material] = m;
+            }
+        }
+    }
 }
 
 /// Renders the basis of `scene` at its resolution for frames with the given projector images
@@ -172,10 +228,16 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
 
     // Sets the materials and lights for one render: `target` at albedo 1, the other labels black;
     // the environment on or off; the projector showing `image` (None = off).
+    // A glossy label's coating reflects in every render but the rest's, so that a label's render
+    // minus the coatings' render is its diffuse reflection alone.
     let mut render = |scene: &mut Scene, target: Target, ambient: bool, image: Option<&[f32]>| -> Result<Plane> {
         for (k, &m) in label_materials.iter().enumerate() {
             let on = target == Target::Label(k);
-            scene.materials[m] = Material::Lambertian { albedo: SpectrumTexture::from(if on { one.clone() } else { zero.clone() }) };
+            scene.materials[m] = match (labels[k].gloss, on, target) {
+                (_, true, _) => label_material(labels[k].gloss, one.clone()),
+                (Some(g), false, Target::Label(_) | Target::Specular) => label_material(Some(g), zero.clone()),
+                _ => Material::Lambertian { albedo: SpectrumTexture::from(zero.clone()) },
+            };
         }
         for (i, l) in scene.lights.iter_mut().enumerate() {
             match l {
@@ -206,7 +268,9 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
         Ok(img)
     };
 
-    let targets: Vec<Target> = (0..labels.len()).map(Target::Label).chain(std::iter::once(Target::Rest)).collect();
+    let glossy = labels.iter().any(|l| l.gloss.is_some());
+    let targets: Vec<Target> =
+        (0..labels.len()).map(Target::Label).chain(std::iter::once(Target::Rest)).chain(glossy.then_some(Target::Specular)).collect();
     let blank = || vec![[0.0f32; 3]; n];
     let result = (|| -> Result<Basis> {
         let mut ambient = vec![];
@@ -224,15 +288,24 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
         // A label's render also holds what the rest of the scene shows under the same light (the
         // environment seen directly, non-label objects): the same samples (common random
         // numbers) make subtracting the rest's render leave exactly the label's own reflection.
-        let k_rest = targets.len() - 1;
+        // With glossy labels, a label's render minus the coatings' render, and the coatings' minus
+        // the rest's.
+        let k_rest = labels.len();
         let minus_rest = |planes: &mut Vec<Plane>| {
-            let rest = planes[k_rest].clone();
-            for p in planes.iter_mut().take(k_rest) {
-                for (a, b) in p.iter_mut().zip(&rest) {
+            let sub = |a: &mut Plane, b: &Plane| {
+                for (x, y) in a.iter_mut().zip(b) {
                     for c in 0..3 {
-                        a[c] -= b[c];
+                        x[c] -= y[c];
                     }
                 }
+            };
+            let base = planes[if glossy { k_rest + 1 } else { k_rest }].clone();
+            for p in planes.iter_mut().take(k_rest) {
+                sub(p, &base);
+            }
+            if glossy {
+                let rest = planes[k_rest].clone();
+                sub(&mut planes[k_rest + 1], &rest);
             }
         };
         minus_rest(&mut ambient);
@@ -279,7 +352,7 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
             rendered.push((img.to_vec(), per.clone()));
             frames.push(per);
         }
-        Ok(Basis { width: w, height: h, labels: labels.clone(), ambient, flood, frames, render_seconds: vec![] })
+        Ok(Basis { width: w, height: h, labels: labels.clone(), ambient, flood, frames, specular: glossy, render_seconds: vec![] })
     })();
     scene.materials = saved_materials;
     scene.lights = saved_lights;
@@ -289,12 +362,13 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
 }
 
 /// Sets the scene to fitted values: each label's albedo to its RGB (uplifted, Jakob & Hanika
-/// 2019), the projector's intensity × `projector_scale`, the environment's radiance ×
-/// `ambient_scale`. The projector's black level acts on its image, see [`render_frame`].
+/// 2019; a glossy label's as the albedo under its coating, `nonlinear = false`), the projector's
+/// intensity × `projector_scale`, the environment's radiance × `ambient_scale`. The projector's
+/// black level acts on its image, see [`render_frame`].
 pub fn apply_fit(scene: &mut Scene, labels: &[Label], albedo: &[[f64; 3]], projector_scale: f64, ambient_scale: f64) {
     for (l, a) in labels.iter().zip(albedo) {
         let s = optics::spectrum::RgbAlbedo::new(*a);
-        scene.materials[l.material] = Material::Lambertian { albedo: SpectrumTexture::from(DenseSpectrum::from_fn(|x| s.eval(x))) };
+        scene.materials[l.material] = label_material(l.gloss, DenseSpectrum::from_fn(|x| s.eval(x)));
     }
     for l in scene.lights.iter_mut() {
         match l {
@@ -359,6 +433,7 @@ pub fn average(a: &Basis, b: &Basis) -> Basis {
         ambient: both(&a.ambient, &b.ambient),
         flood: both(&a.flood, &b.flood),
         frames: a.frames.iter().zip(&b.frames).map(|(x, y)| both(x, y)).collect(),
+        specular: a.specular,
         render_seconds: a.render_seconds.iter().chain(&b.render_seconds).cloned().collect(),
     }
 }

@@ -257,6 +257,17 @@ fn pixel_basis(basis: &Basis, f: usize, i: usize, out: &mut Vec<PixelBasis>) {
     for t in 0..=basis.labels.len() {
         out.push(PixelBasis { pattern: basis.frames[f][t][i], flood: basis.flood[t][i], ambient: basis.ambient[t][i] });
     }
+    // The glossy labels' coatings are lit like the rest of the scene and do not depend on any
+    // albedo: they join the rest.
+    if basis.specular {
+        let s = basis.labels.len() + 1;
+        let r = out.last_mut().expect("the rest");
+        for c in 0..3 {
+            r.pattern[c] += basis.frames[f][s][i][c];
+            r.flood[c] += basis.flood[s][i][c];
+            r.ambient[c] += basis.ambient[s][i][c];
+        }
+    }
 }
 
 /// Predicted codes of frame `f` under `params`, every pixel.
@@ -673,4 +684,86 @@ pub fn fit(basis: &Basis, halves: Option<(&Basis, &Basis)>, frames: &[Frame], st
     }
     let residual_variance = 2.0 * r.cost / (r.residuals.saturating_sub(joint.len()).max(1)) as f64;
     Ok(PhotoFit { steps, params, std_errors, names, regions, residual_variance, seconds: t0.elapsed().as_secs_f64() })
+}
+
+/// What [`fit_roughness`] found.
+pub struct RoughnessFit {
+    /// The coating roughness α of the glossy labels with the least residual variance.
+    pub alpha: f64,
+    /// (α, residual variance of the joint step) of every roughness tried, in the order tried.
+    pub profile: Vec<(f64, f64)>,
+    /// The fit at `alpha`.
+    pub fit: PhotoFit,
+    /// Its basis (the mean of the two halves) and the two halves.
+    pub basis: Basis,
+    /// The two halves of the basis (seeds `seed` and `seed + 1`).
+    pub halves: (Basis, Basis),
+}
+
+/// The glossy labels' coating roughness by a profile search: for each α tried, every glossy
+/// label's roughness is set to α, the basis is rendered (two halves of `spp / 2` samples, seeds
+/// `seed` and `seed + 1`, the same for every α: common random numbers) and the fit run from
+/// `start`; the α whose joint step leaves the least residual variance Σr²/(N − n) wins. The
+/// search takes 7 values of ln α spaced evenly over [ln 0.02, ln 1], then 6 golden-section steps
+/// in ln α between the neighbours of the best. The scene is left with the best α.
+/// Errors when no label is glossy, or as [`fit`] does.
+#[allow(clippy::too_many_arguments)]
+pub fn fit_roughness(
+    scene: &mut render::scene::Scene,
+    patterns: &[Option<Vec<f32>>],
+    frames: &[Frame],
+    start: &Params,
+    opts: &FitOptions,
+    spp: u64,
+    seed: u64,
+    progress: &dyn Fn(f64, f64),
+) -> Result<RoughnessFit> {
+    let mut labels = basis::scene_labels(scene)?;
+    if !labels.iter().any(|l| l.gloss.is_some()) {
+        bail!("no glossy label: a roughness needs a label of type `plastic`");
+    }
+    let half = (spp / 2).max(1);
+    let mut profile: Vec<(f64, f64)> = vec![];
+    let mut best: Option<RoughnessFit> = None;
+    let mut eval = |ln_a: f64, labels: &mut Vec<basis::Label>, scene: &mut render::scene::Scene| -> Result<f64> {
+        let a = ln_a.exp();
+        basis::set_roughness(scene, labels, a as f32);
+        let ha = basis::render_basis(scene, patterns, half, seed)?;
+        let hb = basis::render_basis(scene, patterns, half, seed + 1)?;
+        let b = basis::average(&ha, &hb);
+        let r = fit(&b, Some((&ha, &hb)), frames, start, opts)?;
+        let v = r.residual_variance;
+        progress(a, v);
+        profile.push((a, v));
+        if best.as_ref().is_none_or(|x| v < x.fit.residual_variance) {
+            best = Some(RoughnessFit { alpha: a, profile: vec![], fit: r, basis: b, halves: (ha, hb) });
+        }
+        Ok(v)
+    };
+    let (lo, hi) = (0.02f64.ln(), 1.0f64.ln());
+    let grid: Vec<f64> = (0..7).map(|i| lo + (hi - lo) * i as f64 / 6.0).collect();
+    let mut values = vec![];
+    for &g in &grid {
+        values.push(eval(g, &mut labels, scene)?);
+    }
+    let i = (0..grid.len()).min_by(|&a, &b| values[a].total_cmp(&values[b])).unwrap_or(0);
+    let (mut a, mut b) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut c, mut d) = (b - phi * (b - a), a + phi * (b - a));
+    let (mut fc, mut fd) = (eval(c, &mut labels, scene)?, eval(d, &mut labels, scene)?);
+    for _ in 0..4 {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - phi * (b - a);
+            fc = eval(c, &mut labels, scene)?;
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + phi * (b - a);
+            fd = eval(d, &mut labels, scene)?;
+        }
+    }
+    let mut out = best.expect("at least one roughness evaluated");
+    basis::set_roughness(scene, &mut labels, out.alpha as f32);
+    out.profile = profile;
+    Ok(out)
 }

@@ -81,6 +81,11 @@ pub struct Args {
     /// corners) in the response and joint steps.
     #[arg(long)]
     pub vignetting: bool,
+    /// Search the coating roughness α of the `plastic` labels (one α for all, by the least
+    /// residual variance over 13 values of α in [0.02, 1], each a basis render and a fit;
+    /// fit.json `roughness`); without it a glossy label keeps its scene's α.
+    #[arg(long)]
+    pub fit_roughness: bool,
     /// Starting camera gamma [default: 2.2].
     #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gamma: Option<String>,
@@ -360,7 +365,10 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     let mut scene = Scene::load(&args.scene)?;
-    let labels = scene_labels(&scene)?;
+    let mut labels = scene_labels(&scene)?;
+    if args.fit_roughness && !labels.iter().any(|l| l.gloss.is_some()) {
+        bail!("--fit-roughness: no label is `plastic` (a glossy label has a coating roughness to find)");
+    }
     let label_names: Vec<String> = labels.iter().map(|l| l.name.clone()).collect();
     let cam = scene.resolution();
     let width = match &args.width {
@@ -457,14 +465,6 @@ pub fn run(args: Args) -> Result<()> {
     scene.set_resolution(width, height);
     let t = Instant::now();
     say(format!("rendering the basis: {} labels, {} frames, {width}×{height}, {spp} spp", labels.len(), frames.len()));
-    // Two independent halves (seeds S and S + 1, spp / 2 each) for the unbiased cross error.
-    let half = (spp / 2).max(1);
-    let half_a = render_basis(&mut scene, &patterns, half, seed)?;
-    let half_b = render_basis(&mut scene, &patterns, half, seed + 1)?;
-    let basis = average(&half_a, &half_b);
-    let basis_seconds = t.elapsed().as_secs_f64();
-    say(format!("{} basis renders in {basis_seconds:.2} s", basis.render_seconds.len()));
-
     let mut start = Params::new(&labels.iter().map(|l| l.albedo).collect::<Vec<_>>(), gamma);
     let (ig, ib) = (start.global(model::GAIN), start.global(model::BLACK_LEVEL));
     start.x[ig] = gain;
@@ -493,7 +493,35 @@ pub fn run(args: Args) -> Result<()> {
         max_background,
         ..FitOptions::default()
     };
-    let result = fit(&basis, Some((&half_a, &half_b)), &frames, &start, &opts)?;
+    // Two independent halves (seeds S and S + 1, spp / 2 each) for the unbiased cross error;
+    // with --fit-roughness, those of the roughness found, and its fit.
+    let half = (spp / 2).max(1);
+    let mut roughness = None;
+    let (half_a, half_b, basis, found) = if args.fit_roughness {
+        let r = analysis::photo_fit::fit_roughness(&mut scene, &patterns, &frames, &start, &opts, spp, seed, &|a, v| {
+            say(format!("  roughness α {a:.4}: residual variance {v:.5e}"))
+        })?;
+        say(format!("roughness of the plastic labels: α {:.4}", r.alpha));
+        labels = scene_labels(&scene)?;
+        for (_, ps, _) in predictions.iter_mut() {
+            let mut pl = scene_labels(ps)?;
+            analysis::photo_fit::basis::set_roughness(ps, &mut pl, r.alpha as f32);
+        }
+        roughness = Some(json!({"alpha": r.alpha, "profile": r.profile.iter().map(|(a, v)| json!([a, v])).collect::<Vec<_>>()}));
+        (r.halves.0, r.halves.1, r.basis, Some(r.fit))
+    } else {
+        let half_a = render_basis(&mut scene, &patterns, half, seed)?;
+        let half_b = render_basis(&mut scene, &patterns, half, seed + 1)?;
+        let basis = average(&half_a, &half_b);
+        (half_a, half_b, basis, None)
+    };
+    let basis_seconds = t.elapsed().as_secs_f64();
+    say(format!("{} basis renders in {basis_seconds:.2} s", basis.render_seconds.len()));
+
+    let result = match found {
+        Some(r) => r,
+        None => fit(&basis, Some((&half_a, &half_b)), &frames, &start, &opts)?,
+    };
     drop((half_a, half_b));
     for s in &result.steps {
         say(format!(
@@ -621,6 +649,7 @@ pub fn run(args: Args) -> Result<()> {
         "labels": label_names,
         "hold": if hold.is_empty() { default_hold() } else { hold.clone() },
         "gamma_from_pairs": pair_gamma,
+        "roughness": roughness,
         "residual_variance": result.residual_variance,
         "params": summary["params"], "steps": steps,
         "verify": {"total": metrics_json(&verify_total), "frames": frames_json(&verify_metrics, &label_names)},
