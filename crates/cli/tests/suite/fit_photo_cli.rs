@@ -60,4 +60,5 @@ fn fit_photo_refuses_bad_input_with_one_line() {
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--repeat", "photo.png", "--repeat", "photo.png", "-q"], "2 --repeat for 1 --photo");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--edge-px", "-1", "-q"], "--edge-px must be a whole number");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--max-background", "2", "-q"], "--max-background must lie in [0, 1]");
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--fit-roughness", "-q"], "--fit-roughness: no label is `plastic`");
 }
