@@ -125,17 +125,14 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
     let n = patterns.len();
     let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
     let mut slots: Vec<Option<PathBuf>> = vec![None; n];
-    let mut others: Vec<PathBuf> = Vec::new();
+    let mut others = false;
     let sequence = || format!("the {}x{} step-{} sequence has {n} frames, graycode_00 … graycode_{:02}", patterns.width, patterns.height, patterns.step, n - 1);
     for entry in entries {
         let entry = entry.with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
         let path = entry.path();
         let Some(name) = path.file_name().and_then(|s| s.to_str()) else { continue };
-        let is_image = |file: &str| file.rsplit_once('.').is_some_and(|(_, e)| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"));
         let Some(rest) = name.strip_prefix("graycode_") else {
-            if is_image(name) && !name.starts_with('.') && path.is_file() {
-                others.push(path);
-            }
+            others |= is_frame_file(&path);
             continue;
         };
         let Some((digits, ext)) = rest.split_once('.') else { continue };
@@ -154,7 +151,8 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
         }
         slots[index] = Some(path);
     }
-    if slots.iter().all(Option::is_none) && !others.is_empty() {
+    if slots.iter().all(Option::is_none) && others {
+        let others = image_files_natural(dir)?;
         if others.len() != n {
             bail!(
                 "{}: no graycode_NN frames, and {} PNG/JPEG files in natural order where {}",
@@ -163,7 +161,6 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
                 sequence()
             );
         }
-        others.sort_by(|a, b| natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
         return Ok(others);
     }
     slots
@@ -171,6 +168,26 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
         .enumerate()
         .map(|(i, p)| p.ok_or_else(|| anyhow!("{}: missing image ({})", dir.join(format!("graycode_{i:02}.png")).display(), sequence())))
         .collect()
+}
+
+/// Whether `path` is a frame file: a PNG or JPEG (case-insensitive extension), not hidden.
+fn is_frame_file(path: &Path) -> bool {
+    let name = path.file_name().and_then(|s| s.to_str()).unwrap_or("");
+    !name.starts_with('.') && path.is_file() && name.rsplit_once('.').is_some_and(|(_, e)| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
+}
+
+/// The PNG and JPEG files of a folder in natural order of their names ([`natural_cmp`]): the
+/// frames of a capture whose tool does not name them `graycode_NN`.
+pub fn image_files_natural(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))? {
+        let path = entry.with_context(|| format!("{}: cannot read the capture folder", dir.display()))?.path();
+        if is_frame_file(&path) {
+            files.push(path);
+        }
+    }
+    files.sort_by(|a, b| natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
+    Ok(files)
 }
 
 /// Natural order of file names: runs of ASCII digits compare as numbers (`img_2` < `img_10`,

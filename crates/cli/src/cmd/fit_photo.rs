@@ -175,16 +175,7 @@ fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
     if out.is_empty() {
         // Frames named as other capture tools name them: every PNG/JPEG in natural order, frame
         // k being the k-th (as `lucent scan decode` reads such a folder).
-        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-            .with_context(|| format!("{}: cannot read the capture folder", dir.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-                !name.starts_with('.') && p.is_file() && name.rsplit_once('.').is_some_and(|(_, e)| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
-            })
-            .collect();
-        files.sort_by(|a, b| scan::decode::natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
-        out = files.into_iter().enumerate().collect();
+        out = scan::decode::image_files_natural(dir)?.into_iter().enumerate().collect();
     }
     if out.is_empty() {
         bail!("{}: no graycode_NN.png frames and no other PNG/JPEG files", dir.display());
