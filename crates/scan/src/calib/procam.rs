@@ -41,7 +41,7 @@ pub const MIN_PROJECTOR_CORNERS: usize = 8;
 /// The projector position (projector pixels, OpenCV convention) of every camera corner, or
 /// `[NaN, NaN]` for a corner whose window holds too few decoded pixels (outside the projector's
 /// throw or in its shadow), which the calibration then leaves out of the projector's equations,
-/// as Moreno & Taubin's software and kamino410/procam-calibration do. Errors, naming the capture
+/// as kamino410/procam-calibration's `calibrate.py` does. Errors, naming the capture
 /// `name` and the first corner without a position, when fewer than [`MIN_PROJECTOR_CORNERS`] have
 /// one.
 pub fn projector_corners(map: &DecodeMap, corners: &[Point2], opts: &LocalHomography, name: &str) -> Result<Vec<Point2>> {
