@@ -125,14 +125,16 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
     let n = patterns.len();
     let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
     let mut slots: Vec<Option<PathBuf>> = vec![None; n];
-    let mut others = false;
+    let mut others: Vec<PathBuf> = Vec::new();
     let sequence = || format!("the {}x{} step-{} sequence has {n} frames, graycode_00 … graycode_{:02}", patterns.width, patterns.height, patterns.step, n - 1);
     for entry in entries {
         let entry = entry.with_context(|| format!("{}: cannot read the capture folder", dir.display()))?;
         let path = entry.path();
         let Some(name) = path.file_name().and_then(|s| s.to_str()) else { continue };
         let Some(rest) = name.strip_prefix("graycode_") else {
-            others |= is_frame_file(&path);
+            if is_frame_file(&path) {
+                others.push(path);
+            }
             continue;
         };
         let Some((digits, ext)) = rest.split_once('.') else { continue };
@@ -151,8 +153,8 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
         }
         slots[index] = Some(path);
     }
-    if slots.iter().all(Option::is_none) && others {
-        let others = image_files_natural(dir)?;
+    if slots.iter().all(Option::is_none) && !others.is_empty() {
+        sort_natural(&mut others);
         if others.len() != n {
             bail!(
                 "{}: no graycode_NN frames, and {} PNG/JPEG files in natural order where {}",
@@ -186,8 +188,13 @@ pub fn image_files_natural(dir: &Path) -> Result<Vec<PathBuf>> {
             files.push(path);
         }
     }
-    files.sort_by(|a, b| natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
+    sort_natural(&mut files);
     Ok(files)
+}
+
+/// Sorts paths by their file names in natural order ([`natural_cmp`]).
+fn sort_natural(files: &mut [PathBuf]) {
+    files.sort_by(|a, b| natural_cmp(&a.file_name().unwrap_or_default().to_string_lossy(), &b.file_name().unwrap_or_default().to_string_lossy()));
 }
 
 /// Natural order of file names: runs of ASCII digits compare as numbers (`img_2` < `img_10`,

@@ -95,11 +95,10 @@ pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
             Material::Plastic { albedo, nonlinear, table, .. } => match albedo.as_constant() {
                 Some(s) => {
                     let rgb = spectrum_rgb(s, &white);
-                    let f = table.f_dr_in as f64;
                     std::array::from_fn(|c| {
                         let r = (rgb[c] / white_rgb[c]).clamp(0.0, 1.0);
                         // The albedo under the coating (the base's, darkened by its internal reflections).
-                        if *nonlinear { r * (1.0 - f) / (1.0 - r * f) } else { r }
+                        if *nonlinear { table.albedo_under(glam::Vec4::splat(r as f32)).x as f64 } else { r }
                     })
                 }
                 None => bail!("materials.{name}: a fitted label must have a constant albedo, not a texture"),

@@ -43,6 +43,14 @@ impl CoatingTable {
         self.e[i] * (1.0 - t) + self.e[i + 1] * t
     }
 
+    /// The albedo seen under the coating of a base of albedo ρ (per lane), darkened by the
+    /// base–coating interreflections: ρ(1 − F_dr,in)/(1 − ρ F_dr,in).
+    #[inline]
+    pub fn albedo_under(&self, rho: Vec4) -> Vec4 {
+        let fi = self.f_dr_in;
+        rho * (1.0 - fi) / (Vec4::ONE - rho * fi)
+    }
+
     fn compute(alpha: f32, eta: f32) -> CoatingTable {
         let distrib = TrowbridgeReitz::isotropic(alpha);
         let smooth = distrib.effectively_smooth();
@@ -146,8 +154,7 @@ impl CoatedDiffuse {
         if !self.nonlinear {
             return self.albedo;
         }
-        let fi = self.table.f_dr_in;
-        self.albedo * (1.0 - fi) / (Vec4::ONE - self.albedo * fi)
+        self.table.albedo_under(self.albedo)
     }
 
     /// Probability of choosing the specular lobe for upper-side `wo`.

@@ -120,13 +120,14 @@ impl GaussianFilter {
         let r = self.radius_px;
         let target = u.clamp(0.0, 1.0) * self.integral();
         // The cell [x_k, x_{k+1}] holding the target, then Newton steps on the exact density
-        // inside it, kept in the cell by bisection.
+        // inside it, kept in the cell by bisection, from the CDF's linear interpolation in the cell.
         let k = (self.cdf.partition_point(|&c| c <= target).saturating_sub(1)).min(NODES - 1);
         let h = 2.0 * r / NODES as f64;
         let (mut lo, mut hi) = (-r + h * k as f64, -r + h * (k + 1) as f64);
         let base = self.cdf[k];
         let x0 = lo;
-        let mut x = 0.5 * (lo + hi);
+        let mass = self.cdf[k + 1] - base;
+        let mut x = if mass > 0.0 { lo + h * ((target - base) / mass).clamp(0.0, 1.0) } else { 0.5 * (lo + hi) };
         for _ in 0..40 {
             let fx = base + gauss_legendre5(|t| self.eval(t), x0, x) - target;
             if fx > 0.0 {

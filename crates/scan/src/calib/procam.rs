@@ -57,7 +57,7 @@ pub fn projector_corners(map: &DecodeMap, corners: &[Point2], opts: &LocalHomogr
             }
         }
     }
-    let found = out.iter().filter(|p| p[0].is_finite()).count();
+    let found = out.iter().filter(|p| super::bundle::observed(**p)).count();
     if found < MIN_PROJECTOR_CORNERS.min(corners.len()) {
         bail!(
             "{}; {found} of {} corners have a projector position, need {}",
