@@ -1,21 +1,28 @@
 //! The OpenCV camera model (OpenCV's "Camera Calibration and 3D Reconstruction" documentation,
 //! `calib3d`): a pinhole with intrinsics fx, fy, cx, cy (pixels), radial distortion k1, k2, k3
-//! and the rational model's k4, k5, k6, tangential distortion p1, p2, and extrinsics R, t
-//! mapping world to camera coordinates (x right, y down, z forward).
+//! and the rational model's k4, k5, k6, tangential distortion p1, p2, thin-prism distortion
+//! s1…s4, the tilted sensor's τx, τy, and extrinsics R, t mapping world to camera coordinates
+//! (x right, y down, z forward).
 //!
 //! A world point X projects as
 //!   (X, Y, Z) = R·X_w + t,   x′ = X/Z,   y′ = Y/Z,   r² = x′² + y′²,
-//!   x″ = x′·(1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶) + 2 p1 x′y′ + p2 (r² + 2x′²),
-//!   y″ = y′·(same radial factor) + p1 (r² + 2y′²) + 2 p2 x′y′,
-//!   u = fx x″ + cx,   v = fy y″ + cy.
+//!   x″ = x′·(1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶) + 2 p1 x′y′ + p2 (r² + 2x′²)
+//!        + s1 r² + s2 r⁴,
+//!   y″ = y′·(same radial factor) + p1 (r² + 2y′²) + 2 p2 x′y′ + s3 r² + s4 r⁴,
+//!   (a, b, c) = M(τx, τy)·(x″, y″, 1),   u = fx a/c + cx,   v = fy b/c + cy,
+//! where the tilt M = P_z·R_xy, R_xy = R_y(τy)·R_x(τx) (R_x = [[1, 0, 0], [0, cos τx, sin τx],
+//! [0, −sin τx, cos τx]], R_y = [[cos τy, 0, −sin τy], [0, 1, 0], [sin τy, 0, cos τy]]) and
+//! P_z = [[R₂₂, 0, −R₀₂], [0, R₂₂, −R₁₂], [0, 0, 1]] of R = R_xy: the projection onto a sensor
+//! tilted by τx about x and τy about y (Louhichi et al. 2007, as OpenCV implements it). With
+//! τx = τy = 0, M is the identity.
 //!
 //! Pixel convention: OpenCV puts integer coordinates at pixel centres, so pixel (i, j) of the
 //! film, sampled at offset (uₓ, u_y) ∈ [0,1)², is OpenCV position (i + uₓ − ½, j + u_y − ½):
 //! pixel (i, j) covers [i − ½, i + ½) × [j − ½, j + ½) in OpenCV coordinates, and lucent's
 //! continuous film coordinate is the OpenCV coordinate plus ½.
 //!
-//! Rays need the inverse of the distortion map (x′, y′) ↦ (x″, y″). It is solved per ray by
-//! Newton's method in f64 from (x″, y″) to a residual below 1e-9 px: about four iterations of a
+//! Rays need the inverse of the distortion map (x′, y′) ↦ (x″, y″). The tilt is a homography,
+//! inverted exactly first; the rest is solved per ray by Newton's method in f64 from (x″, y″) to a residual below 1e-9 px: about four iterations of a
 //! closed-form 2×2 Jacobian (quadratic convergence from a 50 px start at the image corners),
 //! no per-pixel cache; the `camera` test suite times it against the pinhole's ray and a path
 //! sample (about a tenth of a Cornell-box path sample). Parameters for which the map is not invertible over the
@@ -39,18 +46,45 @@ pub struct Intrinsics {
     pub cy: f64,
 }
 
-/// Distortion coefficients (dimensionless, acting on normalised image coordinates).
+/// Distortion coefficients (dimensionless, acting on normalised image coordinates; the tilt in
+/// radians).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Distortion {
     /// Radial k1…k6 (k4…k6: denominator of the rational model).
     pub k: [f64; 6],
     /// Tangential p1, p2.
     pub p: [f64; 2],
+    /// Thin prism s1…s4 (x″ gains s1 r² + s2 r⁴, y″ gains s3 r² + s4 r⁴).
+    pub s: [f64; 4],
+    /// Sensor tilt τx, τy (radians) about the x and y axes.
+    pub tau_rad: [f64; 2],
+}
+
+/// 3×3 matrix product.
+fn mat_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut m = [[0.0; 3]; 3];
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    m
+}
+
+/// The tilt homography M(τx, τy) of the module documentation.
+pub fn tilt_matrix(tau_x_rad: f64, tau_y_rad: f64) -> [[f64; 3]; 3] {
+    let (sx, cx) = tau_x_rad.sin_cos();
+    let (sy, cy) = tau_y_rad.sin_cos();
+    let rot_x = [[1.0, 0.0, 0.0], [0.0, cx, sx], [0.0, -sx, cx]];
+    let rot_y = [[cy, 0.0, -sy], [0.0, 1.0, 0.0], [sy, 0.0, cy]];
+    let r = mat_mul(&rot_y, &rot_x);
+    let proj_z = [[r[2][2], 0.0, -r[0][2]], [0.0, r[2][2], -r[1][2]], [0.0, 0.0, 1.0]];
+    mat_mul(&proj_z, &r)
 }
 
 impl Distortion {
-    /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6]]): 4, 5 or 8 entries;
-    /// 12 or 14 entries (thin-prism s1…s4, tilt τx, τy) are accepted only when the extras are 0.
+    /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, τx,
+    /// τy]]]]): 0, 4, 5, 8, 12 or 14 entries, τ in radians.
     pub fn from_opencv(c: &[f64]) -> Result<Distortion> {
         if !matches!(c.len(), 0 | 4 | 5 | 8 | 12 | 14) {
             bail!("distortion has {} coefficients; OpenCV uses 4, 5, 8, 12 or 14 (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1..s4[, tx, ty]]]])", c.len());
@@ -58,11 +92,35 @@ impl Distortion {
         if let Some(x) = c.iter().find(|x| !x.is_finite()) {
             bail!("distortion coefficient {x} is not finite");
         }
-        if c.len() > 8 && c[8..].iter().any(|&x| x != 0.0) {
-            bail!("thin-prism and tilt coefficients (entries 9 and on) are not supported; they must be 0");
-        }
         let g = |i: usize| c.get(i).copied().unwrap_or(0.0);
-        Ok(Distortion { k: [g(0), g(1), g(4), g(5), g(6), g(7)], p: [g(2), g(3)] })
+        let tau_rad = [g(12), g(13)];
+        if tau_rad.iter().any(|t| t.abs() >= std::f64::consts::FRAC_PI_4) {
+            bail!("sensor tilt τx, τy = {}, {} rad: a tilt of 45° or more is not a lens model", tau_rad[0], tau_rad[1]);
+        }
+        Ok(Distortion { k: [g(0), g(1), g(4), g(5), g(6), g(7)], p: [g(2), g(3)], s: [g(8), g(9), g(10), g(11)], tau_rad })
+    }
+
+    /// Whether the sensor is tilted (τx or τy not 0).
+    #[inline]
+    fn tilted(&self) -> bool {
+        self.tau_rad != [0.0, 0.0]
+    }
+
+    /// The tilt homography M(τx, τy) (identity without tilt).
+    pub fn tilt(&self) -> [[f64; 3]; 3] {
+        tilt_matrix(self.tau_rad[0], self.tau_rad[1])
+    }
+
+    /// (x″, y″) of a point (a, b) on the tilted sensor's normalised plane: M⁻¹·(a, b, 1)
+    /// dehomogenised; None where it lies at or behind infinity.
+    pub fn untilt(&self, a: f64, b: f64) -> Option<(f64, f64)> {
+        if !self.tilted() {
+            return Some((a, b));
+        }
+        let m = self.tilt();
+        let inv = inverse3(&m)?;
+        let v = mat_vec(&inv, [a, b, 1.0]);
+        (v[2] > 0.0).then(|| (v[0] / v[2], v[1] / v[2]))
     }
 
     /// Radial factor (1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶), its derivative with
@@ -77,31 +135,40 @@ impl Distortion {
         (n / m, (dn * m - n * dm) / (m * m), m)
     }
 
-    /// Distorted normalised coordinates (x″, y″) of undistorted (x′, y′).
+    /// Distorted normalised coordinates of undistorted (x′, y′): (x″, y″) carried through the tilt,
+    /// (a/c, b/c) of the module documentation (u = fx·a/c + cx).
     #[inline]
     pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
-        let r2 = x * x + y * y;
-        let (f, _, _) = self.radial(r2);
-        let [p1, p2] = self.p;
-        (x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x), y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y)
+        let ((xd, yd), _) = self.distort_jacobian(x, y);
+        if !self.tilted() {
+            return (xd, yd);
+        }
+        let v = mat_vec(&self.tilt(), [xd, yd, 1.0]);
+        (v[0] / v[2], v[1] / v[2])
     }
 
-    /// The distorted point and the Jacobian [[∂x″/∂x′, ∂x″/∂y′], [∂y″/∂x′, ∂y″/∂y′]].
+    /// (x″, y″) before the tilt and the Jacobian [[∂x″/∂x′, ∂x″/∂y′], [∂y″/∂x′, ∂y″/∂y′]].
     #[inline]
     fn distort_jacobian(&self, x: f64, y: f64) -> ((f64, f64), [[f64; 2]; 2]) {
         let r2 = x * x + y * y;
         let (f, g, _) = self.radial(r2);
         let [p1, p2] = self.p;
-        let xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-        let yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+        let [s1, s2, s3, s4] = self.s;
+        let xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) + r2 * (s1 + s2 * r2);
+        let yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y + r2 * (s3 + s4 * r2);
+        // d(s r² + s′ r⁴)/dx = 2x (s + 2 s′ r²), likewise in y.
+        let (px, py) = (2.0 * (s1 + 2.0 * s2 * r2), 2.0 * (s3 + 2.0 * s4 * r2));
         let off = 2.0 * x * y * g + 2.0 * p1 * x + 2.0 * p2 * y;
-        let j = [[f + 2.0 * x * x * g + 2.0 * p1 * y + 6.0 * p2 * x, off], [off, f + 2.0 * y * y * g + 6.0 * p1 * y + 2.0 * p2 * x]];
+        let j = [
+            [f + 2.0 * x * x * g + 2.0 * p1 * y + 6.0 * p2 * x + px * x, off + px * y],
+            [off + py * x, f + 2.0 * y * y * g + 6.0 * p1 * y + 2.0 * p2 * x + py * y],
+        ];
         ((xd, yd), j)
     }
 
     /// Whether every coefficient is zero (the map is the identity).
     pub fn is_zero(&self) -> bool {
-        self.k.iter().chain(self.p.iter()).all(|&c| c == 0.0)
+        self.k.iter().chain(self.p.iter()).chain(self.s.iter()).chain(self.tau_rad.iter()).all(|&c| c == 0.0)
     }
 }
 
@@ -220,13 +287,19 @@ impl OpenCv {
         let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
         let d = &self.distortion;
         let (u0, u1, v0, v1) = (-0.5, width as f64 - 0.5, -0.5, height as f64 - 0.5);
-        let rd_max = [(u0, v0), (u0, v1), (u1, v0), (u1, v1)]
-            .iter()
-            .map(|&(u, v)| ((u - cx) / fx).hypot((v - cy) / fy))
-            .fold(0.0f64, f64::max);
+        // The corners' distance from the axis before the tilt.
+        let mut rd_max = 0.0f64;
+        for (u, v) in [(u0, v0), (u0, v1), (u1, v0), (u1, v1)] {
+            let Some((x, y)) = d.untilt((u - cx) / fx, (v - cy) / fy) else {
+                bail!("sensor tilt τx, τy = {}, {} rad puts image corner ({u}, {v}) beyond the horizon", d.tau_rad[0], d.tau_rad[1]);
+            };
+            rd_max = rd_max.max(x.hypot(y));
+        }
         // Walk the radial map outwards until it passes the corner radius (with margin for the
         // tangential terms); it must increase and keep a positive denominator all the way.
-        let target = rd_max * 1.05 + 2.0 * (d.p[0].abs() + d.p[1].abs()) * rd_max * rd_max;
+        let (rm2, [s1, s2, s3, s4]) = (rd_max * rd_max, d.s);
+        let prism = (s1.abs() + s3.abs()) * rm2 + (s2.abs() + s4.abs()) * rm2 * rm2;
+        let target = rd_max * 1.05 + 2.0 * (d.p[0].abs() + d.p[1].abs()) * rm2 + prism;
         let dr = (rd_max / 4000.0).max(1e-6);
         let mut r = 0.0f64;
         loop {
@@ -277,11 +350,15 @@ impl OpenCv {
         Ok(())
     }
 
-    /// Undistorted normalised coordinates (x′, y′) of distorted (x″, y″) by Newton's method, and
-    /// whether the residual fell below [`INVERSE_TOLERANCE_PX`].
+    /// Undistorted normalised coordinates (x′, y′) of distorted ones ((u − cx)/fx, (v − cy)/fy):
+    /// the tilt inverted exactly, then Newton's method on the rest, and whether its residual
+    /// (before the tilt, in pixels of fx, fy) fell below [`INVERSE_TOLERANCE_PX`].
     pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64, bool) {
         let Intrinsics { fx, fy, .. } = self.intrinsics;
         let d = &self.distortion;
+        let Some((xd, yd)) = d.untilt(xd, yd) else {
+            return (xd, yd, false);
+        };
         let tol2 = INVERSE_TOLERANCE_PX * INVERSE_TOLERANCE_PX;
         // Squared pixel residual of a candidate and its normalised residual vector.
         let resid2 = |a: f64, b: f64| {
@@ -378,6 +455,26 @@ pub(crate) fn mat_vec(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
 pub(crate) fn transpose(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     [0, 1, 2].map(|a| [m[0][a], m[1][a], m[2][a]])
 }
+/// Inverse of a 3×3 matrix by its adjugate; None when singular.
+fn inverse3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let det = det3(m);
+    if !(det.abs() > 0.0) || !det.is_finite() {
+        return None;
+    }
+    let c = |i: usize, j: usize| {
+        let (i1, i2, j1, j2) = ((i + 1) % 3, (i + 2) % 3, (j + 1) % 3, (j + 2) % 3);
+        m[i1][j1] * m[i2][j2] - m[i1][j2] * m[i2][j1]
+    };
+    let mut inv = [[0.0; 3]; 3];
+    for (i, row) in inv.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            // The adjugate is the transposed cofactor matrix.
+            *v = c(j, i) / det;
+        }
+    }
+    Some(inv)
+}
+
 fn det3(m: &[[f64; 3]; 3]) -> f64 {
     m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])

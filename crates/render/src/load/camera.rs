@@ -1,5 +1,5 @@
 //! `[camera]`: the pinhole (eye, look_at, up, vfov_deg or camera_constant, resolution), the
-//! OpenCV model (`model = "opencv"`: fx, fy, cx, cy, k1…k6, p1, p2 or `dist`, R/rvec + t, pose,
+//! OpenCV model (`model = "opencv"`: fx, fy, cx, cy, k1…k6, p1, p2, s1…s4, tau_x_rad, tau_y_rad or `dist`, R/rvec + t, pose,
 //! or eye/look_at; or a `calibration` file), and a thin lens (aperture_radius or f_number with
 //! focal_length_mm, focus_distance), and the pixel filter (`filter`). Lengths are in the scene
 //! unit.
@@ -144,6 +144,12 @@ fn opencv_keys(c: &CameraDesc) -> Vec<&'static str> {
         ("k6", c.k6.is_some()),
         ("p1", c.p1.is_some()),
         ("p2", c.p2.is_some()),
+        ("s1", c.s1.is_some()),
+        ("s2", c.s2.is_some()),
+        ("s3", c.s3.is_some()),
+        ("s4", c.s4.is_some()),
+        ("tau_x_rad", c.tau_x_rad.is_some()),
+        ("tau_y_rad", c.tau_y_rad.is_some()),
         ("dist", c.dist.is_some()),
         ("R", c.r.is_some()),
         ("rvec", c.rvec.is_some()),
@@ -194,7 +200,7 @@ fn opencv_camera(
         }
     };
     let keys = opencv_keys(c);
-    let intr_keys: Vec<&&str> = keys.iter().filter(|k| matches!(**k, "fx" | "fy" | "cx" | "cy" | "k1" | "k2" | "k3" | "k4" | "k5" | "k6" | "p1" | "p2" | "dist")).collect();
+    let intr_keys: Vec<&&str> = keys.iter().filter(|k| matches!(**k, "fx" | "fy" | "cx" | "cy" | "k1" | "k2" | "k3" | "k4" | "k5" | "k6" | "p1" | "p2" | "s1" | "s2" | "s3" | "s4" | "tau_x_rad" | "tau_y_rad" | "dist")).collect();
     let (intrinsics, distortion, mut size) = match &calib {
         Some(cal) => {
             if let Some(k) = intr_keys.first() {
@@ -205,15 +211,19 @@ fn opencv_camera(
         None => {
             let need = |k: &str, v: Option<f64>| v.filter(|x| x.is_finite()).ok_or_else(|| err(k, &"missing or not finite"));
             let intr = Intrinsics { fx: need("fx", c.fx)?, fy: need("fy", c.fy)?, cx: need("cx", c.cx)?, cy: need("cy", c.cy)? };
-            let named = [c.k1, c.k2, c.p1, c.p2, c.k3, c.k4, c.k5, c.k6];
+            // OpenCV's order: k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4, τx, τy.
+            let named = [c.k1, c.k2, c.p1, c.p2, c.k3, c.k4, c.k5, c.k6, c.s1, c.s2, c.s3, c.s4, c.tau_x_rad, c.tau_y_rad];
             let dist = match &c.dist {
                 Some(d) => {
                     if named.iter().any(|k| k.is_some()) {
-                        return Err(err("dist", &"give dist or k1…k6, p1, p2, not both"));
+                        return Err(err("dist", &"give dist or the named coefficients (k1…k6, p1, p2, s1…s4, tau_x_rad, tau_y_rad), not both"));
                     }
                     Distortion::from_opencv(d).map_err(|e| err("dist", &e))?
                 }
-                None => Distortion::from_opencv(&named.map(|k| k.unwrap_or(0.0))).map_err(|e| err("k1", &e))?,
+                None => {
+                    let key = if c.tau_x_rad.is_some() || c.tau_y_rad.is_some() { "tau_x_rad" } else { "k1" };
+                    Distortion::from_opencv(&named.map(|k| k.unwrap_or(0.0))).map_err(|e| err(key, &e))?
+                }
             };
             (intr, dist, None)
         }

@@ -48,6 +48,12 @@ pub(crate) struct CameraDesc {
     pub(crate) k6: Option<f64>,
     pub(crate) p1: Option<f64>,
     pub(crate) p2: Option<f64>,
+    pub(crate) s1: Option<f64>,
+    pub(crate) s2: Option<f64>,
+    pub(crate) s3: Option<f64>,
+    pub(crate) s4: Option<f64>,
+    pub(crate) tau_x_rad: Option<f64>,
+    pub(crate) tau_y_rad: Option<f64>,
     pub(crate) dist: Option<Vec<f64>>,
     #[serde(rename = "R")]
     pub(crate) r: Option<[[f64; 3]; 3]>,

@@ -10,17 +10,24 @@ use render::load::calibration::{parse_calibration, CalibrationNodes};
 use render::math::sampling::Pcg32;
 
 /// OpenCV's `projectPoints` as its documentation writes it: R, t world → camera, then
-/// x′ = X/Z, radial (1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶), tangential p1, p2.
+/// x′ = X/Z, radial (1 + k1 r² + k2 r⁴ + k3 r⁶)/(1 + k4 r² + k5 r⁴ + k6 r⁶), tangential p1, p2,
+/// thin prism s1…s4, and the tilted sensor: s·(x‴, y‴, 1) = [[R₃₃, 0, −R₁₃], [0, R₃₃, −R₂₃],
+/// [0, 0, 1]]·R(τx, τy)·(x″, y″, 1) with R(τx, τy) multiplied out as the documentation prints it.
 #[allow(clippy::too_many_arguments)]
-fn opencv_formula(r: &[[f64; 3]; 3], t: [f64; 3], k: [f64; 8], f: [f64; 4], p: [f64; 3]) -> [f64; 2] {
-    let [k1, k2, p1, p2, k3, k4, k5, k6] = k;
+fn opencv_formula(r: &[[f64; 3]; 3], t: [f64; 3], k: [f64; 14], f: [f64; 4], p: [f64; 3]) -> [f64; 2] {
+    let [k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4, tx, ty] = k;
     let cam: Vec<f64> = (0..3).map(|a| r[a][0] * p[0] + r[a][1] * p[1] + r[a][2] * p[2] + t[a]).collect();
     let (x, y) = (cam[0] / cam[2], cam[1] / cam[2]);
     let r2 = x * x + y * y;
     let radial = (1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2) / (1.0 + k4 * r2 + k5 * r2 * r2 + k6 * r2 * r2 * r2);
-    let xpp = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-    let ypp = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-    [f[0] * xpp + f[2], f[1] * ypp + f[3]]
+    let xpp = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) + s1 * r2 + s2 * r2 * r2;
+    let ypp = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y + s3 * r2 + s4 * r2 * r2;
+    let (sx, cx) = tx.sin_cos();
+    let (sy, cy) = ty.sin_cos();
+    let rt = [[cy, sy * sx, -sy * cx], [0.0, cx, sx], [sy, -cy * sx, cy * cx]];
+    let v: Vec<f64> = (0..3).map(|a| rt[a][0] * xpp + rt[a][1] * ypp + rt[a][2]).collect();
+    let w = [rt[2][2] * v[0] - rt[0][2] * v[2], rt[2][2] * v[1] - rt[1][2] * v[2], v[2]];
+    [f[0] * w[0] / w[2] + f[2], f[1] * w[1] / w[2] + f[3]]
 }
 
 /// Rotation of a Rodrigues vector, written as the exponential of the cross-product matrix
@@ -59,6 +66,8 @@ fn opencv_projection_matches_the_formula_and_rays_pass_through_the_points() {
     while cameras < 40 {
         let f = [uniform(&mut rng, 400.0, 900.0), uniform(&mut rng, 400.0, 900.0), uniform(&mut rng, 300.0, 340.0), uniform(&mut rng, 220.0, 260.0)];
         let rational = rng.next_f64() < 0.5;
+        // A third of the cameras add thin-prism and tilt terms (OpenCV's 14-coefficient model).
+        let full = rng.next_f64() < 1.0 / 3.0;
         let s = |rng: &mut Pcg32, a: f64| uniform(rng, -a, a);
         let k = [
             s(&mut rng, 0.3),
@@ -69,6 +78,12 @@ fn opencv_projection_matches_the_formula_and_rays_pass_through_the_points() {
             if rational { s(&mut rng, 0.2) } else { 0.0 },
             if rational { s(&mut rng, 0.05) } else { 0.0 },
             if rational { s(&mut rng, 0.02) } else { 0.0 },
+            if full { s(&mut rng, 0.004) } else { 0.0 },
+            if full { s(&mut rng, 0.002) } else { 0.0 },
+            if full { s(&mut rng, 0.004) } else { 0.0 },
+            if full { s(&mut rng, 0.002) } else { 0.0 },
+            if full { s(&mut rng, 0.08) } else { 0.0 },
+            if full { s(&mut rng, 0.08) } else { 0.0 },
         ];
         let rvec = [s(&mut rng, 2.0), s(&mut rng, 2.0), s(&mut rng, 2.0)];
         let t = [s(&mut rng, 1.0), s(&mut rng, 1.0), s(&mut rng, 1.0)];
@@ -140,6 +155,61 @@ fn opencv_projection_matches_the_formula_and_rays_pass_through_the_points() {
     assert!(worst_px_f32 < 1e-4, "film projection differs from the formula by {worst_px_f32:e} px");
     assert!(worst_ray < 1e-9, "f64 ray misses by {worst_ray:e} of the distance");
     assert!(worst_ray_f32 < 1e-6, "ray misses by {worst_ray_f32:e} of the distance");
+}
+
+/// OpenCV 5.1.0's `cv2.projectPoints` on a camera with all 14 distortion coefficients
+/// (`benches-peers/opencv_project_points.py` prints these values): lucent's projection agrees to
+/// 1e-9 px, and the ray through each of OpenCV's pixels passes through its point.
+#[test]
+fn opencv_14_coefficients_match_opencv_project_points() {
+    const POINTS: [[f64; 3]; 18] = [[-0.45, -0.3, -0.2], [-0.45, -0.3, 0.25], [-0.45, 0.1, -0.2], [-0.45, 0.1, 0.25], [-0.45, 0.33, -0.2], [-0.45, 0.33, 0.25], [0.0, -0.3, -0.2], [0.0, -0.3, 0.25], [0.0, 0.1, -0.2], [0.0, 0.1, 0.25], [0.0, 0.33, -0.2], [0.0, 0.33, 0.25], [0.38, -0.3, -0.2], [0.38, -0.3, 0.25], [0.38, 0.1, -0.2], [0.38, 0.1, 0.25], [0.38, 0.33, -0.2], [0.38, 0.33, 0.25]];
+    const PIXELS: [[f64; 2]; 18] = [
+        [173.666089138722, 30.321154942307],
+        [168.099042053963, 54.075816954271],
+        [157.601974706262, 225.333755649041],
+        [155.546881104685, 207.463468393134],
+        [150.973838531664, 335.834819047914],
+        [149.962224446141, 294.946320278981],
+        [387.862691526272, 51.492591913419],
+        [338.339679459480, 69.488471125257],
+        [372.234127832613, 237.950223199829],
+        [325.949499260973, 218.043482187036],
+        [362.911098398425, 343.527145997291],
+        [318.972516918266, 302.698775162763],
+        [549.167038915666, 72.148951711113],
+        [471.676490195479, 84.301042310782],
+        [534.277657507966, 247.465071483463],
+        [459.606004622591, 226.612583771074],
+        [523.586826912924, 346.808893731239],
+        [451.807663695927, 307.708163661156],
+    ];
+    let d = [-0.21, 0.08, 0.0012, -0.0009, -0.02, 0.05, 0.01, -0.004, 0.0021, -0.0013, -0.0017, 0.0008, 0.031, -0.022];
+    let intr = Intrinsics { fx: 812.5, fy: 805.0, cx: 331.25, cy: 236.75 };
+    let cam = OpenCv::new(intr, Distortion::from_opencv(&d).unwrap(), Extrinsics::from_rvec([0.11, -0.23, 0.07], [0.05, -0.12, 1.9]).unwrap(), 640, 480).unwrap();
+    let (mut worst_px, mut worst_ray) = (0.0f64, 0.0f64);
+    for (p, want) in POINTS.iter().zip(PIXELS) {
+        let got = cam.project_pixel(*p).unwrap();
+        worst_px = worst_px.max((got[0] - want[0]).hypot(got[1] - want[1]));
+        let (o, dir) = cam.ray_pixel(want[0], want[1]);
+        let v = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
+        let c = [v[1] * dir[2] - v[2] * dir[1], v[2] * dir[0] - v[0] * dir[2], v[0] * dir[1] - v[1] * dir[0]];
+        let n = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        worst_ray = worst_ray.max(n(c) / n(v));
+    }
+    // The reference values carry 12 decimals.
+    assert!(worst_px < 2e-9, "lucent vs OpenCV projectPoints: {worst_px:e} px");
+    assert!(worst_ray < 1e-10, "ray through OpenCV's pixel misses by {worst_ray:e} of the distance");
+    // Without the tilt the same camera moves every point by pixels: the reference sees it.
+    let mut untilted = d;
+    untilted[12] = 0.0;
+    untilted[13] = 0.0;
+    let flat = OpenCv::new(intr, Distortion::from_opencv(&untilted).unwrap(), cam.extrinsics, 640, 480).unwrap();
+    let shift = POINTS.iter().zip(PIXELS).map(|(p, w)| {
+        let g = flat.project_pixel(*p).unwrap();
+        (g[0] - w[0]).hypot(g[1] - w[1])
+    });
+    let shift = shift.fold(0.0f64, f64::max);
+    assert!(shift > 1.0, "the tilt moves the points by at most {shift} px");
 }
 
 #[test]
@@ -326,6 +396,29 @@ fn non_invertible_distortion_is_refused() {
     let e = render::scene::Scene::from_toml_str(text, "bad.toml", std::path::Path::new(".")).err().unwrap();
     let msg = format!("{e:#}");
     assert!(msg.starts_with("bad.toml:1:1: camera") && msg.contains("not invertible") && !msg.contains('\n'), "{msg}");
+}
+
+/// The named keys s1…s4, tau_x_rad, tau_y_rad are OpenCV's entries 9–14 of `dist`; a tilt of 45°
+/// or more is one line naming its key.
+#[test]
+fn prism_and_tilt_keys_are_opencv_entries_9_to_14() {
+    let base = "[camera]\nmodel = \"opencv\"\nwidth = 320\nheight = 240\nfx = 300\nfy = 310\ncx = 160.2\ncy = 118.9\nR = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\nt = [0, 0, 0]\n";
+    let tail = "[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 5], radius = 1 }\n";
+    let named = scene(&format!("{base}k1 = -0.1\np2 = 0.001\ns1 = 0.003\ns2 = -0.002\ns3 = -0.001\ns4 = 0.004\ntau_x_rad = 0.04\ntau_y_rad = -0.03\n{tail}"));
+    let listed = scene(&format!("{base}dist = [-0.1, 0, 0, 0.001, 0, 0, 0, 0, 0.003, -0.002, -0.001, 0.004, 0.04, -0.03]\n{tail}"));
+    let plain = scene(&format!("{base}k1 = -0.1\np2 = 0.001\n{tail}"));
+    let mut moved = 0.0f32;
+    for (x, y) in [(-0.5f32, -0.4f32), (0.0, 0.0), (0.45, 0.3), (-0.2, 0.35)] {
+        let p = Vec3::new(x * 4.0, y * 4.0, 4.0);
+        let (a, b) = (named.camera.project(p).unwrap(), listed.camera.project(p).unwrap());
+        assert!((a - b).length() < 1e-4, "{a} vs {b}");
+        moved = moved.max((a - plain.camera.project(p).unwrap()).length());
+    }
+    assert!(moved > 0.5, "prism and tilt moved the points by at most {moved} px");
+    let bad = format!("{base}tau_x_rad = 0.8\n{tail}");
+    let e = render::scene::Scene::from_toml_str(&bad, "tilt.toml", std::path::Path::new(".")).err().unwrap();
+    let msg = format!("{e:#}");
+    assert!(msg.starts_with("tilt.toml:") && msg.contains("tau_x_rad") && msg.contains("45°") && !msg.contains('\n'), "{msg}");
 }
 
 const YAML: &str = r#"%YAML:1.0

@@ -34,7 +34,7 @@ impl Lens {
     /// Pixel position of a point in device coordinates (x right, y down, z forward).
     pub fn project(&self, x: &Vector3<f64>) -> Point2 {
         let [k1, k2, p1, p2, k3] = self.dist;
-        let d = Distortion { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2] };
+        let d = Distortion { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2], ..Distortion::default() };
         let (u, v) = d.distort(x[0] / x[2], x[1] / x[2]);
         [self.fx * u + self.cx, self.fy * v + self.cy]
     }
