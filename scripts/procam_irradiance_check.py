@@ -19,7 +19,9 @@ each capture alone (where the exposure is one constant; −2 for the point proje
 residual of two fits over all captures: one factor per capture, and one exponent of d for all.
 It repeats the first of these for a projector whose pixels all pass the same power (lucent's
 `profile = "irradiance"`, Mitsuba 3's `projector`): intensity ∝ 1/cos³θ_p, θ_p the angle off the
-projector's optical axis.
+projector's optical axis. Finally it fits, within each capture alone, a power of the phase angle
+(between the directions to projector and camera; a paper brighter toward backscatter) or of d,
+and prints how far each such fit misses the other captures' level.
 """
 import json, math, os, sys
 
@@ -124,7 +126,10 @@ def main(argv):
         keep = L > 0
         Xp = X @ Rp.T + Tp
         cos_p = Xp[:, 2] / np.linalg.norm(Xp, axis=1)
-        data.append(dict(k=k, L=L[keep], cos=cos_i[lit][keep], d=d[lit][keep], cos_p=cos_p[lit][keep], img=frames[0]))
+        # Phase angle: between the directions to the projector and to the camera (at the origin).
+        to_cam = -X / np.linalg.norm(X, axis=1)[:, None]
+        phase = np.arccos(np.clip(np.sum(d_vec / d[:, None] * to_cam, axis=1), -1, 1))
+        data.append(dict(k=k, L=L[keep], cos=cos_i[lit][keep], d=d[lit][keep], cos_p=cos_p[lit][keep], phase=phase[lit][keep], img=frames[0]))
     ratio0 = None
     print('capture | cos θᵢ | d | measured / predicted (rel. capture 0) | white frame mean, p99 codes')
     for c in data:
@@ -151,6 +156,19 @@ def main(argv):
         rms = ' '.join(f'{np.sqrt(np.mean(res[cap == k] ** 2)):.3f}' for k in range(len(data)))
         extra = f'factors {np.round(np.exp(coef - coef[0]), 3)}' if name.startswith('one factor') else f'irradiance ∝ d^{coef[1] - 2:.2f}'
         print(f'{name}: rms of ln residual per capture {rms}; {extra}')
+    # A paper brighter toward the backscatter direction (radiance ∝ phase^b) against a projector
+    # whose irradiance falls slower than d^-2: the two are nearly collinear within a capture.
+    print('phase angle between projector and camera per capture (deg): ' +
+          ' '.join(f"{np.degrees(c['phase'].min()):.1f}–{np.degrees(c['phase'].max()):.1f}" for c in data))
+    for name, col in (('phase', 'phase'), ('d', 'd')):
+        line = []
+        for src in data:
+            A = np.c_[np.ones(len(src['L'])), np.log(src[col])]
+            ys = np.log(src['L']) - np.log(src['cos']) + 2 * np.log(src['d'])
+            coef = np.linalg.lstsq(A, ys, rcond=None)[0]
+            pred = [np.mean(np.log(c['L']) - np.log(c['cos']) + 2 * np.log(c['d']) - coef[0] - coef[1] * np.log(c[col])) for c in data]
+            line.append(f"{src['k']}: {name}^{coef[1]:.2f} → " + ' '.join(f'{v:+.3f}' for v in pred))
+        print(f'fitted on one capture with a power of {name}, mean ln(measured / predicted) in each capture: ' + '; '.join(line))
     y3 = y + np.concatenate([3 * np.log(c['cos_p']) for c in data])
     X = fits['one factor per capture']
     coef = np.linalg.lstsq(X, y3, rcond=None)[0]
