@@ -64,6 +64,87 @@ pub struct ProcamCalibration {
     pub captures: Vec<CapturePose>,
 }
 
+impl ProcamCalibration {
+    /// Read a projector–camera calibration: lucent's JSON (what `lucent scan calibrate` writes),
+    /// or OpenCV FileStorage XML or YAML as kamino410/procam-calibration's `calibrate.py` writes it
+    /// (`calibration_result.xml`: `img_shape` [rows, cols], `rms`, `cam_int`, `cam_dist`,
+    /// `proj_int`, `proj_dist`, the camera → projector rotation `roration` (sic; `rotation` or `R`
+    /// also read) and `translation` (or `T`), from OpenCV's `stereoCalibrate`). FileStorage does
+    /// not give the projector's resolution: `projector` (pixels) must then be given; for JSON it
+    /// must agree with the file when given. No board poses come from FileStorage. Errors are one
+    /// line naming the file.
+    pub fn read(path: &std::path::Path, projector: Option<(u32, u32)>) -> anyhow::Result<ProcamCalibration> {
+        use anyhow::{anyhow, bail, Context};
+        let name = path.display();
+        let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read"))?;
+        if !render::load::calibration::is_filestorage(&text) {
+            let c: ProcamCalibration = serde_json::from_str(&text).map_err(|e| anyhow!("{name}: not a calibration: {e}"))?;
+            if let Some((w, h)) = projector {
+                if (w, h) != (c.projector.width, c.projector.height) {
+                    bail!("{name}: the projector is {}x{} in the calibration, {w}x{h} given", c.projector.width, c.projector.height);
+                }
+            }
+            return Ok(c);
+        }
+        use render::load::calibration::{filestorage_node, Node};
+        let node = |n: &str| filestorage_node(&text, n).map_err(|e| anyhow!("{name}: {e}"));
+        let matrix = |names: &[&str], rows: usize, cols: usize| -> anyhow::Result<Vec<f64>> {
+            for n in names {
+                match node(n)? {
+                    None => continue,
+                    Some(Node::Matrix(r, c, d)) if r * c == rows * cols && (r == rows || rows == 1 || cols == 1) => return Ok(d),
+                    Some(Node::Matrix(r, c, _)) => bail!("{name}: {n} is {r}×{c}, expected {rows}×{cols}"),
+                    Some(Node::Scalar(_)) => bail!("{name}: {n} is a scalar, expected a {rows}×{cols} opencv-matrix"),
+                }
+            }
+            bail!("{name}: no node {} (a procam-calibration file has cam_int, cam_dist, proj_int, proj_dist, roration, translation)", names.join(" or "))
+        };
+        let dist = |n: &str| -> anyhow::Result<Vec<f64>> {
+            match node(n)? {
+                Some(Node::Matrix(r, c, d)) if r == 1 || c == 1 => {
+                    render::camera::Distortion::from_opencv(&d).map_err(|e| anyhow!("{name}: {n}: {e}"))?;
+                    Ok(d)
+                }
+                Some(_) => bail!("{name}: {n} must be a vector of 4, 5, 8, 12 or 14 coefficients"),
+                None => bail!("{name}: no node {n}"),
+            }
+        };
+        let device = |k: &[f64], d: Vec<f64>, (w, h): (u32, u32), n: &str, rms: f64| -> anyhow::Result<DeviceCalibration> {
+            if k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 || !(k[0] > 0.0 && k[4] > 0.0) {
+                bail!("{name}: {n} must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0 (no skew), got {k:?}");
+            }
+            Ok(DeviceCalibration { width: w, height: h, fx: k[0], fy: k[4], cx: k[2], cy: k[5], distortion: d, rms_px: rms })
+        };
+        let camera_size = match node("img_shape")? {
+            Some(Node::Matrix(r, c, d)) if r * c == 2 && d.iter().all(|x| *x >= 1.0 && x.fract() == 0.0) => (d[1] as u32, d[0] as u32),
+            Some(_) => bail!("{name}: img_shape must be the camera's [rows, cols] in pixels"),
+            None => match (node("image_width")?, node("image_height")?) {
+                (Some(Node::Scalar(w)), Some(Node::Scalar(h))) if w >= 1.0 && h >= 1.0 => (w as u32, h as u32),
+                _ => bail!("{name}: no camera size (img_shape, or image_width and image_height)"),
+            },
+        };
+        let Some(projector) = projector else {
+            bail!("{name}: an OpenCV FileStorage calibration does not give the projector's resolution: pass --projector WxH");
+        };
+        let rms = match node("rms")? {
+            Some(Node::Scalar(x)) if x >= 0.0 => x,
+            _ => f64::NAN,
+        };
+        let r = matrix(&["roration", "rotation", "R"], 3, 3)?;
+        let t = matrix(&["translation", "T"], 3, 1)?;
+        let rotation = [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]];
+        render::camera::Extrinsics::from_rt(rotation, [t[0], t[1], t[2]]).map_err(|e| anyhow!("{name}: roration: {e}"))?;
+        Ok(ProcamCalibration {
+            camera: device(&matrix(&["cam_int"], 3, 3)?, dist("cam_dist")?, camera_size, "cam_int", rms)?,
+            projector: device(&matrix(&["proj_int"], 3, 3)?, dist("proj_dist")?, projector, "proj_int", rms)?,
+            rotation,
+            translation: [t[0], t[1], t[2]],
+            rms_px: rms,
+            captures: Vec::new(),
+        })
+    }
+}
+
 /// One capture's corners: in the camera image and in the projector image (pixels, OpenCV
 /// convention), both in the board's row-major order; a corner without a projector position
 /// (see [`procam::projector_corners`]) is NaN in `proj`.

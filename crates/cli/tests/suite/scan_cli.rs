@@ -121,6 +121,44 @@ fn synthetic_calibration() -> scan::calib::ProcamCalibration {
     }
 }
 
+/// `calib` as OpenCV FileStorage in the form of procam-calibration's `calibration_result.xml`
+/// (kamino410/procam-calibration `calibrate.py`: `img_shape` [rows, cols], `rms`, `cam_int`,
+/// `cam_dist`, `proj_int`, `proj_dist`, `roration`, `translation`), as XML or as YAML.
+fn procam_calibration_filestorage(c: &scan::calib::ProcamCalibration, yaml: bool) -> String {
+    let k = |d: &scan::calib::DeviceCalibration| vec![d.fx, 0.0, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0];
+    let rot: Vec<f64> = c.rotation.iter().flatten().copied().collect();
+    let nodes: [(&str, usize, usize, Vec<f64>); 7] = [
+        ("img_shape", 2, 1, vec![c.camera.height as f64, c.camera.width as f64]),
+        ("cam_int", 3, 3, k(&c.camera)),
+        ("cam_dist", 1, c.camera.distortion.len(), c.camera.distortion.clone()),
+        ("proj_int", 3, 3, k(&c.projector)),
+        ("proj_dist", 1, c.projector.distortion.len(), c.projector.distortion.clone()),
+        ("roration", 3, 3, rot),
+        ("translation", 3, 1, c.translation.to_vec()),
+    ];
+    let num = |x: &f64| format!("{x:.17e}");
+    let mut out = String::new();
+    if yaml {
+        out.push_str("%YAML:1.0\n---\n");
+        for (i, (n, r, cols, d)) in nodes.iter().enumerate() {
+            out.push_str(&format!("{n}: !!opencv-matrix\n   rows: {r}\n   cols: {cols}\n   dt: d\n   data: [ {} ]\n", d.iter().map(num).collect::<Vec<_>>().join(", ")));
+            if i == 0 {
+                out.push_str("rms: 4.2e-01\n");
+            }
+        }
+    } else {
+        out.push_str("<?xml version=\"1.0\"?>\n<opencv_storage>\n");
+        for (i, (n, r, cols, d)) in nodes.iter().enumerate() {
+            out.push_str(&format!("<{n} type_id=\"opencv-matrix\">\n  <rows>{r}</rows>\n  <cols>{cols}</cols>\n  <dt>d</dt>\n  <data>\n    {}</data></{n}>\n", d.iter().map(num).collect::<Vec<_>>().join(" ")));
+            if i == 0 {
+                out.push_str("<rms>4.2e-01</rms>\n");
+            }
+        }
+        out.push_str("</opencv_storage>\n");
+    }
+    out
+}
+
 /// Renders the Gray-code capture of the plane z = 1 − 0.2·x seen by the synthetic rig (each camera
 /// pixel centre sees one projector pixel; lit 220, dark 20 grey levels) and reconstructs it:
 /// the JSON contract, points on the plane within the projector-pixel quantisation, PLY files.
@@ -184,6 +222,27 @@ fn reconstruct_a_rendered_plane_through_the_command() {
     eprintln!("plane RMS {rms:.5}, median ray gap {gap:.5}");
     assert!(rms < 0.005, "{rms}");
     assert!(s.path("points.ply").is_file());
+    // The same calibration as procam-calibration's OpenCV FileStorage (XML and YAML), with the
+    // projector's size on the command line: the same points.
+    for (name, yaml) in [("calibration_result.xml", false), ("calibration_result.yml", true)] {
+        std::fs::write(s.path(name), procam_calibration_filestorage(&calib, yaml)).unwrap();
+        let w = ok_json(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg(name), "--projector", "128x96", "--out", &s.arg("fs.ply"), "--json"]);
+        assert_eq!(w["points"], v["points"], "{name}");
+        for (a, b) in [(&w["bbox"]["min"], lo), (&w["bbox"]["max"], hi)] {
+            for i in 0..3 {
+                assert!((a[i].as_f64().unwrap() - b[i].as_f64().unwrap()).abs() < 1e-12, "{name}: {w} vs {v}");
+            }
+        }
+        let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg(name), "--out", &s.arg("p2.ply")]);
+        assert!(e.contains(name) && e.contains("--projector"), "{e}");
+    }
+    let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("calib.json"), "--projector", "64x48", "--out", &s.arg("p2.ply")]);
+    assert!(e.contains("128x96") && e.contains("64x48"), "{e}");
+    let broken = procam_calibration_filestorage(&calib, false).replace("<rows>3</rows>\n  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n    1.7", "<rows>2</rows>\n  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n    1.7");
+    let broken = broken.replacen("0.00000000000000000e0 1.00000000000000000e0</data></proj_int>", "</data></proj_int>", 1);
+    std::fs::write(s.path("broken.xml"), broken).unwrap();
+    let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("broken.xml"), "--projector", "128x96", "--out", &s.arg("p2.ply")]);
+    assert!(e.contains("broken.xml") && e.contains("proj_int"), "{e}");
     // Bad input: a calibration that is not one, a capture of the wrong size, a non-PLY output.
     std::fs::write(s.path("bad.json"), "{\"camera\": 3}").unwrap();
     let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("bad.json"), "--out", &s.arg("p2.ply")]);

@@ -170,9 +170,33 @@ fn json(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
 }
 
 /// A FileStorage node: a matrix (rows, cols, row-major data) or a scalar.
-enum Node {
+/// A FileStorage node: a scalar or an `opencv-matrix` (rows, cols, row-major data).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Node {
+    /// `rows` × `cols` matrix, row-major.
     Matrix(usize, usize, Vec<f64>),
+    /// A number.
     Scalar(f64),
+}
+
+/// The node called `name` in OpenCV FileStorage text (YAML `%YAML:1.0` or XML
+/// `<opencv_storage>`), None when absent; errors name the node.
+pub fn filestorage_node(text: &str, name: &str) -> Result<Option<Node>> {
+    let t = text.trim_start_matches('\u{feff}').trim_start();
+    let r = if t.starts_with("%YAML") {
+        Yaml { text: t }.node(name)
+    } else if t.starts_with("<?xml") || t.starts_with("<opencv_storage") {
+        Xml { text: t }.node(name)
+    } else {
+        bail!("not an OpenCV FileStorage file (expected `%YAML:1.0` or `<opencv_storage>`)")
+    };
+    r.map_err(|e| anyhow!("{name}: {e}"))
+}
+
+/// Whether `text` looks like OpenCV FileStorage (YAML or XML) rather than JSON.
+pub fn is_filestorage(text: &str) -> bool {
+    let t = text.trim_start_matches('\u{feff}').trim_start();
+    t.starts_with("%YAML") || t.starts_with("<?xml") || t.starts_with("<opencv_storage")
 }
 
 trait Storage {

@@ -20,9 +20,14 @@ pub struct Args {
     pub mesh: PathBuf,
     /// The photograph to label from (the camera's image, e.g. a capture's white frame).
     pub photo: PathBuf,
-    /// Calibration JSON as `lucent scan calibrate` writes it.
+    /// Calibration JSON as `lucent scan calibrate` writes it, or OpenCV FileStorage XML/YAML as
+    /// procam-calibration's calibrate.py writes it (then with --projector).
     #[arg(long, value_name = "CALIB.json")]
     pub calibration: PathBuf,
+    /// Projector resolution WIDTHxHEIGHT (pixels): needed with an OpenCV FileStorage
+    /// calibration (procam-calibration's calibration_result.xml), which does not give it.
+    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    pub projector: Option<(u32, u32)>,
     /// The labelled micropolygon mesh (PLY with an `int label` per face, −1 = not visible);
     /// the faces of label k also go to `<stem>_label<k>.ply` beside it.
     #[arg(long, value_name = "LABELLED.ply")]
@@ -110,8 +115,7 @@ pub fn run(args: Args) -> Result<()> {
         check_ext(o, "png", "the overlay")?;
     }
     let t0 = Instant::now();
-    let text = std::fs::read_to_string(&args.calibration).with_context(|| format!("{}: cannot read", args.calibration.display()))?;
-    let calib: ProcamCalibration = serde_json::from_str(&text).with_context(|| format!("{}: not a calibration", args.calibration.display()))?;
+    let calib = ProcamCalibration::read(&args.calibration, args.projector)?;
     let capture_pose = |i: usize, flag: &str| -> Result<BoardPose> {
         match calib.captures.get(i) {
             Some(c) => Ok(BoardPose::from_capture(c)),

@@ -25,9 +25,14 @@ pub struct Args {
     #[arg(required = true, value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
     /// Two-view calibration (the JSON of `lucent scan calibrate`: `camera`, `projector`,
-    /// `rotation`, `translation` with X_B = R·X_A + T); matches and triangulates the markers.
+    /// `rotation`, `translation` with X_B = R·X_A + T; or OpenCV FileStorage as procam-calibration's
+    /// calibrate.py writes it, with --projector); matches and triangulates the markers.
     #[arg(long, value_name = "CALIB.json")]
     pub calibration: Option<PathBuf>,
+    /// Projector resolution WIDTHxHEIGHT (pixels): needed with an OpenCV FileStorage
+    /// calibration (procam-calibration's calibration_result.xml), which does not give it.
+    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    pub projector: Option<(u32, u32)>,
     /// Marker model to register onto the triangulated markers: {"markers": [[x, y, z], …]} in
     /// scene units (the calibration's length unit unless --scale).
     #[arg(long, value_name = "MODEL.json", requires = "calibration")]
@@ -114,8 +119,7 @@ pub fn run(args: Args) -> Result<()> {
             if args.images.len() != 2 {
                 bail!("--calibration matches markers between exactly two images, got {}", args.images.len());
             }
-            let text = std::fs::read_to_string(c).with_context(|| format!("{}: cannot read", c.display()))?;
-            let calib: ProcamCalibration = serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: not a calibration: {e}", c.display()))?;
+            let calib = ProcamCalibration::read(c, args.projector)?;
             Some(TwoViews::new(&calib).with_context(|| format!("{}", c.display()))?)
         }
         None => None,

@@ -18,9 +18,14 @@ use super::Progress;
 pub struct Args {
     /// Folder with graycode_00.png … or other frame names, as for `lucent scan decode` (the projector size comes from the calibration).
     pub capture: PathBuf,
-    /// Calibration JSON as `lucent scan calibrate` writes it.
+    /// Calibration JSON as `lucent scan calibrate` writes it, or OpenCV FileStorage XML/YAML as
+    /// procam-calibration's calibrate.py writes it (then with --projector).
     #[arg(long, value_name = "CALIB.json")]
     pub calibration: PathBuf,
+    /// Projector resolution WIDTHxHEIGHT (pixels): needed with an OpenCV FileStorage
+    /// calibration, which does not give it; checked against a JSON calibration.
+    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    pub projector: Option<(u32, u32)>,
     /// Point cloud output (binary PLY: position, normal, white-frame grey as colour).
     #[arg(long, value_name = "POINTS.ply")]
     pub out: PathBuf,
@@ -70,8 +75,7 @@ pub fn run(args: Args) -> Result<()> {
     if !(args.max_edge > 0.0 && args.max_edge.is_finite()) {
         bail!("--max-edge must be a positive number of pixels, got {}", args.max_edge);
     }
-    let text = std::fs::read_to_string(&args.calibration).with_context(|| format!("{}: cannot read", args.calibration.display()))?;
-    let calib: ProcamCalibration = serde_json::from_str(&text).with_context(|| format!("{}: not a calibration", args.calibration.display()))?;
+    let calib = ProcamCalibration::read(&args.calibration, args.projector)?;
     let rig = Rig::new(&calib).with_context(|| format!("{}", args.calibration.display()))?;
     let patterns = PatternSet::new(calib.projector.width, calib.projector.height, args.step).with_context(|| format!("{}: projector", args.calibration.display()))?;
     let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine };
