@@ -20,7 +20,7 @@
 //! and distortion nodes are `!!opencv-matrix` (YAML, `%YAML:1.0`) or `type_id="opencv-matrix"`
 //! (XML, `<opencv_storage>`) with `rows`, `cols`, `dt`, `data`; their names default to
 //! `camera_matrix` and `distortion_coefficients`. The resolution comes from `image_width` and
-//! `image_height`; optional extrinsics from a 3×3 `R` (or 3×1 `rvec`) and a 3×1 `t` (or `tvec`,
+//! `image_height` (or `img_shape`, [rows, cols], as procam-calibration writes it); optional extrinsics from a 3×3 `R` (or 3×1 `rvec`) and a 3×1 `t` (or `tvec`,
 //! `T`), t in the scene's unit. The reader understands this subset of FileStorage: scalar nodes
 //! and matrices, at any nesting depth, found by name.
 
@@ -249,9 +249,16 @@ fn filestorage(s: &dyn Storage, nodes: &CalibrationNodes) -> Result<Calibration>
         None => vec3(&["rvec"])?.map(crate::camera::opencv::rodrigues),
     };
     let t = vec3(&["t", "tvec", "T"])?;
+    // The image size: image_width and image_height (OpenCV's calibration sample), or img_shape,
+    // the [rows, cols] of procam-calibration's calibration_result.xml.
+    let (width, height) = match (size("image_width")?, size("image_height")?, matrix("img_shape")?) {
+        (None, None, Some((r, c, d))) if r * c == 2 && d.iter().all(|x| *x >= 1.0 && x.fract() == 0.0 && *x <= u32::MAX as f64) => (Some(d[1] as u32), Some(d[0] as u32)),
+        (None, None, Some(_)) => bail!("img_shape: expected the image's [rows, cols] in pixels"),
+        (w, h, _) => (w, h),
+    };
     Ok(Calibration {
-        width: size("image_width")?,
-        height: size("image_height")?,
+        width,
+        height,
         intrinsics: Intrinsics { fx: k[0], fy: k[4], cx: k[2], cy: k[5] },
         distortion,
         r: rot,

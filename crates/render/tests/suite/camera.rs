@@ -495,6 +495,14 @@ fn filestorage_yaml_xml_and_json_round_trip() {
     assert_eq!((j.intrinsics, j.distortion), (want_k, want_d));
     let (ex, ej) = (x.extrinsics(1.0).unwrap().unwrap(), j.extrinsics(1.0).unwrap().unwrap());
     assert!(ex.t_m.iter().zip(ej.t_m.iter()).all(|(a, b)| (a - b).abs() < 1e-12));
+    // procam-calibration's calibration_result.xml gives the size as img_shape = [rows, cols].
+    let procam = XML.replace("<image_width>640</image_width>", "").replace("<image_height>480</image_height>", "").replace(
+        "<cam_K ",
+        "<img_shape type_id=\"opencv-matrix\">\n  <rows>2</rows>\n  <cols>1</cols>\n  <dt>d</dt>\n  <data>\n    480. 640.</data></img_shape>\n<cam_K ",
+    );
+    assert!(!procam.contains("image_width") && procam.contains("img_shape"));
+    let k = parse_calibration(&procam, "calibration_result.xml", &nodes).unwrap();
+    assert_eq!((k.width, k.height, k.intrinsics, k.distortion), (Some(640), Some(480), want_k, want_d));
     // Missing nodes name the node.
     let e = parse_calibration(XML, "c.xml", &CalibrationNodes::default()).unwrap_err().to_string();
     assert!(e.starts_with("c.xml: camera_matrix: no such node"), "{e}");
