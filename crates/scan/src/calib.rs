@@ -123,8 +123,16 @@ impl ProcamCalibration {
                 _ => bail!("{name}: no camera size (img_shape, or image_width and image_height)"),
             },
         };
-        let Some(projector) = projector else {
-            bail!("{name}: an OpenCV FileStorage calibration does not give the projector's resolution: pass --projector WxH");
+        // lucent's own FileStorage output adds proj_shape; procam-calibration's file lacks it.
+        let stored = match node("proj_shape")? {
+            Some(Node::Matrix(r, c, d)) if r * c == 2 && d.iter().all(|x| *x >= 1.0 && x.fract() == 0.0) => Some((d[1] as u32, d[0] as u32)),
+            Some(_) => bail!("{name}: proj_shape must be the projector's [rows, cols] in pixels"),
+            None => None,
+        };
+        let projector = match (projector, stored) {
+            (Some(given), Some(s)) if given != s => bail!("{name}: the projector is {}x{} in the calibration, {}x{} given", s.0, s.1, given.0, given.1),
+            (Some(p), _) | (None, Some(p)) => p,
+            (None, None) => bail!("{name}: an OpenCV FileStorage calibration without proj_shape does not give the projector's resolution: pass --projector WxH"),
         };
         let rms = match node("rms")? {
             Some(Node::Scalar(x)) if x >= 0.0 => x,
@@ -142,6 +150,49 @@ impl ProcamCalibration {
             rms_px: rms,
             captures: Vec::new(),
         })
+    }
+}
+
+impl ProcamCalibration {
+    /// This calibration as OpenCV FileStorage (XML, or YAML when `yaml`), with procam-calibration's
+    /// node names so that tools written for its `calibration_result.xml` read it: `img_shape`,
+    /// `rms`, `cam_int`, `cam_dist`, `proj_int`, `proj_dist`, `roration` (its spelling),
+    /// `translation`; and `proj_shape` ([rows, cols] of the projector), which that file lacks.
+    /// Numbers are written with 17 significant digits, so [`ProcamCalibration::read`] gives back
+    /// the same values.
+    pub fn to_filestorage(&self, yaml: bool) -> String {
+        let k = |d: &DeviceCalibration| vec![d.fx, 0.0, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0];
+        let rot: Vec<f64> = self.rotation.iter().flatten().copied().collect();
+        let shape = |d: &DeviceCalibration| vec![d.height as f64, d.width as f64];
+        let nodes: [(&str, usize, usize, Vec<f64>); 8] = [
+            ("img_shape", 2, 1, shape(&self.camera)),
+            ("proj_shape", 2, 1, shape(&self.projector)),
+            ("cam_int", 3, 3, k(&self.camera)),
+            ("cam_dist", 1, self.camera.distortion.len(), self.camera.distortion.clone()),
+            ("proj_int", 3, 3, k(&self.projector)),
+            ("proj_dist", 1, self.projector.distortion.len(), self.projector.distortion.clone()),
+            ("roration", 3, 3, rot),
+            ("translation", 3, 1, self.translation.to_vec()),
+        ];
+        let num = |x: &f64| format!("{x:.16e}");
+        let mut out = String::new();
+        if yaml {
+            out.push_str("%YAML:1.0\n---\n");
+            out.push_str(&format!("rms: {}\n", num(&self.rms_px)));
+            for (n, r, c, d) in &nodes {
+                let data: Vec<String> = d.iter().map(num).collect();
+                out.push_str(&format!("{n}: !!opencv-matrix\n   rows: {r}\n   cols: {c}\n   dt: d\n   data: [ {} ]\n", data.join(", ")));
+            }
+        } else {
+            out.push_str("<?xml version=\"1.0\"?>\n<opencv_storage>\n");
+            out.push_str(&format!("<rms>{}</rms>\n", num(&self.rms_px)));
+            for (n, r, c, d) in &nodes {
+                let data: Vec<String> = d.iter().map(num).collect();
+                out.push_str(&format!("<{n} type_id=\"opencv-matrix\">\n  <rows>{r}</rows>\n  <cols>{c}</cols>\n  <dt>d</dt>\n  <data>\n    {}</data></{n}>\n", data.join(" ")));
+            }
+            out.push_str("</opencv_storage>\n");
+        }
+        out
     }
 }
 

@@ -266,8 +266,21 @@ fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
     let mut args: Vec<&str> = vec!["scan", "calibrate"];
     args.extend(caps.iter().map(|c| c.as_str()));
     let out = s.arg("calib.json");
-    args.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &out, "--json"]);
+    let xml = s.arg("calibration_result.xml");
+    args.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &out, "--opencv-out", &xml, "--json"]);
     let v = ok_json(&args);
+    // The OpenCV FileStorage copy reads back as the same calibration (17 significant digits),
+    // the projector's size included (proj_shape), without board poses.
+    let mut from_json: scan::calib::ProcamCalibration = serde_json::from_value(v.clone()).unwrap();
+    let from_xml = scan::calib::ProcamCalibration::read(std::path::Path::new(&xml), None).unwrap();
+    from_json.captures.clear();
+    from_json.camera.rms_px = from_json.rms_px;
+    from_json.projector.rms_px = from_json.rms_px;
+    assert_eq!(from_xml, from_json);
+    let text = std::fs::read_to_string(&xml).unwrap();
+    for node in ["<img_shape", "<cam_int", "<cam_dist", "<proj_int", "<proj_dist", "<roration", "<translation", "<proj_shape", "<rms>"] {
+        assert!(text.contains(node), "{node} missing");
+    }
     for dev in ["camera", "projector"] {
         let d = v[dev].as_object().unwrap();
         let mut keys: Vec<&str> = d.keys().map(|k| k.as_str()).collect();
@@ -290,6 +303,8 @@ fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
     assert_eq!(file, v);
     // Bad input: too few captures, a board that is not there (wrong corner count), a missing folder.
     let bad = s.arg("bad.json");
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--opencv-out", &s.arg("c.txt")]);
+    assert!(e.contains("c.txt") && e.contains(".xml"), "{e}");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &bad]);
     assert!(e.contains("degenerate pose set"), "{e}");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "11x7", "--square", "75", "--out", &bad]);

@@ -98,7 +98,8 @@ pub fn parse_calibration(text: &str, name: &str, nodes: &CalibrationNodes) -> Re
     } else {
         Err(anyhow!("not a calibration file (expected a JSON object, `%YAML:1.0` or `<opencv_storage>`)"))
     };
-    r.map_err(|e| anyhow!("{name}: {e}"))
+    // Every message is one line, whatever file text it quotes.
+    r.map_err(|e| anyhow!("{name}: {}", e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")))
 }
 
 #[derive(serde::Deserialize)]
@@ -190,7 +191,7 @@ pub fn filestorage_node(text: &str, name: &str) -> Result<Option<Node>> {
     } else {
         bail!("not an OpenCV FileStorage file (expected `%YAML:1.0` or `<opencv_storage>`)")
     };
-    r.map_err(|e| anyhow!("{name}: {e}"))
+    r.map_err(|e| anyhow!("{name}: {}", e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")))
 }
 
 /// Whether `text` looks like OpenCV FileStorage (YAML or XML) rather than JSON.
@@ -267,16 +268,25 @@ fn filestorage(s: &dyn Storage, nodes: &CalibrationNodes) -> Result<Calibration>
     })
 }
 
+/// File text quoted in a one-line error: whitespace runs as one space, at most 60 characters.
+fn snippet(s: &str) -> String {
+    let one_line = s.split_whitespace().collect::<Vec<_>>().join(" ");
+    match one_line.char_indices().nth(60) {
+        Some((i, _)) => format!("{}…", &one_line[..i]),
+        None => one_line,
+    }
+}
+
 fn numbers(s: &str, what: &str) -> Result<Vec<f64>> {
     s.split(|c: char| c.is_whitespace() || c == ',')
         .filter(|w| !w.is_empty())
-        .map(|w| w.parse::<f64>().map_err(|_| anyhow!("{what}: `{w}` is not a number")))
+        .map(|w| w.parse::<f64>().map_err(|_| anyhow!("{what}: `{}` is not a number", snippet(w))))
         .collect()
 }
 
 fn check_matrix(rows: f64, cols: f64, dt: &str, data: Vec<f64>) -> Result<Node> {
     if !matches!(dt, "d" | "f" | "i" | "u" | "s" | "w" | "c") {
-        bail!("dt `{dt}`: expected a single-channel element type (d, f, i, …)");
+        bail!("dt `{}`: expected a single-channel element type (d, f, i, …)", snippet(dt));
     }
     if !(rows >= 0.0 && cols >= 0.0 && rows.fract() == 0.0 && cols.fract() == 0.0) {
         bail!("rows, cols must be whole numbers");
@@ -319,7 +329,7 @@ impl Storage for Yaml<'_> {
             let v = value.trim_matches('"');
             return match v.parse::<f64>() {
                 Ok(x) => Ok(Some(Node::Scalar(x))),
-                Err(_) => bail!("`{value}` is neither a number nor an !!opencv-matrix"),
+                Err(_) => bail!("`{}` is neither a number nor an !!opencv-matrix", snippet(value)),
             };
         }
         // The matrix's fields: the following lines indented deeper than the key.
@@ -334,7 +344,7 @@ impl Storage for Yaml<'_> {
         let field = |k: &str| Yaml::key_line(&body, k).map(|(m, _, v)| (m, v));
         let num = |k: &str| -> Result<f64> {
             let (_, v) = field(k).ok_or_else(|| anyhow!("missing `{k}`"))?;
-            v.parse::<f64>().map_err(|_| anyhow!("{k}: `{v}` is not a number"))
+            v.parse::<f64>().map_err(|_| anyhow!("{k}: `{}` is not a number", snippet(v)))
         };
         let (rows, cols) = (num("rows")?, num("cols")?);
         let dt = field("dt").ok_or_else(|| anyhow!("missing `dt`"))?.1.trim_matches('"');
@@ -385,13 +395,13 @@ impl Storage for Xml<'_> {
             let v = body.trim().trim_matches('"');
             return match v.parse::<f64>() {
                 Ok(x) => Ok(Some(Node::Scalar(x))),
-                Err(_) => bail!("`{v}` is neither a number nor an opencv-matrix"),
+                Err(_) => bail!("`{}` is neither a number nor an opencv-matrix", snippet(v)),
             };
         }
         let field = |k: &str| element(body, k).map(|(_, v)| v.trim()).ok_or_else(|| anyhow!("missing <{k}>"));
         let num = |k: &str| -> Result<f64> {
             let v = field(k)?;
-            v.parse::<f64>().map_err(|_| anyhow!("{k}: `{v}` is not a number"))
+            v.parse::<f64>().map_err(|_| anyhow!("{k}: `{}` is not a number", snippet(v)))
         };
         let (rows, cols) = (num("rows")?, num("cols")?);
         check_matrix(rows, cols, field("dt")?, numbers(field("data")?, "data")?).map(Some)

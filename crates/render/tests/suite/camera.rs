@@ -707,3 +707,87 @@ fn bad_filters_name_the_key() {
         assert!(e.contains(key) && e.contains("bad.toml") && !e.contains('\n'), "{filter}: {e}");
     }
 }
+
+/// Calibration files are untrusted input: 20 000 random edits of the YAML, XML and JSON above
+/// (characters deleted, repeated, swapped for markup and multi-byte characters, lines cut or
+/// duplicated) are each read as a calibration and as the FileStorage nodes the scan tools read;
+/// none may panic, and every error is one line.
+#[test]
+fn mutated_calibration_files_never_panic() {
+    let json = r#"{"width": 640, "height": 480, "fx": 532.21, "fy": 532.60, "cx": 318.77, "cy": 243.75, "dist": [-0.28089, 0.025, 0.0012, -0.00014, 0.16], "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [100, -200, 3000], "unit": "mm"}"#;
+    let seeds = [YAML, XML, json];
+    let specials = ['<', '>', '/', ':', '[', ']', '{', '}', '"', ',', '\n', ' ', '-', '.', 'e', '0', '9', 'é', '€', '𝄞', '!', '#', '\t'];
+    let nodes = [CalibrationNodes::default(), CalibrationNodes { matrix: "cam_K".into(), dist: "cam_D".into() }];
+    let mut rng = Pcg32::new(11, 5);
+    let (mut ok, mut failed) = (0usize, 0usize);
+    for n in 0..20_000u32 {
+        let mut chars: Vec<char> = seeds[n as usize % 3].chars().collect();
+        for _ in 0..1 + rng.next_u32() % 6 {
+            if chars.is_empty() {
+                break;
+            }
+            let i = (rng.next_u32() as usize) % chars.len();
+            match rng.next_u32() % 6 {
+                0 => {
+                    let len = (1 + rng.next_u32() as usize % 12).min(chars.len() - i);
+                    chars.drain(i..i + len);
+                }
+                1 => chars[i] = specials[rng.next_u32() as usize % specials.len()],
+                2 => chars.insert(i, specials[rng.next_u32() as usize % specials.len()]),
+                3 => {
+                    let len = (1 + rng.next_u32() as usize % 40).min(chars.len() - i);
+                    let piece: Vec<char> = chars[i..i + len].to_vec();
+                    let j = (rng.next_u32() as usize) % chars.len();
+                    chars.splice(j..j, piece);
+                }
+                4 => chars.truncate(i),
+                _ => {
+                    let digit = char::from(b'0' + (rng.next_u32() % 10) as u8);
+                    chars[i] = if chars[i].is_ascii_digit() { digit } else { chars[i] };
+                }
+            }
+        }
+        let text: String = chars.into_iter().collect();
+        let result = std::panic::catch_unwind(|| {
+            let mut errors = Vec::new();
+            let mut read = false;
+            for nd in &nodes {
+                match parse_calibration(&text, "m.txt", nd) {
+                    Ok(c) => {
+                        read = true;
+                        let _ = c.extrinsics(1e-3);
+                        if let (Some(w), Some(h)) = (c.width, c.height) {
+                            if w <= 4096 && h <= 4096 {
+                                if let Ok(e) = Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]) {
+                                    let _ = OpenCv::new(c.intrinsics, c.distortion, e, w, h);
+                                }
+                            }
+                        }
+                    }
+                    Err(e) => errors.push(format!("{e:#}")),
+                }
+            }
+            for name in ["cam_K", "camera_matrix", "img_shape", "image_width", "R", "T"] {
+                if let Err(e) = render::load::calibration::filestorage_node(&text, name) {
+                    errors.push(format!("{e:#}"));
+                }
+            }
+            (read, errors)
+        });
+        match result {
+            Ok((read, errors)) => {
+                for e in &errors {
+                    assert!(!e.contains('\n'), "edit {n}: error of more than one line: {e:?}\ninput: {text:?}");
+                }
+                if read {
+                    ok += 1;
+                } else {
+                    failed += 1;
+                }
+            }
+            Err(_) => panic!("edit {n} panicked on input {text:?}"),
+        }
+    }
+    eprintln!("mutated calibration files: {ok} read, {failed} refused (every error one line)");
+    assert!(ok > 100 && failed > 1000, "the edits should both keep and break files: {ok} / {failed}");
+}

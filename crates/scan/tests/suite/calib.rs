@@ -233,3 +233,35 @@ fn two_captures_are_refused() {
     let e = calibrate_corners(&RIG, &corners(&views[..2])).unwrap_err().to_string();
     assert!(e.contains("degenerate pose set"), "{e}");
 }
+
+/// A calibration written as OpenCV FileStorage (XML and YAML, procam-calibration's node names and
+/// proj_shape) reads back bit for bit, with every distortion length OpenCV uses; the size given on
+/// the command line must agree with proj_shape.
+#[test]
+fn filestorage_copy_reads_back_exactly() {
+    use scan::calib::DeviceCalibration;
+    let dir = std::env::temp_dir().join(format!("lucent-fs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let a = 0.3f64;
+    let rotation = [[a.cos(), 0.0, a.sin()], [0.0, 1.0, 0.0], [-a.sin(), 0.0, a.cos()]];
+    for (n, dist) in [4usize, 5, 8, 12, 14].into_iter().enumerate().map(|(i, n)| (i, (0..n).map(|k| 1e-3 * (k as f64 + 1.0) / 7.0 * if k % 2 == 0 { 1.0 } else { -1.0 }).collect::<Vec<f64>>())) {
+        let dev = |w, h, f: f64| DeviceCalibration { width: w, height: h, fx: f, fy: f * 1.0001, cx: w as f64 / 2.0 - 0.37, cy: h as f64 / 2.0 + 0.11, distortion: dist.clone(), rms_px: 0.1 / 3.0 };
+        let c = ProcamCalibration {
+            camera: dev(1280, 1024, 3441.0 / 3.0),
+            projector: dev(1024, 768, 1893.0 / 7.0),
+            rotation,
+            translation: [92.8 / 3.0, -624.8, -236.7 / 11.0],
+            rms_px: 0.1 / 3.0,
+            captures: Vec::new(),
+        };
+        for yaml in [false, true] {
+            let path = dir.join(format!("c{n}.{}", if yaml { "yml" } else { "xml" }));
+            std::fs::write(&path, c.to_filestorage(yaml)).unwrap();
+            assert_eq!(ProcamCalibration::read(&path, None).unwrap(), c, "{} coefficients, yaml {yaml}", dist.len());
+            assert_eq!(ProcamCalibration::read(&path, Some((1024, 768))).unwrap(), c);
+            let e = ProcamCalibration::read(&path, Some((800, 600))).unwrap_err().to_string();
+            assert!(e.contains("1024x768") && e.contains("800x600") && !e.contains('\n'), "{e}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,5 +1,5 @@
 //! `lucent scan calibrate CAPTURE_DIR… --projector WxH --corners CxR --square S [--out CALIB.json]
-//! [--json]`: projector–camera calibration from chessboard captures (scan::calib;
+//! [--opencv-out CALIB.xml] [--json]`: projector–camera calibration from chessboard captures (scan::calib;
 //! docs/scanning.md, "Calibration").
 
 use std::path::PathBuf;
@@ -51,6 +51,11 @@ pub struct Args {
     /// Write the calibration JSON here (written to a temporary name, then renamed).
     #[arg(long, value_name = "CALIB.json")]
     pub out: Option<PathBuf>,
+    /// Also write the calibration as OpenCV FileStorage (`.xml`, or `.yml`/`.yaml`) with
+    /// procam-calibration's node names (cam_int, cam_dist, proj_int, proj_dist, roration,
+    /// translation, img_shape) and proj_shape, for cv::FileStorage and tools made for that file.
+    #[arg(long, value_name = "CALIB.xml")]
+    pub opencv_out: Option<PathBuf>,
     /// Print the calibration JSON on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -71,11 +76,23 @@ pub fn run(args: Args) -> Result<()> {
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
     };
+    let opencv_yaml = match &args.opencv_out {
+        None => false,
+        Some(p) => match p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+            Some("xml") => false,
+            Some("yml" | "yaml") => true,
+            _ => bail!("--opencv-out {}: OpenCV FileStorage is written as .xml, .yml or .yaml", p.display()),
+        },
+    };
     let progress = Progress::new((patterns.len() * args.captures.len()) as u64, "images read and decoded");
     let result = calibrate_dirs(&args.captures, &rig, &opts, &|| progress.inc());
     progress.finish();
     let (calib, _) = result?;
     let text = serde_json::to_string_pretty(&calib)?;
+    if let Some(out) = &args.opencv_out {
+        let fs = calib.to_filestorage(opencv_yaml);
+        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, &fs).map_err(|e| anyhow::anyhow!("{}: {e}", tmp.display())))?;
+    }
     if let Some(out) = &args.out {
         render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: {e}", tmp.display())))?;
     }
