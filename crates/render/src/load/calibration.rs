@@ -20,7 +20,10 @@
 //! and distortion nodes are `!!opencv-matrix` (YAML, `%YAML:1.0`) or `type_id="opencv-matrix"`
 //! (XML, `<opencv_storage>`) with `rows`, `cols`, `dt`, `data`; their names default to
 //! `camera_matrix` and `distortion_coefficients`. The resolution comes from `image_width` and
-//! `image_height` (or `img_shape`, [rows, cols], as procam-calibration writes it); optional extrinsics from a 3×3 `R` (or 3×1 `rvec`) and a 3×1 `t` (or `tvec`,
+//! `image_height` (or `img_shape`, [rows, cols], as procam-calibration writes it; its
+//! `calibration_result.xml` read with the nodes `cam_int`/`cam_dist` places the camera at the
+//! origin, with `proj_int`/`proj_dist` the projector at `roration`, `translation`, as lucent's
+//! JSON); optional extrinsics from a 3×3 `R` (or 3×1 `rvec`) and a 3×1 `t` (or `tvec`,
 //! `T`), t in the scene's unit. The reader understands this subset of FileStorage: scalar nodes
 //! and matrices, at any nesting depth, found by name.
 
@@ -250,11 +253,25 @@ fn filestorage(s: &dyn Storage, nodes: &CalibrationNodes) -> Result<Calibration>
         None => vec3(&["rvec"])?.map(crate::camera::opencv::rodrigues),
     };
     let t = vec3(&["t", "tvec", "T"])?;
+    // A projector–camera file of procam-calibration (cam_int, proj_int and the camera → projector
+    // `roration` (sic) and `translation`): the camera sits at the origin, the projector at the
+    // stereo pose, as for lucent's JSON.
+    let (rot, t) = match (rot, t, nodes.matrix.as_str()) {
+        (None, None, m @ ("cam_int" | "proj_int")) => match (matrix("roration")?.or(matrix("rotation")?), vec3(&["translation"])?) {
+            (Some((3, 3, d)), Some(tr)) if m == "proj_int" => (Some([[d[0], d[1], d[2]], [d[3], d[4], d[5]], [d[6], d[7], d[8]]]), Some(tr)),
+            (Some((3, 3, _)), Some(_)) => (Some([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), Some([0.0; 3])),
+            (Some((r, c, _)), Some(_)) => bail!("roration: is {r}×{c}, expected 3×3"),
+            _ => (None, None),
+        },
+        other => (other.0, other.1),
+    };
     // The image size: image_width and image_height (OpenCV's calibration sample), or img_shape,
     // the [rows, cols] of procam-calibration's calibration_result.xml.
-    let (width, height) = match (size("image_width")?, size("image_height")?, matrix("img_shape")?) {
+    // (For `proj_int`, the projector's: proj_shape, which lucent's --opencv-out adds.)
+    let shape_node = if nodes.matrix == "proj_int" { "proj_shape" } else { "img_shape" };
+    let (width, height) = match (size("image_width")?, size("image_height")?, matrix(shape_node)?) {
         (None, None, Some((r, c, d))) if r * c == 2 && d.iter().all(|x| *x >= 1.0 && x.fract() == 0.0 && *x <= u32::MAX as f64) => (Some(d[1] as u32), Some(d[0] as u32)),
-        (None, None, Some(_)) => bail!("img_shape: expected the image's [rows, cols] in pixels"),
+        (None, None, Some(_)) => bail!("{shape_node}: expected the image's [rows, cols] in pixels"),
         (w, h, _) => (w, h),
     };
     Ok(Calibration {

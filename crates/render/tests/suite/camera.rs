@@ -585,6 +585,26 @@ fn scan_calibration_json_is_read_as_camera_or_projector() {
     let cam = parse_calibration(&text, "calib.json", &CalibrationNodes::default()).unwrap();
     assert_eq!((cam.width, cam.height), (Some(1280), Some(1024)));
     assert_eq!(cam.intrinsics, Intrinsics { fx: 3440.0, fy: 3437.5, cx: 536.2, cy: 514.3 });
+    // The same rig as procam-calibration's calibration_result.xml (with lucent's proj_shape), read
+    // through the nodes cam_int/cam_dist and proj_int/proj_dist: the same two devices and poses.
+    let xml = format!(
+        "<?xml version=\"1.0\"?>\n<opencv_storage>\n{}{}{}{}{}{}{}{}</opencv_storage>\n",
+        "<img_shape type_id=\"opencv-matrix\"><rows>2</rows><cols>1</cols><dt>d</dt><data>1024. 1280.</data></img_shape>\n",
+        "<proj_shape type_id=\"opencv-matrix\"><rows>2</rows><cols>1</cols><dt>d</dt><data>768. 1024.</data></proj_shape>\n",
+        "<cam_int type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt><data>3440. 0. 536.2 0. 3437.5 514.3 0. 0. 1.</data></cam_int>\n",
+        "<cam_dist type_id=\"opencv-matrix\"><rows>1</rows><cols>5</cols><dt>d</dt><data>0.17 -4.3 -0.0019 -0.0036 11.4</data></cam_dist>\n",
+        "<proj_int type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt><data>1893.7 0. 478.4 0. 1898.3 839.3 0. 0. 1.</data></proj_int>\n",
+        "<proj_dist type_id=\"opencv-matrix\"><rows>1</rows><cols>5</cols><dt>d</dt><data>-0.1 0.37 0.008 -0.002 -0.9</data></proj_dist>\n",
+        format!("<roration type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt><data>{c:e} 0. {s:e} 0. 1. 0. {ms:e} 0. {c:e}</data></roration>\n", c = a.cos(), s = a.sin(), ms = -a.sin()),
+        "<translation type_id=\"opencv-matrix\"><rows>3</rows><cols>1</cols><dt>d</dt><data>92.8 -624.9 -236.6</data></translation>\n",
+    );
+    let proj_nodes = CalibrationNodes { matrix: "projector".into(), ..Default::default() };
+    for (fs_nodes, json_nodes) in [(CalibrationNodes { matrix: "cam_int".into(), dist: "cam_dist".into() }, CalibrationNodes::default()), (CalibrationNodes { matrix: "proj_int".into(), dist: "proj_dist".into() }, proj_nodes)] {
+        let (x, j) = (parse_calibration(&xml, "calibration_result.xml", &fs_nodes).unwrap(), parse_calibration(&text, "calib.json", &json_nodes).unwrap());
+        assert_eq!((x.width, x.height, x.intrinsics, x.distortion, x.t), (j.width, j.height, j.intrinsics, j.distortion, j.t), "{}", fs_nodes.matrix);
+        let (rx, rj) = (x.r.unwrap(), j.r.unwrap());
+        assert!(rx.iter().flatten().zip(rj.iter().flatten()).all(|(p, q)| (p - q).abs() < 1e-15), "{}", fs_nodes.matrix);
+    }
     let e = cam.extrinsics(1.0).unwrap().unwrap();
     assert_eq!(e.t_m, [0.0; 3]);
     let nodes = CalibrationNodes { matrix: "projector".into(), ..Default::default() };
