@@ -8,6 +8,8 @@ parameters free (CALIB_USE_INTRINSIC_GUESS), which is what `lucent scan calibrat
 
 usage: procam_calibrate_opencv.py CAPTURE_DIR... [--projector 1024x768] [--corners 9x7]
        [--square 75] [--half-window 23] [--black-threshold 40] [--white-threshold 5] [--json OUT]
+       [--fix-k3] [--zero-tangent]   (OpenCV's CALIB_FIX_K3, CALIB_ZERO_TANGENT_DIST in every fit,
+                                      as `lucent scan calibrate --fix-k3 --zero-tangent`)
 Needs opencv-contrib-python-headless and numpy (PyPI).
 """
 import argparse, glob, json, os, sys, time
@@ -25,7 +27,10 @@ def main():
     ap.add_argument('--black-threshold', type=int, default=40)
     ap.add_argument('--white-threshold', type=int, default=5)
     ap.add_argument('--json')
+    ap.add_argument('--fix-k3', action='store_true')
+    ap.add_argument('--zero-tangent', action='store_true')
     a = ap.parse_args()
+    extra = (cv2.CALIB_FIX_K3 if a.fix_k3 else 0) | (cv2.CALIB_ZERO_TANGENT_DIST if a.zero_tangent else 0)
     pw, ph = map(int, a.projector.split('x'))
     cols, rows = map(int, a.corners.split('x'))
     objp = np.zeros((cols * rows, 3), np.float32)
@@ -76,13 +81,13 @@ def main():
         cam_pts.append(corners.astype(np.float32))
         proj_pts.append(np.array(pc, np.float32).reshape(-1, 1, 2))
     t = time.perf_counter()
-    rc, kc, dc, _, _ = cv2.calibrateCamera(objps, cam_pts, cam_shape, None, None)
-    rp, kp, dp, _, _ = cv2.calibrateCamera(objps, proj_pts, (pw, ph), None, None)
-    rs, kc2, dc2, kp2, dp2, R, T, _, _ = cv2.stereoCalibrate(objps, cam_pts, proj_pts, kc, dc, kp, dp, None)
+    rc, kc, dc, _, _ = cv2.calibrateCamera(objps, cam_pts, cam_shape, None, None, flags=extra)
+    rp, kp, dp, _, _ = cv2.calibrateCamera(objps, proj_pts, (pw, ph), None, None, flags=extra)
+    rs, kc2, dc2, kp2, dp2, R, T, _, _ = cv2.stereoCalibrate(objps, cam_pts, proj_pts, kc, dc, kp, dp, None, flags=cv2.CALIB_FIX_INTRINSIC | extra)
     t_calib = time.perf_counter() - t
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 200, 1e-12)
     rj, kcj, dcj, kpj, dpj, Rj, Tj, _, _ = cv2.stereoCalibrate(objps, cam_pts, proj_pts, kc.copy(), dc.copy(), kp.copy(), dp.copy(), None,
-                                                               flags=cv2.CALIB_USE_INTRINSIC_GUESS, criteria=crit)
+                                                               flags=cv2.CALIB_USE_INTRINSIC_GUESS | extra, criteria=crit)
     total = time.perf_counter() - t0
 
     def dev(k, dist, rms):

@@ -240,8 +240,15 @@ pub fn calibrate_corners(rig: &Rig, captures: &[CaptureCorners]) -> anyhow::Resu
 /// lenses and stereo pose (board poses from the homographies); this works from 2 captures and is
 /// how the leave-one-out spread of the intrinsics is measured.
 pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>) -> anyhow::Result<ProcamCalibration> {
+    calibrate_corners_with(rig, captures, init, bundle::Free::default())
+}
+
+/// [`calibrate_corners_from`] with a choice of the distortion terms both devices fit: `free.k3`
+/// false holds k3 at 0 (OpenCV's `CALIB_FIX_K3`), `free.tangential` false holds p1 = p2 = 0
+/// (`CALIB_ZERO_TANGENT_DIST`).
+pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>, free: bundle::Free) -> anyhow::Result<ProcamCalibration> {
     use anyhow::{bail, Context};
-    use bundle::{refine, Free, State, ViewObs};
+    use bundle::{refine, State, ViewObs};
     let n = rig.cols * rig.rows;
     if captures.len() < if init.is_some() { 2 } else { 3 } {
         bail!("degenerate pose set: calibration needs at least 3 captures, got {}", captures.len());
@@ -266,12 +273,17 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
         }
         let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: pts(c).clone(), proj: vec![] }).collect();
         let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
-        refine(&obj, &views, &init, Free::default(), MAX_RMS_PX).with_context(|| what.to_string())
+        refine(&obj, &views, &init, free, MAX_RMS_PX).with_context(|| what.to_string())
     };
     let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
     let start = match init {
         Some(c) => {
-            let lens = |d: &DeviceCalibration| model::Lens { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy, dist: [d.distortion[0], d.distortion[1], d.distortion[2], d.distortion[3], d.distortion[4]] };
+            // Held terms start (and stay) at 0.
+            let lens = |d: &DeviceCalibration| {
+                let g = |i: usize| d.distortion.get(i).copied().unwrap_or(0.0);
+                let t = if free.tangential { 1.0 } else { 0.0 };
+                model::Lens { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy, dist: [g(0), g(1), t * g(2), t * g(3), if free.k3 { g(4) } else { 0.0 }] }
+            };
             let cam = lens(&c.camera);
             let mut poses = Vec::new();
             for cap in captures {
@@ -283,7 +295,7 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
         }
         None => stereo_start(captures, rig, &mono)?,
     };
-    let fit = refine(&obj, &views, &start, Free::default(), MAX_RMS_PX).context("stereo")?;
+    let fit = refine(&obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
     finish(rig, captures, &obj, &views, &fit)
 }
 
@@ -348,11 +360,13 @@ pub struct CalibrateOptions {
     pub local: procam::LocalHomography,
     /// Projector pixels per Gray code, as the patterns were made.
     pub step: u32,
+    /// Which distortion terms the fit moves (default: k1, k2, p1, p2, k3, as OpenCV's default).
+    pub free: bundle::Free,
 }
 
 impl Default for CalibrateOptions {
     fn default() -> Self {
-        CalibrateOptions { decode: Default::default(), local: Default::default(), step: 1 }
+        CalibrateOptions { decode: Default::default(), local: Default::default(), step: 1, free: Default::default() }
     }
 }
 
@@ -386,5 +400,5 @@ pub fn calibrate_dirs(dirs: &[std::path::PathBuf], rig: &Rig, opts: &CalibrateOp
         rig.camera = size;
         caps.push(c);
     }
-    Ok((calibrate_corners(&rig, &caps)?, caps))
+    Ok((calibrate_corners_with(&rig, &caps, None, opts.free)?, caps))
 }

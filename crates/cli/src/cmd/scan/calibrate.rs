@@ -48,6 +48,13 @@ pub struct Args {
     /// Half-size of the local-homography window around each corner (camera pixels; 23 = 47×47).
     #[arg(long, default_value_t = 23, value_name = "PX")]
     pub half_window: usize,
+    /// Hold k3, the sixth-order radial term, at 0 in both devices (OpenCV's CALIB_FIX_K3), as for
+    /// lenses whose field is too narrow to determine it.
+    #[arg(long)]
+    pub fix_k3: bool,
+    /// Hold the tangential terms p1, p2 at 0 in both devices (OpenCV's CALIB_ZERO_TANGENT_DIST).
+    #[arg(long)]
+    pub zero_tangent: bool,
     /// Write the calibration JSON here (written to a temporary name, then renamed).
     #[arg(long, value_name = "CALIB.json")]
     pub out: Option<PathBuf>,
@@ -75,6 +82,7 @@ pub fn run(args: Args) -> Result<()> {
         decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true },
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
+        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent },
     };
     let opencv_yaml = match &args.opencv_out {
         None => false,
