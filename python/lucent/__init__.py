@@ -42,6 +42,8 @@ __all__ = [
     "fit_reflectance",
     "fit_particles",
     "compare",
+    "project_points",
+    "undistort_points",
     "Scene",
 ]
 
@@ -586,3 +588,65 @@ def compare(a, b, mask=None, *, color_correct: Union[None, bool, str] = None, sa
     elif color_correct is not None and not isinstance(color_correct, str):
         raise ValueError(f"color_correct: expected None, True, 'matrix' or 'affine', got {color_correct!r}")
     return Result(_lucent.compare(flat(x), flat(y), w, h, mask_image, mask_flags, color_correct, float(saturation)))
+
+
+def _camera_args(camera_matrix, dist_coeffs):
+    k = _np.asarray(camera_matrix, dtype=float)
+    if k.shape != (3, 3):
+        raise ValueError(f"camera_matrix: expected a 3×3 matrix, got shape {k.shape}")
+    d = _np.asarray([] if dist_coeffs is None else dist_coeffs, dtype=float).ravel()
+    return [float(v) for v in k.ravel()], [float(v) for v in d]
+
+
+def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -> _np.ndarray:
+    """Pixel positions of 3-D points through an OpenCV camera, as ``cv2.projectPoints`` computes
+    them (without its Jacobian): lucent's camera model with all of OpenCV's distortion terms.
+
+    Parameters
+    ----------
+    object_points : (N, 3) array
+        Points in the world frame (any length unit, the unit of ``tvec``).
+    rvec, tvec : 3 numbers each
+        World → camera rotation (Rodrigues vector, radians) and translation.
+    camera_matrix : (3, 3) array
+        [[fx, 0, cx], [0, fy, cy], [0, 0, 1]], pixels (no skew).
+    dist_coeffs : 0, 4, 5, 8, 12 or 14 numbers, optional
+        OpenCV's (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, τx, τy]]]]), τ in radians.
+
+    Returns
+    -------
+    (N, 2) float array
+        OpenCV pixel coordinates (integers at pixel centres); NaN for points at or behind the
+        camera.
+    """
+    p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    k, d = _camera_args(camera_matrix, dist_coeffs)
+    r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]
+    t = [float(v) for v in _np.asarray(tvec, dtype=float).ravel()]
+    if len(r) != 3 or len(t) != 3:
+        raise ValueError("rvec, tvec: expected 3 numbers each")
+    out = _lucent.project_points_flat([float(v) for v in p.ravel()], r, t, k, d)
+    return _np.asarray(out, dtype=float).reshape(-1, 2)
+
+
+def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarray:
+    """Normalised undistorted coordinates (x/z, y/z) of pixel positions, as
+    ``cv2.undistortPoints`` without R and P, inverted to 1e-9 px (Newton's method; the tilt
+    exactly).
+
+    Parameters
+    ----------
+    image_points : (N, 2) array
+        OpenCV pixel coordinates.
+    camera_matrix, dist_coeffs
+        As for :func:`project_points`.
+
+    Returns
+    -------
+    (N, 2) float array
+        NaN where the inverse does not converge.
+    """
+    q = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    k, d = _camera_args(camera_matrix, dist_coeffs)
+    out = _lucent.undistort_points_flat([float(v) for v in q.ravel()], k, d)
+    return _np.asarray(out, dtype=float).reshape(-1, 2)

@@ -58,6 +58,13 @@ def compare(a: npt.ArrayLike, b: npt.ArrayLike, mask: Optional[npt.ArrayLike] = 
             color_correct: Union[None, bool, str] = None, saturation: float = 1.0) -> Result:
     """RMSE, relMSE, PSNR, SSIM, mean ΔE2000 of two (H, W, 3) linear sRGB images."""
 
+def project_points(object_points: npt.ArrayLike, rvec: npt.ArrayLike, tvec: npt.ArrayLike, camera_matrix: npt.ArrayLike,
+                   dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
+    """Pixels of (N, 3) points through an OpenCV camera (cv2.projectPoints), 0–14 distortion terms."""
+def undistort_points(image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
+                     dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
+    """Normalised undistorted coordinates of (N, 2) pixels (cv2.undistortPoints without R, P)."""
+
 class Scene:
     """A scene ready to render (docs/scene-format.md)."""
     @staticmethod

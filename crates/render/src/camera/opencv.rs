@@ -283,6 +283,17 @@ impl OpenCv {
         Ok(cam)
     }
 
+    /// A camera without the invertibility check of [`OpenCv::new`], for point-wise use (OpenCV's
+    /// `projectPoints`, `undistortPoints`) where no image size is known; [`OpenCv::undistort`]
+    /// reports per point whether its inverse converged. Focal lengths must still be positive.
+    pub fn unchecked(intrinsics: Intrinsics, distortion: Distortion, extrinsics: Extrinsics) -> Result<OpenCv> {
+        let Intrinsics { fx, fy, cx, cy } = intrinsics;
+        if !(fx > 0.0 && fy > 0.0 && fx.is_finite() && fy.is_finite() && cx.is_finite() && cy.is_finite()) {
+            bail!("intrinsics must be finite with positive fx, fy, got fx {fx}, fy {fy}, cx {cx}, cy {cy}");
+        }
+        Ok(OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() })
+    }
+
     fn check_invertible(&self, width: u32, height: u32) -> Result<()> {
         let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
         let d = &self.distortion;

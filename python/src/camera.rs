@@ -1,0 +1,45 @@
+//! OpenCV's point projection and its inverse with lucent's camera model (all 14 distortion
+//! coefficients): `cv2.projectPoints` and `cv2.undistortPoints` (without R and P) on numpy arrays.
+
+use crate::errors::{value, OrPy};
+use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
+use pyo3::prelude::*;
+
+fn camera(rvec: [f64; 3], tvec: [f64; 3], k: [f64; 9], dist: &[f64]) -> PyResult<OpenCv> {
+    if k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
+        return Err(value(format!("camera_matrix: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {k:?}")));
+    }
+    let d = Distortion::from_opencv(dist).map_err(|e| value(format!("dist_coeffs: {e}")))?;
+    let e = Extrinsics::from_rvec(rvec, tvec).map_err(|e| value(format!("rvec, tvec: {e}")))?;
+    OpenCv::unchecked(Intrinsics { fx: k[0], fy: k[4], cx: k[2], cy: k[5] }, d, e).or_py()
+}
+
+/// Pixel positions (flat u, v) of flat world points (x, y, z), as OpenCV's `projectPoints`;
+/// NaN for a point at or behind the camera.
+#[pyfunction]
+pub fn project_points_flat(points: Vec<f64>, rvec: [f64; 3], tvec: [f64; 3], camera_matrix: [f64; 9], dist_coeffs: Vec<f64>) -> PyResult<Vec<f64>> {
+    let cam = camera(rvec, tvec, camera_matrix, &dist_coeffs)?;
+    if points.iter().any(|x| !x.is_finite()) {
+        return Err(value("object_points: must be finite"));
+    }
+    Ok(points.chunks_exact(3).flat_map(|p| cam.project_pixel([p[0], p[1], p[2]]).unwrap_or([f64::NAN; 2])).collect())
+}
+
+/// Normalised undistorted coordinates (flat x′, y′) of flat pixel positions (u, v), as OpenCV's
+/// `undistortPoints` without R and P; NaN where the inverse does not converge.
+#[pyfunction]
+pub fn undistort_points_flat(pixels: Vec<f64>, camera_matrix: [f64; 9], dist_coeffs: Vec<f64>) -> PyResult<Vec<f64>> {
+    let cam = camera([0.0; 3], [0.0; 3], camera_matrix, &dist_coeffs)?;
+    let k = cam.intrinsics;
+    Ok(pixels
+        .chunks_exact(2)
+        .flat_map(|q| {
+            let (x, y, ok) = cam.undistort((q[0] - k.cx) / k.fx, (q[1] - k.cy) / k.fy);
+            if ok {
+                [x, y]
+            } else {
+                [f64::NAN; 2]
+            }
+        })
+        .collect())
+}
