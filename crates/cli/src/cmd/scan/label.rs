@@ -119,7 +119,8 @@ pub fn run(args: Args) -> Result<()> {
     let capture_pose = |i: usize, flag: &str| -> Result<BoardPose> {
         match calib.captures.get(i) {
             Some(c) => Ok(BoardPose::from_capture(c)),
-            None => bail!("{flag} {i}: {} has {} board poses (captures 0…{})", args.calibration.display(), calib.captures.len(), calib.captures.len() as i64 - 1),
+            None if calib.captures.is_empty() => bail!("{flag} {i}: {} has no board poses (an OpenCV FileStorage calibration carries none: use the JSON of `lucent scan calibrate`)", args.calibration.display()),
+            None => bail!("{flag} {i}: {} has {} board poses (captures 0…{})", args.calibration.display(), calib.captures.len(), calib.captures.len() - 1),
         }
     };
     let board = args.board_capture.map(|i| capture_pose(i, "--board-capture")).transpose()?;
