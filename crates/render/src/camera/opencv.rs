@@ -22,8 +22,8 @@
 //! continuous film coordinate is the OpenCV coordinate plus ½.
 //!
 //! Rays need the inverse of the distortion map (x′, y′) ↦ (x″, y″). The tilt is a homography,
-//! inverted exactly first; the rest is solved per ray by Newton's method in f64 from (x″, y″) to a residual below 1e-9 px: about four iterations of a
-//! closed-form 2×2 Jacobian (quadratic convergence from a 50 px start at the image corners),
+//! inverted exactly first; the rest is solved per ray by Newton's method in f64 from (x″, y″)
+//! to a residual below 1e-9 px: about four iterations of a closed-form 2×2 Jacobian (quadratic convergence from a 50 px start at the image corners),
 //! no per-pixel cache; the `camera` test suite times it against the pinhole's ray and a path
 //! sample (about a tenth of a Cornell-box path sample). Parameters for which the map is not invertible over the
 //! image are refused when the camera is built ([`OpenCv::new`]).

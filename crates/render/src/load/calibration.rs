@@ -101,8 +101,7 @@ pub fn parse_calibration(text: &str, name: &str, nodes: &CalibrationNodes) -> Re
     } else {
         Err(anyhow!("not a calibration file (expected a JSON object, `%YAML:1.0` or `<opencv_storage>`)"))
     };
-    // Every message is one line, whatever file text it quotes.
-    r.map_err(|e| anyhow!("{name}: {}", e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")))
+    r.map_err(|e| anyhow!("{name}: {}", one_line(&e)))
 }
 
 #[derive(serde::Deserialize)]
@@ -194,7 +193,12 @@ pub fn filestorage_node(text: &str, name: &str) -> Result<Option<Node>> {
     } else {
         bail!("not an OpenCV FileStorage file (expected `%YAML:1.0` or `<opencv_storage>`)")
     };
-    r.map_err(|e| anyhow!("{name}: {}", e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")))
+    r.map_err(|e| anyhow!("{name}: {}", one_line(&e)))
+}
+
+/// An error's message on one line, whatever file text it quotes (whitespace runs as one space).
+fn one_line(e: &anyhow::Error) -> String {
+    e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// Whether `text` looks like OpenCV FileStorage (YAML or XML) rather than JSON.
