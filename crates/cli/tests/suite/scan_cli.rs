@@ -305,6 +305,10 @@ fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
     let bad = s.arg("bad.json");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--opencv-out", &s.arg("c.txt")]);
     assert!(e.contains("c.txt") && e.contains(".xml"), "{e}");
+    // An output in a folder that does not exist: refused before the work, naming the file.
+    let lost = s.path("no-such-folder").join("c.xml").display().to_string();
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--opencv-out", &lost]);
+    assert!(e.contains(&lost) && e.contains("not a folder"), "{e}");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--out", &bad]);
     assert!(e.contains("degenerate pose set"), "{e}");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "11x7", "--square", "75", "--out", &bad]);

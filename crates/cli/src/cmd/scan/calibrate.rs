@@ -92,6 +92,13 @@ pub fn run(args: Args) -> Result<()> {
             _ => bail!("--opencv-out {}: OpenCV FileStorage is written as .xml, .yml or .yaml", p.display()),
         },
     };
+    // An output folder that does not exist fails now, not after the calibration's work.
+    for out in args.out.iter().chain(args.opencv_out.iter()) {
+        let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+        if !dir.is_dir() {
+            bail!("{}: cannot write there: {} is not a folder", out.display(), dir.display());
+        }
+    }
     let progress = Progress::new((patterns.len() * args.captures.len()) as u64, "images read and decoded");
     let result = calibrate_dirs(&args.captures, &rig, &opts, &|| progress.inc());
     progress.finish();
@@ -99,10 +106,10 @@ pub fn run(args: Args) -> Result<()> {
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);
-        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, &fs).map_err(|e| anyhow::anyhow!("{}: {e}", tmp.display())))?;
+        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, &fs).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
     }
     if let Some(out) = &args.out {
-        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: {e}", tmp.display())))?;
+        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
     }
     if args.json {
         println!("{text}");
