@@ -249,6 +249,12 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
 pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>, free: bundle::Free) -> anyhow::Result<ProcamCalibration> {
     use anyhow::{bail, Context};
     use bundle::{refine, State, ViewObs};
+    // The rational model's denominator trades against the numerator over a board's field, so
+    // its fit starts from the five-coefficient solution rather than from Zhang's closed form.
+    if free.rational && init.is_none() {
+        let five = calibrate_corners_with(rig, captures, None, bundle::Free { rational: false, ..free })?;
+        return calibrate_corners_with(rig, captures, Some(&five), free);
+    }
     let n = rig.cols * rig.rows;
     if captures.len() < if init.is_some() { 2 } else { 3 } {
         bail!("degenerate pose set: calibration needs at least 3 captures, got {}", captures.len());
@@ -280,9 +286,17 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
         Some(c) => {
             // Held terms start (and stay) at 0.
             let lens = |d: &DeviceCalibration| {
-                let g = |i: usize| d.distortion.get(i).copied().unwrap_or(0.0);
-                let t = if free.tangential { 1.0 } else { 0.0 };
-                model::Lens { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy, dist: [g(0), g(1), t * g(2), t * g(3), if free.k3 { g(4) } else { 0.0 }] }
+                let mut l = model::Lens::from_opencv(d.fx, d.fy, d.cx, d.cy, &d.distortion);
+                if !free.tangential {
+                    (l.dist[2], l.dist[3]) = (0.0, 0.0);
+                }
+                if !free.k3 {
+                    l.dist[4] = 0.0;
+                }
+                if !free.rational {
+                    l.rational = [0.0; 3];
+                }
+                l
             };
             let cam = lens(&c.camera);
             let mut poses = Vec::new();
@@ -296,7 +310,7 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
         None => stereo_start(captures, rig, &mono)?,
     };
     let fit = refine(&obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
-    finish(rig, captures, &obj, &views, &fit)
+    finish(rig, captures, &obj, &views, &fit, free.rational)
 }
 
 type MonoFit<'a> = dyn Fn(&dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, (u32, u32), &str) -> anyhow::Result<bundle::State> + 'a;
@@ -318,7 +332,9 @@ fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit) -> anyho
     Ok(bundle::State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() })
 }
 
-fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], views: &[bundle::ViewObs], fit: &bundle::State) -> anyhow::Result<ProcamCalibration> {
+/// The result of a fit; `rational`: the distortion lists OpenCV's eight coefficients (k4…k6
+/// fitted), otherwise its five.
+fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], views: &[bundle::ViewObs], fit: &bundle::State, rational: bool) -> anyhow::Result<ProcamCalibration> {
     let e = bundle::rms(obj, views, fit);
     let device = |l: &model::Lens, size: (u32, u32), rms_px: f64| DeviceCalibration {
         width: size.0,
@@ -327,7 +343,7 @@ fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], vi
         fy: l.fy,
         cx: l.cx,
         cy: l.cy,
-        distortion: l.dist.to_vec(),
+        distortion: if rational { l.dist.iter().chain(&l.rational).copied().collect() } else { l.dist.to_vec() },
         rms_px,
     };
     let rm = fit.stereo.r();

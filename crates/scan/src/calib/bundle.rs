@@ -42,15 +42,18 @@ pub struct Free {
     pub k3: bool,
     /// Tangential p1, p2.
     pub tangential: bool,
+    /// The rational model's k4, k5, k6 (OpenCV's `CALIB_RATIONAL_MODEL`); off by default, as in
+    /// OpenCV, when they stay at their start (0).
+    pub rational: bool,
 }
 
 impl Default for Free {
     fn default() -> Self {
-        Free { lenses: true, k3: true, tangential: true }
+        Free { lenses: true, k3: true, tangential: true, rational: false }
     }
 }
 
-const LENS: usize = 9;
+const LENS: usize = 12;
 
 struct Problem<'a> {
     obj: &'a [Vector3<f64>],
@@ -229,7 +232,8 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
     let mut idx = Vec::new();
     let ndev = if stereo { 2 } else { 1 };
     for d in 0..ndev {
-        for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3].iter().enumerate() {
+        let r = free.rational;
+        for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r].iter().enumerate() {
             if free.lenses && *on {
                 idx.push(d * LENS + i);
             }

@@ -1,5 +1,6 @@
-//! The device model of the calibration: OpenCV's pinhole with distortion k1, k2, p1, p2, k3
-//! (formula in `render::camera::opencv`), and rigid poses as Rodrigues vector + translation.
+//! The device model of the calibration: OpenCV's pinhole with distortion k1, k2, p1, p2, k3 and
+//! the rational model's k4, k5, k6 (formula in `render::camera::opencv`), and rigid poses as
+//! Rodrigues vector + translation.
 
 use super::homography::Point2;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -18,12 +19,14 @@ pub struct Lens {
     pub cy: f64,
     /// [k1, k2, p1, p2, k3] (dimensionless).
     pub dist: [f64; 5],
+    /// [k4, k5, k6]: the denominator of OpenCV's rational model (0 unless it is fitted).
+    pub rational: [f64; 3],
 }
 
 impl Lens {
     /// A distortion-free lens.
     pub fn pinhole(fx: f64, fy: f64, cx: f64, cy: f64) -> Lens {
-        Lens { fx, fy, cx, cy, dist: [0.0; 5] }
+        Lens { fx, fy, cx, cy, dist: [0.0; 5], rational: [0.0; 3] }
     }
 
     /// The camera matrix K.
@@ -34,20 +37,27 @@ impl Lens {
     /// Pixel position of a point in device coordinates (x right, y down, z forward).
     pub fn project(&self, x: &Vector3<f64>) -> Point2 {
         let [k1, k2, p1, p2, k3] = self.dist;
-        let d = Distortion { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2], ..Distortion::default() };
+        let [k4, k5, k6] = self.rational;
+        let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], ..Distortion::default() };
         let (u, v) = d.distort(x[0] / x[2], x[1] / x[2]);
         [self.fx * u + self.cx, self.fy * v + self.cy]
     }
 
-    /// The nine parameters in the order fx, fy, cx, cy, k1, k2, p1, p2, k3.
-    pub fn to_array(&self) -> [f64; 9] {
-        let d = self.dist;
-        [self.fx, self.fy, self.cx, self.cy, d[0], d[1], d[2], d[3], d[4]]
+    /// The twelve parameters in the order fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6.
+    pub fn to_array(&self) -> [f64; 12] {
+        let (d, q) = (self.dist, self.rational);
+        [self.fx, self.fy, self.cx, self.cy, d[0], d[1], d[2], d[3], d[4], q[0], q[1], q[2]]
     }
 
     /// Inverse of [`Lens::to_array`].
     pub fn from_slice(p: &[f64]) -> Lens {
-        Lens { fx: p[0], fy: p[1], cx: p[2], cy: p[3], dist: [p[4], p[5], p[6], p[7], p[8]] }
+        Lens { fx: p[0], fy: p[1], cx: p[2], cy: p[3], dist: [p[4], p[5], p[6], p[7], p[8]], rational: [p[9], p[10], p[11]] }
+    }
+
+    /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6]]); terms not given are 0.
+    pub fn from_opencv(fx: f64, fy: f64, cx: f64, cy: f64, d: &[f64]) -> Lens {
+        let g = |i: usize| d.get(i).copied().unwrap_or(0.0);
+        Lens { fx, fy, cx, cy, dist: [g(0), g(1), g(2), g(3), g(4)], rational: [g(5), g(6), g(7)] }
     }
 }
 

@@ -55,6 +55,10 @@ pub struct Args {
     /// Hold the tangential terms p1, p2 at 0 in both devices (OpenCV's CALIB_ZERO_TANGENT_DIST).
     #[arg(long)]
     pub zero_tangent: bool,
+    /// Also fit k4, k5, k6, the denominator of OpenCV's rational model (CALIB_RATIONAL_MODEL),
+    /// for wide-angle lenses; the distortion then lists eight coefficients.
+    #[arg(long)]
+    pub rational: bool,
     /// Write the calibration JSON here (written to a temporary name, then renamed).
     #[arg(long, value_name = "CALIB.json")]
     pub out: Option<PathBuf>,
@@ -82,7 +86,7 @@ pub fn run(args: Args) -> Result<()> {
         decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true },
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
-        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent },
+        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational },
     };
     let opencv_yaml = match &args.opencv_out {
         None => false,
