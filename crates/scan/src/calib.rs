@@ -253,7 +253,17 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
     // its fit starts from the five-coefficient solution rather than from Zhang's closed form.
     if free.rational && init.is_none() {
         let five = calibrate_corners_with(rig, captures, None, bundle::Free { rational: false, ..free })?;
-        return calibrate_corners_with(rig, captures, Some(&five), free);
+        let c = calibrate_corners_with(rig, captures, Some(&five), free)?;
+        // A denominator that reaches 0 inside the image fits the corners but maps no ray there
+        // (render::camera::OpenCv's check, which triangulation and rendering rely on).
+        for (name, d) in [("camera", &c.camera), ("projector", &c.projector)] {
+            let dist = render::camera::Distortion::from_opencv(&d.distortion)?;
+            let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+            if let Err(e) = render::camera::OpenCv::new(render::camera::Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, dist, id, d.width, d.height) {
+                bail!("--rational: the fitted {name} model is not usable ({e}); these captures do not determine k4, k5, k6: calibrate without --rational");
+            }
+        }
+        return Ok(c);
     }
     let n = rig.cols * rig.rows;
     if captures.len() < if init.is_some() { 2 } else { 3 } {

@@ -123,7 +123,10 @@ pub fn run(args: Args) -> Result<()> {
         println!(
             "{name:9} {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.4} k2 {:.4} p1 {:.5} p2 {:.5} k3 {:.4}; RMS {:.3} px",
             d.width, d.height, d.fx, d.fy, d.cx, d.cy, d.distortion[0], d.distortion[1], d.distortion[2], d.distortion[3], d.distortion[4], d.rms_px
-        )
+        );
+        if let [k4, k5, k6] = d.distortion[5..] {
+            println!("{:9} rational denominator k4 {k4:.4} k5 {k5:.4} k6 {k6:.4}", "");
+        }
     };
     dev("camera", &calib.camera);
     dev("projector", &calib.projector);
