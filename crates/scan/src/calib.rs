@@ -253,6 +253,12 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
     // its fit starts from the five-coefficient solution rather than from Zhang's closed form.
     if free.rational && init.is_none() {
         let five = calibrate_corners_with(rig, captures, None, bundle::Free { rational: false, ..free })?;
+        // The normalised radius of each device's image corners, for the fit's barrier.
+        let corner_radius = |d: &DeviceCalibration| {
+            let (w, h) = (d.width as f64 - 0.5, d.height as f64 - 0.5);
+            [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h)].iter().map(|&(u, v)| ((u - d.cx) / d.fx).hypot((v - d.cy) / d.fy)).fold(0.0f64, f64::max)
+        };
+        let free = bundle::Free { rational_radius: [corner_radius(&five.camera), corner_radius(&five.projector)], ..free };
         let c = calibrate_corners_with(rig, captures, Some(&five), free)?;
         // A denominator that reaches 0 inside the image fits the corners but maps no ray there
         // (render::camera::OpenCv's check, which triangulation and rendering rely on).

@@ -45,13 +45,26 @@ pub struct Free {
     /// The rational model's k4, k5, k6 (OpenCV's `CALIB_RATIONAL_MODEL`); off by default, as in
     /// OpenCV, when they stay at their start (0).
     pub rational: bool,
+    /// With `rational`: the normalised radius of each device's image corners (camera, projector;
+    /// 0: no bound). The fit then keeps the denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ at or above
+    /// [`RATIONAL_FLOOR`] out to 1.1 times that radius by a barrier residual, so that the model
+    /// stays invertible over the image (numerator and denominator otherwise trade freely, and a
+    /// fit may put a pole inside the image that the board's corners never see).
+    pub rational_radius: [f64; 2],
 }
 
 impl Default for Free {
     fn default() -> Self {
-        Free { lenses: true, k3: true, tangential: true, rational: false }
+        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2] }
     }
 }
+
+/// The least value the rational denominator may take over the image (see [`Free`]).
+pub const RATIONAL_FLOOR: f64 = 0.2;
+/// Radii at which the barrier checks the denominator, per device.
+const BARRIER_SAMPLES: usize = 24;
+/// Pixels of residual per unit the denominator falls below the floor.
+const BARRIER_WEIGHT: f64 = 1e3;
 
 const LENS: usize = 12;
 
@@ -61,6 +74,8 @@ struct Problem<'a> {
     stereo: bool,
     x: DVector<f64>,
     free: Vec<usize>,
+    /// Image-corner radius per device for the rational model's barrier (0: none).
+    barrier: [f64; 2],
 }
 
 impl Problem<'_> {
@@ -84,7 +99,21 @@ impl Problem<'_> {
         };
         let n = self.obj.len();
         let per_view = if self.stereo { 4 * n } else { 2 * n };
-        let mut r = DVector::zeros(per_view * self.views.len());
+        let corners = per_view * self.views.len();
+        let barrier_rows = if self.barrier.iter().any(|&b| b > 0.0) { 2 * BARRIER_SAMPLES } else { 0 };
+        let mut r = DVector::zeros(corners + barrier_rows);
+        // The barrier: max(0, floor − denominator) at radii out to 1.1 × the image corners.
+        for (d, lens) in [Some(&cam), proj.as_ref()].into_iter().enumerate() {
+            let (Some(l), rmax) = (lens, self.barrier[d]) else { continue };
+            if rmax > 0.0 {
+                let [k4, k5, k6] = l.rational;
+                for i in 0..BARRIER_SAMPLES {
+                    let r2 = (1.1 * rmax * (i + 1) as f64 / BARRIER_SAMPLES as f64).powi(2);
+                    let m = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+                    r[corners + d * BARRIER_SAMPLES + i] = BARRIER_WEIGHT * (RATIONAL_FLOOR - m).max(0.0);
+                }
+            }
+        }
         for (v, obs) in self.views.iter().enumerate() {
             let pose = Self::pose_at(x, self.layout_view(v));
             let rot = pose.r();
@@ -197,7 +226,7 @@ pub fn observed(p: Point2) -> bool {
 pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let stereo = state.proj.is_some();
-    let pr = Problem { obj: &obj3, views, stereo, x: pack_state(state), free: vec![] };
+    let pr = Problem { obj: &obj3, views, stereo, x: pack_state(state), free: vec![], barrier: [0.0; 2] };
     let r = pr.residuals_of(&pr.x);
     let n = obj.len();
     let per_view = if stereo { 4 * n } else { 2 * n };
@@ -240,9 +269,15 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
         }
     }
     idx.extend(ndev * LENS..x.len());
-    let problem = Problem { obj: &obj3, views, stereo, x, free: idx };
+    let barrier = if free.rational { free.rational_radius } else { [0.0; 2] };
+    let problem = Problem { obj: &obj3, views, stereo, x, free: idx, barrier };
     let (solved, report) = LevenbergMarquardt::new().with_ftol(1e-15).with_xtol(1e-15).with_gtol(1e-15).with_patience(200).minimize(problem);
-    let ok = report.termination.was_successful() || matches!(report.termination, TerminationReason::NoImprovementPossible(_));
+    // The rational model's valley of equivalent coefficients can exhaust the evaluations while
+    // the corners no longer move; that state is taken, as OpenCV stops after its iteration count
+    // (the caller checks that the model stays invertible over the image).
+    let ok = report.termination.was_successful()
+        || matches!(report.termination, TerminationReason::NoImprovementPossible(_))
+        || (free.rational && matches!(report.termination, TerminationReason::LostPatience));
     if !ok {
         bail!("the calibration did not converge (Levenberg–Marquardt: {:?})", report.termination);
     }
@@ -261,7 +296,7 @@ pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64)
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let x = pack_state(state);
     let free = (0..x.len()).collect();
-    let pr = Problem { obj: &obj3, views, stereo: state.proj.is_some(), x, free };
+    let pr = Problem { obj: &obj3, views, stereo: state.proj.is_some(), x, free, barrier: [0.0; 2] };
     let j = pr.jacobian().expect("finite Jacobian");
     let cov = (j.transpose() * &j).try_inverse().expect("JᵀJ invertible");
     (0..cov.nrows()).map(|i| sigma_px * cov[(i, i)].sqrt()).collect()

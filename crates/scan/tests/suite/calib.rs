@@ -135,7 +135,7 @@ fn levenberg_marquardt_recovers_noiseless_truth() {
 fn held_distortion_terms_stay_zero() {
     use scan::calib::bundle::Free;
     use scan::calib::calibrate_corners_with;
-    let held = Free { lenses: true, k3: false, tangential: false, rational: false };
+    let held = Free { k3: false, tangential: false, ..Free::default() };
     let mut truth = rig(true);
     for l in [&mut truth.cam, truth.proj.as_mut().unwrap()] {
         l.dist[2] = 0.0;

@@ -86,7 +86,7 @@ pub fn run(args: Args) -> Result<()> {
         decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true },
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
-        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational },
+        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational, ..Default::default() },
     };
     let opencv_yaml = match &args.opencv_out {
         None => false,
