@@ -252,23 +252,30 @@ pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     }
 }
 
-/// Refine `init` by Levenberg–Marquardt over all reprojection errors. A single-device fit when
-/// `init.proj` is None. Errors when the minimiser fails or the result's RMS exceeds `max_rms_px`.
-pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_rms_px: f64) -> Result<State> {
-    let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
-    let stereo = init.proj.is_some();
-    let x = pack_state(init);
+/// Indices (in [`pack_state`] order) of the parameters a fit with `free` moves: the chosen lens
+/// terms of each device, then the stereo pose and the board poses.
+fn free_indices(free: Free, stereo: bool, len: usize) -> Vec<usize> {
     let mut idx = Vec::new();
     let ndev = if stereo { 2 } else { 1 };
+    let r = free.rational;
     for d in 0..ndev {
-        let r = free.rational;
         for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r].iter().enumerate() {
             if free.lenses && *on {
                 idx.push(d * LENS + i);
             }
         }
     }
-    idx.extend(ndev * LENS..x.len());
+    idx.extend(ndev * LENS..len);
+    idx
+}
+
+/// Refine `init` by Levenberg–Marquardt over all reprojection errors. A single-device fit when
+/// `init.proj` is None. Errors when the minimiser fails or the result's RMS exceeds `max_rms_px`.
+pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_rms_px: f64) -> Result<State> {
+    let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
+    let stereo = init.proj.is_some();
+    let x = pack_state(init);
+    let idx = free_indices(free, stereo, x.len());
     let barrier = if free.rational { free.rational_radius } else { [0.0; 2] };
     let problem = Problem { obj: &obj3, views, stereo, x, free: idx, barrier };
     let (solved, report) = LevenbergMarquardt::new().with_ftol(1e-15).with_xtol(1e-15).with_gtol(1e-15).with_patience(200).minimize(problem);
@@ -289,15 +296,22 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
     Ok(state)
 }
 
-/// Standard deviations of every parameter (in [`pack_state`] order) for independent Gaussian
-/// pixel noise of `sigma_px` on every corner: the square roots of the diagonal of σ²(JᵀJ)⁻¹ at
-/// `state` (the linearised covariance of the least-squares estimate).
+/// Standard deviations of every parameter (in [`pack_state`] order) of a fit with the default
+/// [`Free`] (five distortion coefficients per device) for independent Gaussian pixel noise of
+/// `sigma_px` on every corner: the square roots of the diagonal of σ²(JᵀJ)⁻¹ over the fitted
+/// parameters at `state` (the linearised covariance of the least-squares estimate); NaN for the
+/// terms such a fit holds (k4, k5, k6).
 pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64) -> Vec<f64> {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let x = pack_state(state);
-    let free = (0..x.len()).collect();
-    let pr = Problem { obj: &obj3, views, stereo: state.proj.is_some(), x, free, barrier: [0.0; 2] };
+    let n = x.len();
+    let free = free_indices(Free::default(), state.proj.is_some(), n);
+    let pr = Problem { obj: &obj3, views, stereo: state.proj.is_some(), x, free: free.clone(), barrier: [0.0; 2] };
     let j = pr.jacobian().expect("finite Jacobian");
     let cov = (j.transpose() * &j).try_inverse().expect("JᵀJ invertible");
-    (0..cov.nrows()).map(|i| sigma_px * cov[(i, i)].sqrt()).collect()
+    let mut sd = vec![f64::NAN; n];
+    for (c, &i) in free.iter().enumerate() {
+        sd[i] = sigma_px * cov[(c, c)].sqrt();
+    }
+    sd
 }

@@ -281,6 +281,11 @@ fn levenberg_marquardt_on_noisy_corners_stays_within_the_expected_spread() {
     let (got, want) = (scan::calib::bundle::pack_state(&fit), scan::calib::bundle::pack_state(&truth));
     let mut worst: f64 = 0.0;
     for i in 0..got.len() {
+        // k4…k6 are held at 0 by this fit (standard deviation NaN): not estimated, not compared.
+        if sd[i].is_nan() {
+            assert_eq!((got[i], want[i]), (0.0, 0.0));
+            continue;
+        }
         worst = worst.max((got[i] - want[i]).abs() / sd[i]);
     }
     assert!(worst < 4.5, "worst parameter error {worst:.2} standard deviations");
