@@ -139,7 +139,11 @@ impl Distortion {
     /// (a/c, b/c) of the module documentation (u = fx·a/c + cx).
     #[inline]
     pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
-        let ((xd, yd), _) = self.distort_jacobian(x, y);
+        let r2 = x * x + y * y;
+        let (f, _, _) = self.radial(r2);
+        let ([p1, p2], [s1, s2, s3, s4]) = (self.p, self.s);
+        let xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) + r2 * (s1 + s2 * r2);
+        let yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y + r2 * (s3 + s4 * r2);
         if !self.tilted() {
             return (xd, yd);
         }
