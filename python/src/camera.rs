@@ -6,12 +6,10 @@ use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
 use pyo3::prelude::*;
 
 fn camera(rvec: [f64; 3], tvec: [f64; 3], k: [f64; 9], dist: &[f64]) -> PyResult<OpenCv> {
-    if k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
-        return Err(value(format!("camera_matrix: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {k:?}")));
-    }
+    let intr = Intrinsics::from_camera_matrix(&k).map_err(|e| value(format!("camera_matrix: {e}")))?;
     let d = Distortion::from_opencv(dist).map_err(|e| value(format!("dist_coeffs: {e}")))?;
     let e = Extrinsics::from_rvec(rvec, tvec).map_err(|e| value(format!("rvec, tvec: {e}")))?;
-    OpenCv::unchecked(Intrinsics { fx: k[0], fy: k[4], cx: k[2], cy: k[5] }, d, e).or_py()
+    OpenCv::unchecked(intr, d, e).or_py()
 }
 
 /// Pixel positions (flat u, v) of flat world points (x, y, z), as OpenCV's `projectPoints`;

@@ -110,10 +110,8 @@ impl ProcamCalibration {
             }
         };
         let device = |k: &[f64], d: Vec<f64>, (w, h): (u32, u32), n: &str, rms: f64| -> anyhow::Result<DeviceCalibration> {
-            if k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 || !(k[0] > 0.0 && k[4] > 0.0) {
-                bail!("{name}: {n} must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0 (no skew), got {k:?}");
-            }
-            Ok(DeviceCalibration { width: w, height: h, fx: k[0], fy: k[4], cx: k[2], cy: k[5], distortion: d, rms_px: rms })
+            let i = render::camera::Intrinsics::from_camera_matrix(k).map_err(|e| anyhow!("{name}: {n}: {e}"))?;
+            Ok(DeviceCalibration { width: w, height: h, fx: i.fx, fy: i.fy, cx: i.cx, cy: i.cy, distortion: d, rms_px: rms })
         };
         let camera_size = match node("img_shape")? {
             Some(Node::Matrix(r, c, d)) if r * c == 2 && d.iter().all(|x| *x >= 1.0 && x.fract() == 0.0) => (d[1] as u32, d[0] as u32),

@@ -46,6 +46,18 @@ pub struct Intrinsics {
     pub cy: f64,
 }
 
+impl Intrinsics {
+    /// From OpenCV's camera matrix, row-major: [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with finite
+    /// fx, fy > 0 and no skew.
+    pub fn from_camera_matrix(k: &[f64]) -> Result<Intrinsics> {
+        let ok = k.len() == 9 && k.iter().all(|x| x.is_finite()) && k[1] == 0.0 && k[3] == 0.0 && k[6] == 0.0 && k[7] == 0.0 && k[8] == 1.0;
+        if !ok || !(k[0] > 0.0 && k[4] > 0.0) {
+            bail!("expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with finite fx, fy > 0 (no skew), got {k:?}");
+        }
+        Ok(Intrinsics { fx: k[0], fy: k[4], cx: k[2], cy: k[5] })
+    }
+}
+
 /// Distortion coefficients (dimensionless, acting on normalised image coordinates; the tilt in
 /// radians).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

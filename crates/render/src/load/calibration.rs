@@ -231,9 +231,7 @@ fn filestorage(s: &dyn Storage, nodes: &CalibrationNodes) -> Result<Calibration>
     if (r, c) != (3, 3) {
         bail!("{}: camera matrix is {r}×{c}, expected 3×3", nodes.matrix);
     }
-    if k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
-        bail!("{}: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {k:?}", nodes.matrix);
-    }
+    let intrinsics = Intrinsics::from_camera_matrix(&k).map_err(|e| anyhow!("{}: {e}", nodes.matrix))?;
     let dist = match matrix(&nodes.dist)? {
         None => bail!("{}: no such node (name the distortion node)", nodes.dist),
         Some((r, c, d)) if r == 1 || c == 1 => d,
@@ -281,7 +279,7 @@ fn filestorage(s: &dyn Storage, nodes: &CalibrationNodes) -> Result<Calibration>
     Ok(Calibration {
         width,
         height,
-        intrinsics: Intrinsics { fx: k[0], fy: k[4], cx: k[2], cy: k[5] },
+        intrinsics,
         distortion,
         r: rot,
         t,
