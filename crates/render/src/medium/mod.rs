@@ -129,6 +129,8 @@ pub struct MediumLanes {
     pub sigma_s: SampledSpectrum,
     /// Extinction coefficient σ_t per carried wavelength, m⁻¹.
     pub sigma_t: SampledSpectrum,
+    /// Mean cosine g of the phase function per carried wavelength (dimensionless).
+    pub g: SampledSpectrum,
     /// HG: g per wavelength; tables: the interpolation weight t of table k+1.
     phase_w: SampledSpectrum,
     /// Tables: index k of the lower table per wavelength.
@@ -192,7 +194,9 @@ impl HomogeneousMedium {
         let (sigma_s, sigma_t) = self.coefficients(wl);
         let mut w = [0f32; N_LAMBDA];
         let mut table = [0u32; N_LAMBDA];
+        let mut g = [0f32; N_LAMBDA];
         for i in 0..N_LAMBDA {
+            g[i] = self.g_at(wl.lambda_nm[i]);
             match &self.phase {
                 PhaseModel::HenyeyGreenstein { g } => w[i] = g.eval(wl.lambda_nm[i]),
                 PhaseModel::Tabulated { lambda_nm: ls, .. } => {
@@ -206,7 +210,7 @@ impl HomogeneousMedium {
             PhaseModel::Tabulated { grid: Some(g), .. } => g.mu.len() as u32,
             _ => 0,
         };
-        MediumLanes { sigma_s, sigma_t, phase_w: Vec4::from_array(w), table, row: table.map(|k| k * nodes) }
+        MediumLanes { sigma_s, sigma_t, g: Vec4::from_array(g), phase_w: Vec4::from_array(w), table, row: table.map(|k| k * nodes) }
     }
 
     /// (σ_s, σ_t) in m⁻¹ at the carried wavelengths.
@@ -396,7 +400,7 @@ impl HomogeneousMedium {
         HomogeneousMedium::new(&format!("{} (similarity relation)", self.name), self.sigma_a_per_m.clone(), sigma_s, PhaseModel::HenyeyGreenstein { g })
     }
 
-    /// Mean cosine of the phase function at `lambda_nm` (for documentation and tests).
+    /// Mean cosine of the phase function at `lambda_nm`.
     pub fn g_at(&self, lambda_nm: f32) -> f32 {
         match &self.phase {
             PhaseModel::HenyeyGreenstein { g } => g.eval(lambda_nm),
