@@ -243,7 +243,8 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
 
 /// [`calibrate_corners_from`] with a choice of the distortion terms both devices fit: `free.k3`
 /// false holds k3 at 0 (OpenCV's `CALIB_FIX_K3`), `free.tangential` false holds p1 = p2 = 0
-/// (`CALIB_ZERO_TANGENT_DIST`).
+/// (`CALIB_ZERO_TANGENT_DIST`), `free.rational` fits k4…k6 (`CALIB_RATIONAL_MODEL`) and
+/// `free.thin_prism` s1…s4 (`CALIB_THIN_PRISM_MODEL`).
 pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>, free: bundle::Free) -> anyhow::Result<ProcamCalibration> {
     use anyhow::{bail, Context};
     use bundle::{refine, State, ViewObs};
@@ -310,6 +311,9 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
                 if !free.rational {
                     l.rational = [0.0; 3];
                 }
+                if !free.thin_prism {
+                    l.prism = [0.0; 4];
+                }
                 l
             };
             let cam = lens(&c.camera);
@@ -324,7 +328,8 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
         None => stereo_start(captures, rig, &mono)?,
     };
     let fit = refine(&obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
-    finish(rig, captures, &obj, &views, &fit, free.rational)
+    let coefficients = if free.thin_prism { 12 } else if free.rational { 8 } else { 5 };
+    finish(rig, captures, &obj, &views, &fit, coefficients)
 }
 
 type MonoFit<'a> = dyn Fn(&dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, (u32, u32), &str) -> anyhow::Result<bundle::State> + 'a;
@@ -346,9 +351,9 @@ fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit) -> anyho
     Ok(bundle::State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() })
 }
 
-/// The result of a fit; `rational`: the distortion lists OpenCV's eight coefficients (k4…k6
-/// fitted), otherwise its five.
-fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], views: &[bundle::ViewObs], fit: &bundle::State, rational: bool) -> anyhow::Result<ProcamCalibration> {
+/// The result of a fit, its distortion as OpenCV's first `coefficients` (5, 8 with k4…k6, or 12
+/// with s1…s4 as well; OpenCV writes 12 with the thin prism model, k4…k6 then 0 unless fitted).
+fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], views: &[bundle::ViewObs], fit: &bundle::State, coefficients: usize) -> anyhow::Result<ProcamCalibration> {
     let e = bundle::rms(obj, views, fit);
     let device = |l: &model::Lens, size: (u32, u32), rms_px: f64| DeviceCalibration {
         width: size.0,
@@ -357,7 +362,7 @@ fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], vi
         fy: l.fy,
         cx: l.cx,
         cy: l.cy,
-        distortion: if rational { l.dist.iter().chain(&l.rational).copied().collect() } else { l.dist.to_vec() },
+        distortion: l.dist.iter().chain(&l.rational).chain(&l.prism).copied().take(coefficients).collect(),
         rms_px,
     };
     let rm = fit.stereo.r();

@@ -257,6 +257,31 @@ fn reconstruct_a_rendered_plane_through_the_command() {
     assert!(!s.path("p2.ply").exists());
 }
 
+/// `scan calibrate --thin-prism` (OpenCV's CALIB_THIN_PRISM_MODEL) on the three shared captures:
+/// twelve coefficients per device in OpenCV's order with k4…k6 exactly 0, and a stereo RMS no
+/// larger than the five-coefficient model's, which it contains.
+#[test]
+fn calibrate_thin_prism_writes_twelve_coefficients() {
+    let caps: Vec<String> = (0..3).map(|i| sample_capture(i).display().to_string()).collect();
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&str> = vec!["scan", "calibrate"];
+        args.extend(caps.iter().map(|c| c.as_str()));
+        args.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--json"]);
+        args.extend(extra);
+        ok_json(&args)
+    };
+    let five = run(&[]);
+    let prism = run(&["--thin-prism"]);
+    for dev in ["camera", "projector"] {
+        let d: Vec<f64> = prism[dev]["distortion"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        assert_eq!(d.len(), 12, "{dev}");
+        assert_eq!(&d[5..8], &[0.0, 0.0, 0.0], "{dev}");
+        assert!(d[8..].iter().any(|&s| s != 0.0), "{dev}: the prism terms were not fitted");
+    }
+    let (r5, r12) = (five["rms_px"].as_f64().unwrap(), prism["rms_px"].as_f64().unwrap());
+    assert!(r12 <= r5 * (1.0 + 1e-9), "thin prism RMS {r12} vs five coefficients {r5}");
+}
+
 /// `scan calibrate` on the three shared captures: the JSON keys of the contract, the stereo RMS
 /// target, the file equal to the printed JSON; and bad input as one line with no output file.
 #[test]

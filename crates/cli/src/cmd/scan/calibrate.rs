@@ -59,6 +59,10 @@ pub struct Args {
     /// for wide-angle lenses; the distortion then lists eight coefficients.
     #[arg(long)]
     pub rational: bool,
+    /// Also fit s1…s4, OpenCV's thin prism terms (CALIB_THIN_PRISM_MODEL); the distortion then
+    /// lists twelve coefficients (k4…k6 are 0 unless --rational).
+    #[arg(long)]
+    pub thin_prism: bool,
     /// Write the calibration JSON here (written to a temporary name, then renamed).
     #[arg(long, value_name = "CALIB.json")]
     pub out: Option<PathBuf>,
@@ -86,7 +90,7 @@ pub fn run(args: Args) -> Result<()> {
         decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true },
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
-        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational, ..Default::default() },
+        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational, thin_prism: args.thin_prism, ..Default::default() },
     };
     let opencv_yaml = match &args.opencv_out {
         None => false,
@@ -124,8 +128,14 @@ pub fn run(args: Args) -> Result<()> {
             "{name:9} {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.4} k2 {:.4} p1 {:.5} p2 {:.5} k3 {:.4}; RMS {:.3} px",
             d.width, d.height, d.fx, d.fy, d.cx, d.cy, d.distortion[0], d.distortion[1], d.distortion[2], d.distortion[3], d.distortion[4], d.rms_px
         );
-        if let [k4, k5, k6] = d.distortion[5..] {
-            println!("{:9} rational denominator k4 {k4:.4} k5 {k5:.4} k6 {k6:.4}", "");
+        let extra = &d.distortion[5..];
+        if let [k4, k5, k6, ..] = *extra {
+            if [k4, k5, k6].iter().any(|&k| k != 0.0) {
+                println!("{:9} rational denominator k4 {k4:.4} k5 {k5:.4} k6 {k6:.4}", "");
+            }
+        }
+        if let [_, _, _, s1, s2, s3, s4] = *extra {
+            println!("{:9} thin prism s1 {s1:.5} s2 {s2:.5} s3 {s3:.5} s4 {s4:.5}", "");
         }
     };
     dev("camera", &calib.camera);
