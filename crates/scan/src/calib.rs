@@ -1,6 +1,7 @@
 //! Projector–camera calibration: the result type and its JSON form.
 
 pub mod bundle;
+pub mod camera;
 pub mod chessboard;
 pub mod homography;
 pub mod model;
@@ -172,26 +173,36 @@ impl ProcamCalibration {
             ("roration", 3, 3, rot),
             ("translation", 3, 1, self.translation.to_vec()),
         ];
-        let num = |x: &f64| format!("{x:.16e}");
-        let mut out = String::new();
-        if yaml {
-            out.push_str("%YAML:1.0\n---\n");
-            out.push_str(&format!("rms: {}\n", num(&self.rms_px)));
-            for (n, r, c, d) in &nodes {
-                let data: Vec<String> = d.iter().map(num).collect();
-                out.push_str(&format!("{n}: !!opencv-matrix\n   rows: {r}\n   cols: {c}\n   dt: d\n   data: [ {} ]\n", data.join(", ")));
-            }
-        } else {
-            out.push_str("<?xml version=\"1.0\"?>\n<opencv_storage>\n");
-            out.push_str(&format!("<rms>{}</rms>\n", num(&self.rms_px)));
-            for (n, r, c, d) in &nodes {
-                let data: Vec<String> = d.iter().map(num).collect();
-                out.push_str(&format!("<{n} type_id=\"opencv-matrix\">\n  <rows>{r}</rows>\n  <cols>{c}</cols>\n  <dt>d</dt>\n  <data>\n    {}</data></{n}>\n", data.join(" ")));
-            }
-            out.push_str("</opencv_storage>\n");
-        }
-        out
+        filestorage(yaml, &[("rms", self.rms_px)], &nodes)
     }
+}
+
+/// OpenCV FileStorage text (YAML `%YAML:1.0` or XML) holding `scalars` and `opencv-matrix`
+/// nodes (name, rows, cols, row-major data), each number with 17 significant digits.
+pub(crate) fn filestorage(yaml: bool, scalars: &[(&str, f64)], nodes: &[(&str, usize, usize, Vec<f64>)]) -> String {
+    let num = |x: &f64| format!("{x:.16e}");
+    let mut out = String::new();
+    if yaml {
+        out.push_str("%YAML:1.0\n---\n");
+        for (n, v) in scalars {
+            out.push_str(&format!("{n}: {}\n", num(v)));
+        }
+        for (n, r, c, d) in nodes {
+            let data: Vec<String> = d.iter().map(num).collect();
+            out.push_str(&format!("{n}: !!opencv-matrix\n   rows: {r}\n   cols: {c}\n   dt: d\n   data: [ {} ]\n", data.join(", ")));
+        }
+    } else {
+        out.push_str("<?xml version=\"1.0\"?>\n<opencv_storage>\n");
+        for (n, v) in scalars {
+            out.push_str(&format!("<{n}>{}</{n}>\n", num(v)));
+        }
+        for (n, r, c, d) in nodes {
+            let data: Vec<String> = d.iter().map(num).collect();
+            out.push_str(&format!("<{n} type_id=\"opencv-matrix\">\n  <rows>{r}</rows>\n  <cols>{c}</cols>\n  <dt>d</dt>\n  <data>\n    {}</data></{n}>\n", data.join(" ")));
+        }
+        out.push_str("</opencv_storage>\n");
+    }
+    out
 }
 
 /// One capture's corners: in the camera image and in the projector image (pixels, OpenCV

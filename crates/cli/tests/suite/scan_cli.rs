@@ -257,6 +257,55 @@ fn reconstruct_a_rendered_plane_through_the_command() {
     assert!(!s.path("p2.ply").exists());
 }
 
+/// `scan calibrate-camera` on the white frames of the three shared captures (chessboard
+/// photographs): the camera agrees with the one the projector–camera calibration of the same
+/// captures finds (two independent estimates: fx within 0.5 %, principal point within 10 px);
+/// the JSON and the FileStorage copy read back as the same camera through the renderer's
+/// calibration reader; images of two sizes, a photograph without the board and fewer than 3
+/// views are one-line errors with no output.
+#[test]
+fn calibrate_camera_agrees_with_the_procam_calibration_and_feeds_the_renderer() {
+    use render::load::calibration::{read_calibration, CalibrationNodes};
+    let s = Scratch::new("scan-calibrate-camera");
+    let whites: Vec<String> = (0..3).map(|i| sample_capture(i).join("graycode_40.png").display().to_string()).collect();
+    let caps: Vec<String> = (0..3).map(|i| sample_capture(i).display().to_string()).collect();
+    let (json, yml) = (s.arg("camera.json"), s.arg("camera.yml"));
+    let mut args: Vec<&str> = vec!["scan", "calibrate-camera"];
+    args.extend(whites.iter().map(|c| c.as_str()));
+    args.extend(["--corners", "9x7", "--square", "75", "--out", &json, "--opencv-out", &yml, "--json"]);
+    let v = ok_json(&args);
+    let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(|k| k.as_str()).collect();
+    keys.sort();
+    assert_eq!(keys, ["cx", "cy", "dist", "fx", "fy", "height", "rms_px", "views", "width"]);
+    assert_eq!(v["views"].as_array().unwrap().len(), 3);
+    assert!(v["rms_px"].as_f64().unwrap() < 0.6, "RMS {}", v["rms_px"]);
+    let mut pargs: Vec<&str> = vec!["scan", "calibrate"];
+    pargs.extend(caps.iter().map(|c| c.as_str()));
+    pargs.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--json"]);
+    let procam = ok_json(&pargs);
+    let f = |x: &serde_json::Value| x.as_f64().unwrap();
+    assert!((f(&v["fx"]) / f(&procam["camera"]["fx"]) - 1.0).abs() < 0.005, "fx {} vs {}", v["fx"], procam["camera"]["fx"]);
+    assert!((f(&v["cx"]) - f(&procam["camera"]["cx"])).abs() < 10.0 && (f(&v["cy"]) - f(&procam["camera"]["cy"])).abs() < 10.0);
+    let nodes = CalibrationNodes::default();
+    let a = read_calibration(std::path::Path::new(&json), &nodes).unwrap();
+    let b = read_calibration(std::path::Path::new(&yml), &nodes).unwrap();
+    assert_eq!((a.width, a.height), (Some(1280), Some(1024)));
+    assert_eq!((a.intrinsics, a.distortion, a.width, a.height), (b.intrinsics, b.distortion, b.width, b.height));
+    assert_eq!(a.intrinsics.fx, f(&v["fx"]));
+    // Bad input.
+    let other = s.arg("small.png");
+    image::GrayImage::new(64, 48).save(&other).unwrap();
+    let bad = s.arg("bad.json");
+    let e = fails_on_one_line(&["scan", "calibrate-camera", &whites[0], &whites[1], &other, "--corners", "9x7", "--square", "75", "--out", &bad]);
+    assert!(e.contains("small.png") && e.contains("64x48"), "{e}");
+    let black = sample_capture(0).join("graycode_41.png").display().to_string();
+    let e = fails_on_one_line(&["scan", "calibrate-camera", &whites[0], &whites[1], &black, "--corners", "9x7", "--square", "75", "--out", &bad]);
+    assert!(e.contains("graycode_41.png") && e.contains("9×7"), "{e}");
+    let e = fails_on_one_line(&["scan", "calibrate-camera", &whites[0], &whites[1], "--corners", "9x7", "--square", "75", "--out", &bad]);
+    assert!(e.contains("at least 3 views"), "{e}");
+    assert!(!s.path("bad.json").exists());
+}
+
 /// `scan calibrate --thin-prism` (OpenCV's CALIB_THIN_PRISM_MODEL) on the three shared captures:
 /// twelve coefficients per device in OpenCV's order with k4…k6 exactly 0, and a stereo RMS no
 /// larger than the five-coefficient model's, which it contains.

@@ -6,7 +6,8 @@
 //! — pixels for the intrinsics (OpenCV convention, integer coordinates at pixel centres), OpenCV's
 //! coefficient order for `dist` (4, 5 or 8 entries), R and t world → camera; instead of R a
 //! Rodrigues `"rvec"`. `t` is in `unit` (m, dm, cm, mm, um, km, in, ft), or the scene's unit when
-//! `unit` is absent.
+//! `unit` is absent. `lucent scan calibrate-camera` writes this form, with `rms_px` and the
+//! board pose of each view (`views`), which the renderer does not use.
 //!
 //! A projector–camera calibration as `lucent scan calibrate` writes it (`{"camera": {…},
 //! "projector": {…}, "rotation": [[…]], "translation": […], …}`, each device `{width, height, fx,
@@ -119,6 +120,12 @@ struct JsonCalib {
     rvec: Option<[f64; 3]>,
     t: Option<[f64; 3]>,
     unit: Option<String>,
+    /// What `lucent scan calibrate-camera` adds (not used here): the RMS reprojection error and
+    /// the board pose of each view.
+    #[allow(dead_code)]
+    rms_px: Option<f64>,
+    #[allow(dead_code)]
+    views: Option<serde_json::Value>,
 }
 
 #[derive(serde::Deserialize)]

@@ -13,7 +13,7 @@ use scan::graycode::PatternSet;
 use super::{parse_size, Progress};
 
 /// Parses an inner-corner count `COLSxROWS`, e.g. `9x7`.
-fn parse_corners(s: &str) -> Result<(u32, u32), String> {
+pub(super) fn parse_corners(s: &str) -> Result<(u32, u32), String> {
     let (c, r) = parse_size(s).map_err(|_| format!("`{s}` is not a corner count COLSxROWS (e.g. 9x7)"))?;
     if c < 3 || r < 3 {
         return Err(format!("the board needs at least 3x3 inner corners, got {s}"));

@@ -11,6 +11,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 pub mod decode;
 pub mod patterns;
 pub mod calibrate;
+pub mod calibrate_camera;
 pub mod reconstruct;
 pub mod markers;
 pub mod label;
@@ -31,6 +32,8 @@ pub enum Command {
     Decode(decode::Args),
     /// Calibrate projector and camera from chessboard captures (local homographies, Zhang, LM).
     Calibrate(calibrate::Args),
+    /// Calibrate one camera from photographs of a chessboard (OpenCV's calibrateCamera).
+    CalibrateCamera(calibrate_camera::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
     /// Find circular markers; match and triangulate them in two calibrated views; register a model.
@@ -45,6 +48,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Patterns(a) => patterns::run(a),
         Command::Decode(a) => decode::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::CalibrateCamera(a) => calibrate_camera::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Markers(a) => markers::run(a),
         Command::Label(a) => label::run(a),

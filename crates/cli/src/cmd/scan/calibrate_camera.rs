@@ -1,0 +1,127 @@
+//! `lucent scan calibrate-camera IMAGE… --corners CxR --square S [--fix-k3] [--zero-tangent]
+//! [--rational] [--thin-prism] [--out CAMERA.json] [--opencv-out CAMERA.yml] [--json]`: one
+//! camera from photographs of a chessboard, as OpenCV's `findChessboardCorners` +
+//! `cornerSubPix` + `calibrateCamera` (scan::calib::camera; docs/scanning.md).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use scan::calib::bundle::Free;
+use scan::calib::camera::calibrate_camera;
+use scan::calib::chessboard::{find_chessboard, GrayImage};
+
+use super::calibrate::parse_corners;
+
+/// Arguments of `lucent scan calibrate-camera`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Photographs of the chessboard (PNG, JPEG, …; all of one size), one board pose each; at least 3.
+    #[arg(required = true, num_args = 1..)]
+    pub images: Vec<PathBuf>,
+    /// Inner corners of the chessboard COLSxROWS (corners per row first, as OpenCV's pattern size).
+    #[arg(long, value_name = "CxR", value_parser = parse_corners)]
+    pub corners: (u32, u32),
+    /// Square size; the board poses come out in this unit.
+    #[arg(long, value_name = "S")]
+    pub square: f64,
+    /// Hold k3 at 0 (OpenCV's CALIB_FIX_K3).
+    #[arg(long)]
+    pub fix_k3: bool,
+    /// Hold p1, p2 at 0 (OpenCV's CALIB_ZERO_TANGENT_DIST).
+    #[arg(long)]
+    pub zero_tangent: bool,
+    /// Also fit k4, k5, k6 (OpenCV's CALIB_RATIONAL_MODEL); eight coefficients.
+    #[arg(long)]
+    pub rational: bool,
+    /// Also fit s1…s4 (OpenCV's CALIB_THIN_PRISM_MODEL); twelve coefficients.
+    #[arg(long)]
+    pub thin_prism: bool,
+    /// Skip the images in which the board is not found (OpenCV's samples do) instead of failing.
+    #[arg(long)]
+    pub skip_missing: bool,
+    /// Write the camera JSON here (also a camera for `lucent render --camera`; temporary name, then renamed).
+    #[arg(long, value_name = "CAMERA.json")]
+    pub out: Option<PathBuf>,
+    /// Also write OpenCV FileStorage (`.xml`, `.yml` or `.yaml`) with the node names of OpenCV's
+    /// calibration sample (camera_matrix, distortion_coefficients, image_width, image_height,
+    /// avg_reprojection_error).
+    #[arg(long, value_name = "CAMERA.yml")]
+    pub opencv_out: Option<PathBuf>,
+    /// Print the camera JSON on stdout instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !(args.square > 0.0 && args.square.is_finite()) {
+        bail!("--square: must be a positive length, got {}", args.square);
+    }
+    let opencv_yaml = match &args.opencv_out {
+        None => false,
+        Some(p) => match p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+            Some("xml") => false,
+            Some("yml" | "yaml") => true,
+            _ => bail!("--opencv-out {}: OpenCV FileStorage is written as .xml, .yml or .yaml", p.display()),
+        },
+    };
+    for out in args.out.iter().chain(args.opencv_out.iter()) {
+        let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+        if !dir.is_dir() {
+            bail!("{}: cannot write there: {} is not a folder", out.display(), dir.display());
+        }
+    }
+    let (cols, rows) = (args.corners.0 as usize, args.corners.1 as usize);
+    let mut size = None;
+    let mut views = Vec::new();
+    for path in &args.images {
+        let img = GrayImage::load(path)?;
+        let name = path.display().to_string();
+        match size {
+            None => size = Some((img.width as u32, img.height as u32, name.clone())),
+            Some((w, h, ref first)) if (w, h) != (img.width as u32, img.height as u32) => {
+                bail!("{name}: {}x{} pixels, but {first} is {w}x{h}: one camera's photographs share one size", img.width, img.height)
+            }
+            Some(_) => {}
+        }
+        match find_chessboard(&img, cols, rows) {
+            Some(c) => views.push((name, c)),
+            None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} chessboard found; skipped"),
+            None => bail!("{name}: no {cols}×{rows} lattice of chessboard corners found (--skip-missing leaves such images out)"),
+        }
+    }
+    let (w, h, _) = size.expect("clap requires one image");
+    let free = Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational, thin_prism: args.thin_prism, ..Default::default() };
+    let calib = calibrate_camera(&views, w, h, cols, rows, args.square, free)?;
+    let text = serde_json::to_string_pretty(&calib)?;
+    if let Some(out) = &args.opencv_out {
+        let fs = calib.to_filestorage(opencv_yaml);
+        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, &fs).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
+    }
+    if let Some(out) = &args.out {
+        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
+    }
+    if args.json {
+        println!("{text}");
+        return Ok(());
+    }
+    let d = &calib.dist;
+    println!(
+        "camera {}x{} from {} views: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.4} k2 {:.4} p1 {:.5} p2 {:.5} k3 {:.4}; RMS {:.3} px",
+        calib.width, calib.height, calib.views.len(), calib.fx, calib.fy, calib.cx, calib.cy, d[0], d[1], d[2], d[3], d[4], calib.rms_px
+    );
+    if let [k4, k5, k6, ..] = d[5..] {
+        if [k4, k5, k6].iter().any(|&k| k != 0.0) {
+            println!("       rational denominator k4 {k4:.4} k5 {k5:.4} k6 {k6:.4}");
+        }
+    }
+    if let [_, _, _, s1, s2, s3, s4] = d[5..] {
+        println!("       thin prism s1 {s1:.5} s2 {s2:.5} s3 {s3:.5} s4 {s4:.5}");
+    }
+    for v in &calib.views {
+        println!("  {}: board at {:.1} units, RMS {:.3} px", v.name, (v.tvec[0].powi(2) + v.tvec[1].powi(2) + v.tvec[2].powi(2)).sqrt(), v.rms_px);
+    }
+    for out in args.out.iter().chain(args.opencv_out.iter()) {
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,133 @@
+//! Calibration of one camera from photographs of a chessboard (OpenCV's `calibrateCamera`):
+//! Zhang's closed form from the board homographies, then Levenberg–Marquardt over all corners
+//! ([`super::bundle`]), with OpenCV's choice of distortion terms.
+//!
+//! The result is lucent's camera JSON (`render::load::calibration`: `width`, `height`, `fx`, `fy`,
+//! `cx`, `cy`, `dist`, plus `rms_px` and the board pose of each view), so that `lucent render
+//! --camera` renders through it, and optionally OpenCV FileStorage with the node names of
+//! OpenCV's calibration sample (`camera_matrix`, `distortion_coefficients`, `image_width`,
+//! `image_height`, `avg_reprojection_error`).
+
+use super::bundle::{self, refine, Free, State, ViewObs};
+use super::homography::{self, Point2};
+use super::{model, zhang, MAX_RMS_PX};
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+
+/// The board pose of one view (OpenCV's `rvecs`, `tvecs`: board → camera).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ViewPose {
+    /// The image.
+    pub name: String,
+    /// Rodrigues rotation vector board → camera (radians).
+    pub rvec: [f64; 3],
+    /// Translation board → camera (square units).
+    pub tvec: [f64; 3],
+    /// RMS reprojection error of this view (pixels).
+    pub rms_px: f64,
+}
+
+/// A camera calibration as `lucent scan calibrate-camera` writes it; the same JSON is a camera
+/// for `lucent render --camera` (the camera at the origin).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct CameraCalibration {
+    /// Image width (pixels).
+    pub width: u32,
+    /// Image height (pixels).
+    pub height: u32,
+    /// Focal length along x (pixels).
+    pub fx: f64,
+    /// Focal length along y (pixels).
+    pub fy: f64,
+    /// Principal point x (pixels, OpenCV convention: integer coordinates at pixel centres).
+    pub cx: f64,
+    /// Principal point y (pixels).
+    pub cy: f64,
+    /// OpenCV's distortion coefficients: k1, k2, p1, p2, k3 (5), then k4…k6 (8), then s1…s4 (12).
+    pub dist: Vec<f64>,
+    /// RMS reprojection error over all corners (pixels).
+    pub rms_px: f64,
+    /// The board pose of each view.
+    pub views: Vec<ViewPose>,
+}
+
+impl CameraCalibration {
+    /// As OpenCV FileStorage (XML, or YAML when `yaml`) with the node names of OpenCV's
+    /// calibration sample, which `lucent render --camera` also reads.
+    pub fn to_filestorage(&self, yaml: bool) -> String {
+        let k = vec![self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0];
+        let nodes = [("camera_matrix", 3, 3, k), ("distortion_coefficients", self.dist.len(), 1, self.dist.clone())];
+        let scalars = [("image_width", self.width as f64), ("image_height", self.height as f64), ("avg_reprojection_error", self.rms_px)];
+        super::filestorage(yaml, &scalars, &nodes)
+    }
+}
+
+/// Calibrate a `width` × `height` camera from the `cols` × `rows` inner corners of a chessboard of
+/// square size `square` seen in each view (`(name, corners)`, row-major as
+/// [`zhang::board_points`]), fitting the distortion terms `free` chooses. Needs 3 views; errors
+/// are one line. With `free.rational` the fit starts from the five-coefficient solution and keeps
+/// the model invertible over the image ([`bundle::Free`]), as `scan calibrate` does.
+pub fn calibrate_camera(views: &[(String, Vec<Point2>)], width: u32, height: u32, cols: usize, rows: usize, square: f64, free: Free) -> Result<CameraCalibration> {
+    if views.len() < 3 {
+        bail!("degenerate pose set: camera calibration needs at least 3 views of the board, got {}", views.len());
+    }
+    let n = cols * rows;
+    for (name, c) in views {
+        if c.len() != n {
+            bail!("{name}: {} corners, expected {n} ({cols}×{rows})", c.len());
+        }
+    }
+    let obj = zhang::board_points(cols, rows, square);
+    let obs: Vec<ViewObs> = views.iter().map(|(_, c)| ViewObs { cam: c.clone(), proj: vec![] }).collect();
+    let fit = if free.rational {
+        let five = calibrate_camera(views, width, height, cols, rows, square, Free { rational: false, ..free })?;
+        let corner_radius = [(-0.5, -0.5), (width as f64 - 0.5, -0.5), (-0.5, height as f64 - 0.5), (width as f64 - 0.5, height as f64 - 0.5)]
+            .iter()
+            .map(|&(u, v)| ((u - five.cx) / five.fx).hypot((v - five.cy) / five.fy))
+            .fold(0.0f64, f64::max);
+        let mut lens = model::Lens::from_opencv(five.fx, five.fy, five.cx, five.cy, &five.dist);
+        lens.rational = [0.0; 3];
+        let poses = five.views.iter().map(|v| model::Pose { rvec: v.rvec.into(), t: v.tvec.into() }).collect();
+        let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
+        refine(&obj, &obs, &init, Free { rational_radius: [corner_radius, 0.0], ..free }, MAX_RMS_PX).context("camera")?
+    } else {
+        let mut hs = Vec::new();
+        for (name, c) in views {
+            hs.push(homography::fit_homography(&obj, c).with_context(|| format!("{name}: the corners do not determine a homography"))?);
+        }
+        let lens = zhang::intrinsics(&hs, width, height).context("camera")?;
+        let mut poses = Vec::new();
+        for (h, (name, _)) in hs.iter().zip(views) {
+            poses.push(zhang::pose_from_homography(h, &lens.k()).with_context(|| format!("{name}: no board pose"))?);
+        }
+        let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
+        refine(&obj, &obs, &init, free, MAX_RMS_PX).context("camera")?
+    };
+    let e = bundle::rms(&obj, &obs, &fit);
+    let l = &fit.cam;
+    let coefficients = if free.thin_prism { 12 } else if free.rational { 8 } else { 5 };
+    let dist: Vec<f64> = l.dist.iter().chain(&l.rational).chain(&l.prism).copied().take(coefficients).collect();
+    if free.rational {
+        // A denominator that reaches 0 inside the image maps no ray there.
+        let d = render::camera::Distortion::from_opencv(&dist)?;
+        let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        if let Err(e) = render::camera::OpenCv::new(render::camera::Intrinsics { fx: l.fx, fy: l.fy, cx: l.cx, cy: l.cy }, d, id, width, height) {
+            bail!("--rational: the fitted model is not usable ({e}); these views do not determine k4, k5, k6: calibrate without --rational");
+        }
+    }
+    Ok(CameraCalibration {
+        width,
+        height,
+        fx: l.fx,
+        fy: l.fy,
+        cx: l.cx,
+        cy: l.cy,
+        dist,
+        rms_px: e.all,
+        views: views
+            .iter()
+            .zip(fit.poses.iter().zip(&e.per_view))
+            .map(|((name, _), (p, &r))| ViewPose { name: name.clone(), rvec: [p.rvec[0], p.rvec[1], p.rvec[2]], tvec: [p.t[0], p.t[1], p.t[2]], rms_px: r })
+            .collect(),
+    })
+}
