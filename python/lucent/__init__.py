@@ -44,6 +44,12 @@ __all__ = [
     "compare",
     "project_points",
     "undistort_points",
+    "find_chessboard_corners",
+    "calibrate_camera",
+    "CALIB_ZERO_TANGENT_DIST",
+    "CALIB_FIX_K3",
+    "CALIB_RATIONAL_MODEL",
+    "CALIB_THIN_PRISM_MODEL",
     "Scene",
 ]
 
@@ -596,6 +602,98 @@ def _camera_args(camera_matrix, dist_coeffs):
         raise ValueError(f"camera_matrix: expected a 3×3 matrix, got shape {k.shape}")
     d = _np.asarray([] if dist_coeffs is None else dist_coeffs, dtype=float).ravel()
     return [float(v) for v in k.ravel()], [float(v) for v in d]
+
+
+#: OpenCV's calibration flags that :func:`calibrate_camera` understands (the values of ``cv2.CALIB_*``).
+CALIB_ZERO_TANGENT_DIST = 8
+CALIB_FIX_K3 = 128
+CALIB_RATIONAL_MODEL = 1 << 14
+CALIB_THIN_PRISM_MODEL = 1 << 15
+_CALIB_FLAGS = CALIB_ZERO_TANGENT_DIST | CALIB_FIX_K3 | CALIB_RATIONAL_MODEL | CALIB_THIN_PRISM_MODEL
+
+
+def find_chessboard_corners(image, pattern_size):
+    """The inner corners of a chessboard, as ``cv2.findChessboardCorners`` followed by
+    ``cv2.cornerSubPix`` finds them.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) array
+        8-bit grey levels; a colour image is taken in OpenCV's BGR order (as ``cv2.imread``
+        gives it) and converted with OpenCV's luma weights.
+    pattern_size : (cols, rows)
+        Inner corners per row and per column, as OpenCV's ``patternSize``.
+
+    Returns
+    -------
+    (found, corners)
+        ``found`` a bool; ``corners`` a (cols·rows, 1, 2) float32 array of pixel positions (OpenCV
+        convention, integers at pixel centres), row by row from the corner nearest the image's
+        top-left, or None when no such lattice is found. The array goes as it is into
+        ``cv2.calibrateCamera`` or :func:`calibrate_camera`.
+    """
+    a = _np.asarray(image)
+    if a.ndim == 3 and a.shape[2] in (3, 4):
+        a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
+    elif a.ndim != 2:
+        raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
+    cols, rows = (int(v) for v in pattern_size)
+    h, w = a.shape
+    c = _lucent.find_chessboard_flat([float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h, cols, rows)
+    if c is None:
+        return False, None
+    return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
+
+
+def calibrate_camera(object_points, image_points, image_size, camera_matrix=None, dist_coeffs=None, flags=0):
+    """Calibrate a camera from views of a planar target, as ``cv2.calibrateCamera``: Zhang's
+    closed form, then Levenberg–Marquardt over all points (lucent's own implementation).
+
+    Parameters
+    ----------
+    object_points : list of (N, 3) or (N, 1, 3) arrays, one per view
+        The target's points; they must lie in the plane z = 0 and be the same in every view
+        (one planar target, as a chessboard).
+    image_points : list of (N, 2) or (N, 1, 2) arrays, one per view
+        Their pixel positions in each view (OpenCV convention); NaN for a point not seen.
+    image_size : (width, height)
+        Pixels.
+    camera_matrix, dist_coeffs : ignored
+        Accepted for OpenCV's signature (whose initial guess needs CALIB_USE_INTRINSIC_GUESS).
+    flags : int
+        A combination of CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL and
+        CALIB_THIN_PRISM_MODEL (OpenCV's values); other flags are refused.
+
+    Returns
+    -------
+    (rms, camera_matrix, dist_coeffs, rvecs, tvecs)
+        As OpenCV: the RMS reprojection error in pixels, the 3×3 camera matrix, the (1, n)
+        distortion coefficients (n = 5, 8 with CALIB_RATIONAL_MODEL, 12 with
+        CALIB_THIN_PRISM_MODEL), and per view the (3, 1) Rodrigues vector and translation (in the
+        object points' unit) of the target → camera transform.
+    """
+    flags = int(flags)
+    if flags & ~_CALIB_FLAGS:
+        raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL and CALIB_THIN_PRISM_MODEL are supported, got {flags}")
+    if len(object_points) != len(image_points):
+        raise ValueError(f"object_points and image_points: {len(object_points)} and {len(image_points)} views")
+    if len(object_points) == 0:
+        raise ValueError("object_points: no views")
+    obj = [_np.asarray(o, dtype=float).reshape(-1, 3) for o in object_points]
+    if any(o.shape != obj[0].shape or not _np.array_equal(o, obj[0]) for o in obj):
+        raise ValueError("object_points: lucent calibrates from one planar target, the same points in every view")
+    if _np.any(obj[0][:, 2] != 0):
+        raise ValueError("object_points: the target must lie in the plane z = 0")
+    img = [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
+    w, h = (int(v) for v in image_size)
+    rms, (fx, fy, cx, cy), dist, rvecs, tvecs = _lucent.calibrate_camera_flat(
+        [float(v) for v in obj[0][:, :2].ravel()], [[float(v) for v in p.ravel()] for p in img], w, h,
+        bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST),
+        bool(flags & CALIB_RATIONAL_MODEL), bool(flags & CALIB_THIN_PRISM_MODEL))
+    k = _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+    return (rms, k, _np.asarray(dist, dtype=float).reshape(1, -1),
+            tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
+            tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
 
 
 def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -> _np.ndarray:

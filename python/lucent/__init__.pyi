@@ -11,6 +11,10 @@ __version__: str
 MILK_PROTEIN_PERCENT: float
 MILK_PRESSURE_MPA: float
 SLAB_MAX_STEPS_PER_PHOTON: int
+CALIB_ZERO_TANGENT_DIST: int
+CALIB_FIX_K3: int
+CALIB_RATIONAL_MODEL: int
+CALIB_THIN_PRISM_MODEL: int
 
 _Real = Union[float, npt.ArrayLike]
 _Complex = Union[complex, float, npt.ArrayLike]
@@ -64,6 +68,12 @@ def project_points(object_points: npt.ArrayLike, rvec: npt.ArrayLike, tvec: npt.
 def undistort_points(image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
                      dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
     """Normalised undistorted coordinates of (N, 2) pixels (cv2.undistortPoints without R, P)."""
+def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int]) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
+    """(found, (N, 1, 2) corners) of a chessboard in an 8-bit grey or BGR image (cv2.findChessboardCorners + cornerSubPix)."""
+def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Sequence[npt.ArrayLike], image_size: Tuple[int, int],
+                     camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0
+                     ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...]]:
+    """(rms, K, dist, rvecs, tvecs) from views of one planar target (cv2.calibrateCamera; CALIB_* flags above)."""
 
 class Scene:
     """A scene ready to render (docs/scene-format.md)."""

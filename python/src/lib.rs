@@ -7,6 +7,7 @@
 //! Errors: bad arguments raise `ValueError`, failures to read or write a file `OSError`, with the
 //! library's one-line message; nothing here panics on user input.
 
+mod calib;
 mod camera;
 mod compare;
 mod errors;
@@ -34,6 +35,8 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(camera::project_points_flat, m)?)?;
     m.add_function(wrap_pyfunction!(camera::undistort_points_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(calib::find_chessboard_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(calib::calibrate_camera_flat, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -68,19 +68,34 @@ impl CameraCalibration {
 /// are one line. With `free.rational` the fit starts from the five-coefficient solution and keeps
 /// the model invertible over the image ([`bundle::Free`]), as `scan calibrate` does.
 pub fn calibrate_camera(views: &[(String, Vec<Point2>)], width: u32, height: u32, cols: usize, rows: usize, square: f64, free: Free) -> Result<CameraCalibration> {
-    if views.len() < 3 {
-        bail!("degenerate pose set: camera calibration needs at least 3 views of the board, got {}", views.len());
-    }
     let n = cols * rows;
     for (name, c) in views {
         if c.len() != n {
             bail!("{name}: {} corners, expected {n} ({cols}×{rows})", c.len());
         }
     }
-    let obj = zhang::board_points(cols, rows, square);
+    calibrate_camera_planar(&zhang::board_points(cols, rows, square), views, width, height, free)
+}
+
+/// [`calibrate_camera`] for any planar target: `obj` are the target's points in its plane (z = 0,
+/// at least 4 not collinear), and each view gives their pixels in the same order (NaN for a point
+/// not seen), as OpenCV's `calibrateCamera` takes one object-point set per view.
+pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], width: u32, height: u32, free: Free) -> Result<CameraCalibration> {
+    if views.len() < 3 {
+        bail!("degenerate pose set: camera calibration needs at least 3 views of the board, got {}", views.len());
+    }
+    if width == 0 || height == 0 {
+        bail!("the image size must be positive, got {width}x{height}");
+    }
+    for (name, c) in views {
+        if c.len() != obj.len() {
+            bail!("{name}: {} image points for {} object points", c.len(), obj.len());
+        }
+    }
+    let obj = obj.to_vec();
     let obs: Vec<ViewObs> = views.iter().map(|(_, c)| ViewObs { cam: c.clone(), proj: vec![] }).collect();
     let fit = if free.rational {
-        let five = calibrate_camera(views, width, height, cols, rows, square, Free { rational: false, ..free })?;
+        let five = calibrate_camera_planar(&obj, views, width, height, Free { rational: false, ..free })?;
         let corner_radius = [(-0.5, -0.5), (width as f64 - 0.5, -0.5), (-0.5, height as f64 - 0.5), (width as f64 - 0.5, height as f64 - 0.5)]
             .iter()
             .map(|&(u, v)| ((u - five.cx) / five.fx).hypot((v - five.cy) / five.fy))
@@ -93,7 +108,8 @@ pub fn calibrate_camera(views: &[(String, Vec<Point2>)], width: u32, height: u32
     } else {
         let mut hs = Vec::new();
         for (name, c) in views {
-            hs.push(homography::fit_homography(&obj, c).with_context(|| format!("{name}: the corners do not determine a homography"))?);
+            let (o, q): (Vec<Point2>, Vec<Point2>) = obj.iter().zip(c).filter(|(_, q)| bundle::observed(**q)).map(|(o, q)| (*o, *q)).unzip();
+            hs.push(homography::fit_homography(&o, &q).with_context(|| format!("{name}: the corners do not determine a homography"))?);
         }
         let lens = zhang::intrinsics(&hs, width, height).context("camera")?;
         let mut poses = Vec::new();

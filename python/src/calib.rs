@@ -1,0 +1,50 @@
+//! Chessboard corners and camera calibration from Python, as OpenCV's `findChessboardCorners`
+//! (+ `cornerSubPix`) and `calibrateCamera` (the `scan` crate's corner finder, Zhang's closed form
+//! and Levenberg–Marquardt; docs/scanning.md).
+
+use crate::errors::value;
+use pyo3::prelude::*;
+use scan::calib::bundle::Free;
+use scan::calib::camera::calibrate_camera_planar;
+use scan::calib::chessboard::{find_chessboard, GrayImage};
+
+/// The `cols` × `rows` inner corners (flat u, v, row-major from the corner nearest the image's
+/// top-left) of a chessboard in a grey image of `width` × `height` levels (row-major), refined
+/// to sub-pixel; None when no such lattice is found.
+#[pyfunction]
+pub fn find_chessboard_flat(grey: Vec<f32>, width: usize, height: usize, cols: usize, rows: usize) -> PyResult<Option<Vec<f64>>> {
+    if grey.len() != width * height || width < 8 || height < 8 {
+        return Err(value(format!("image: expected {width}×{height} grey levels (at least 8×8), got {}", grey.len())));
+    }
+    if cols < 3 || rows < 3 {
+        return Err(value(format!("pattern_size: the board needs at least 3×3 inner corners, got {cols}×{rows}")));
+    }
+    let img = GrayImage { width, height, data: grey };
+    Ok(find_chessboard(&img, cols, rows).map(|c| c.into_iter().flatten().collect()))
+}
+
+/// Calibrate a camera from one planar target (flat x, y of its points, z = 0) seen in several
+/// views (flat u, v per view, NaN for a point not seen): (RMS in pixels, [fx, fy, cx, cy],
+/// distortion coefficients, per-view Rodrigues vectors, per-view translations).
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn calibrate_camera_flat(
+    object_xy: Vec<f64>,
+    image_points: Vec<Vec<f64>>,
+    width: u32,
+    height: u32,
+    fix_k3: bool,
+    zero_tangent: bool,
+    rational: bool,
+    thin_prism: bool,
+) -> PyResult<(f64, [f64; 4], Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+    if object_xy.iter().any(|x| !x.is_finite()) {
+        return Err(value("object_points: must be finite"));
+    }
+    let obj: Vec<[f64; 2]> = object_xy.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let views: Vec<(String, Vec<[f64; 2]>)> =
+        image_points.iter().enumerate().map(|(i, v)| (format!("image_points[{i}]"), v.chunks_exact(2).map(|p| [p[0], p[1]]).collect())).collect();
+    let free = Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, ..Default::default() };
+    let c = calibrate_camera_planar(&obj, &views, width, height, free).map_err(|e| value(format!("{e:#}")))?;
+    Ok((c.rms_px, [c.fx, c.fy, c.cx, c.cy], c.dist, c.views.iter().map(|v| v.rvec).collect(), c.views.iter().map(|v| v.tvec).collect()))
+}
