@@ -158,16 +158,12 @@ fn furnace_with_area_lights_and_refraction_guiding_gives_the_walls_radiance() {
     }
 }
 
-/// Refraction guiding changes the variance, not the expected image: a dense, forward-scattering,
-/// slightly absorbing ball (σ_s 20 /mm, σ_a 0.02 /mm, g = 0.8, η = 1.35) lit by a square area
-/// light above it and a dim environment, rendered with and without guiding (different seeds):
-/// the pooled means of X, Y and Z agree within 4 combined standard errors; so do they with the
-/// default split phase samples (`refraction_splits = 4`) and with 32.
-#[test]
-fn refraction_guiding_keeps_the_expected_image() {
-    let mk = |g: f64, k: f64| {
-        format!(
-            r#"
+/// A dense ball (radius 1 mm, dielectric boundary η = 1.35, medium `medium`) lit by a square area
+/// light above it and a dim environment, seen by a 16 × 16 camera; `volpath` with the given
+/// refraction guiding and split count.
+fn lit_ball_scene(guiding: f64, splits: f64, medium: &str) -> String {
+    format!(
+        r#"
 unit = "mm"
 [camera]
 eye = [0, 0, -5]
@@ -178,8 +174,8 @@ height = 16
 [integrator]
 type = "volpath"
 max_depth = 100000
-refraction_guiding = {g}
-refraction_splits = {k}
+refraction_guiding = {guiding}
+refraction_splits = {splits}
 [materials.milk]
 type = "dielectric"
 ior = 1.35
@@ -189,7 +185,7 @@ type = "black"
 name = "ball"
 material = "milk"
 sphere = {{ center = [0, 0, 0], radius = 1 }}
-medium = {{ sigma_a_per_mm = 0.02, sigma_s_per_mm = 20, g = 0.8 }}
+medium = {medium}
 [[objects]]
 name = "lamp"
 material = "lamp"
@@ -203,8 +199,17 @@ two_sided = true
 type = "environment"
 radiance = 0.05
 "#
-        )
-    };
+    )
+}
+
+/// Refraction guiding changes the variance, not the expected image: a dense, forward-scattering,
+/// slightly absorbing ball (σ_s 20 /mm, σ_a 0.02 /mm, g = 0.8, η = 1.35) lit by a square area
+/// light above it and a dim environment, rendered with and without guiding (different seeds):
+/// the pooled means of X, Y and Z agree within 4 combined standard errors; so do they with the
+/// default split phase samples (`refraction_splits = 4`) and with 32.
+#[test]
+fn refraction_guiding_keeps_the_expected_image() {
+    let mk = |g: f64, k: f64| lit_ball_scene(g, k, "{ sigma_a_per_mm = 0.02, sigma_s_per_mm = 20, g = 0.8 }");
     let off = scene(&mk(0.0, 4.0));
     assert!(off.refracted_lights.is_none());
     let (m0, s0) = mean_xyz(&off, &off.integrator, 256, 5);
@@ -231,44 +236,7 @@ fn split_samples_keep_the_expected_image_with_a_chromatic_phase_function() {
     use optics::spectrum::DenseSpectrum;
     use render::medium::{HomogeneousMedium, PhaseModel};
     let mk = |guiding: f64| {
-        let mut s = scene(&format!(
-            r#"
-unit = "mm"
-[camera]
-eye = [0, 0, -5]
-look_at = [0, 0, 0]
-vfov_deg = 20
-width = 16
-height = 16
-[integrator]
-type = "volpath"
-max_depth = 100000
-refraction_guiding = {guiding}
-refraction_splits = 32
-[materials.milk]
-type = "dielectric"
-ior = 1.35
-[materials.lamp]
-type = "black"
-[[objects]]
-name = "ball"
-material = "milk"
-sphere = {{ center = [0, 0, 0], radius = 1 }}
-medium = {{ sigma_a_per_mm = 0.02, sigma_s_per_mm = 20 }}
-[[objects]]
-name = "lamp"
-material = "lamp"
-quad = [[-3, 4, -3], [3, 4, -3], [3, 4, 3], [-3, 4, 3]]
-[[lights]]
-type = "area"
-object = "lamp"
-radiance = 2
-two_sided = true
-[[lights]]
-type = "environment"
-radiance = 0.05
-"#
-        ));
+        let mut s = scene(&lit_ball_scene(guiding, 32.0, "{ sigma_a_per_mm = 0.02, sigma_s_per_mm = 20 }"));
         let m = &s.media[0];
         let g = DenseSpectrum::from_fn(|l| if l < 550.0 { 0.9 } else { -0.3 });
         s.media[0] = HomogeneousMedium::new("m", m.sigma_a_per_m.clone(), m.sigma_s_per_m.clone(), PhaseModel::HenyeyGreenstein { g }).unwrap();

@@ -48,21 +48,8 @@ pub struct Args {
     /// Half-size of the local-homography window around each corner (camera pixels; 23 = 47×47).
     #[arg(long, default_value_t = 23, value_name = "PX")]
     pub half_window: usize,
-    /// Hold k3, the sixth-order radial term, at 0 in both devices (OpenCV's CALIB_FIX_K3), as for
-    /// lenses whose field is too narrow to determine it.
-    #[arg(long)]
-    pub fix_k3: bool,
-    /// Hold the tangential terms p1, p2 at 0 in both devices (OpenCV's CALIB_ZERO_TANGENT_DIST).
-    #[arg(long)]
-    pub zero_tangent: bool,
-    /// Also fit k4, k5, k6, the denominator of OpenCV's rational model (CALIB_RATIONAL_MODEL),
-    /// for wide-angle lenses; the distortion then lists eight coefficients.
-    #[arg(long)]
-    pub rational: bool,
-    /// Also fit s1…s4, OpenCV's thin prism terms (CALIB_THIN_PRISM_MODEL); the distortion then
-    /// lists twelve coefficients (k4…k6 are 0 unless --rational).
-    #[arg(long)]
-    pub thin_prism: bool,
+    #[command(flatten)]
+    pub lens: LensFlags,
     /// Write the calibration JSON here (written to a temporary name, then renamed).
     #[arg(long, value_name = "CALIB.json")]
     pub out: Option<PathBuf>,
@@ -74,6 +61,53 @@ pub struct Args {
     /// Print the calibration JSON on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
+}
+
+/// OpenCV's choice of distortion terms, shared by `scan calibrate` and `scan calibrate-camera`.
+#[derive(clap::Args, Debug)]
+pub struct LensFlags {
+    /// Hold k3, the sixth-order radial term, at 0 (OpenCV's CALIB_FIX_K3), as for lenses whose
+    /// field is too narrow to determine it.
+    #[arg(long)]
+    pub fix_k3: bool,
+    /// Hold the tangential terms p1, p2 at 0 (OpenCV's CALIB_ZERO_TANGENT_DIST).
+    #[arg(long)]
+    pub zero_tangent: bool,
+    /// Also fit k4, k5, k6, the denominator of OpenCV's rational model (CALIB_RATIONAL_MODEL),
+    /// for wide-angle lenses; the distortion then lists eight coefficients.
+    #[arg(long)]
+    pub rational: bool,
+    /// Also fit s1…s4, OpenCV's thin prism terms (CALIB_THIN_PRISM_MODEL); the distortion then
+    /// lists twelve coefficients (k4…k6 are 0 unless --rational).
+    #[arg(long)]
+    pub thin_prism: bool,
+}
+
+impl LensFlags {
+    /// The parameters the fit may move.
+    pub fn free(&self) -> scan::calib::bundle::Free {
+        scan::calib::bundle::Free { lenses: true, k3: !self.fix_k3, tangential: !self.zero_tangent, rational: self.rational, thin_prism: self.thin_prism, ..Default::default() }
+    }
+}
+
+/// Checks the outputs before any work: `opencv_out` must end in .xml, .yml or .yaml (returns
+/// whether it is YAML), and every output's folder must exist.
+pub(super) fn check_outputs(out: Option<&std::path::Path>, opencv_out: Option<&std::path::Path>) -> Result<bool> {
+    let yaml = match opencv_out {
+        None => false,
+        Some(p) => match p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+            Some("xml") => false,
+            Some("yml" | "yaml") => true,
+            _ => bail!("--opencv-out {}: OpenCV FileStorage is written as .xml, .yml or .yaml", p.display()),
+        },
+    };
+    for o in out.iter().chain(opencv_out.iter()) {
+        let dir = o.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+        if !dir.is_dir() {
+            bail!("{}: cannot write there: {} is not a folder", o.display(), dir.display());
+        }
+    }
+    Ok(yaml)
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -90,23 +124,9 @@ pub fn run(args: Args) -> Result<()> {
         decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true },
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
-        free: scan::calib::bundle::Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational, thin_prism: args.thin_prism, ..Default::default() },
+        free: args.lens.free(),
     };
-    let opencv_yaml = match &args.opencv_out {
-        None => false,
-        Some(p) => match p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
-            Some("xml") => false,
-            Some("yml" | "yaml") => true,
-            _ => bail!("--opencv-out {}: OpenCV FileStorage is written as .xml, .yml or .yaml", p.display()),
-        },
-    };
-    // An output folder that does not exist fails now, not after the calibration's work.
-    for out in args.out.iter().chain(args.opencv_out.iter()) {
-        let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-        if !dir.is_dir() {
-            bail!("{}: cannot write there: {} is not a folder", out.display(), dir.display());
-        }
-    }
+    let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let progress = Progress::new((patterns.len() * args.captures.len()) as u64, "images read and decoded");
     let result = calibrate_dirs(&args.captures, &rig, &opts, &|| progress.inc());
     progress.finish();

@@ -6,11 +6,10 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
-use scan::calib::bundle::Free;
 use scan::calib::camera::calibrate_camera;
 use scan::calib::chessboard::{find_chessboard, GrayImage};
 
-use super::calibrate::parse_corners;
+use super::calibrate::{check_outputs, parse_corners, LensFlags};
 
 /// Arguments of `lucent scan calibrate-camera`.
 #[derive(clap::Args, Debug)]
@@ -24,18 +23,8 @@ pub struct Args {
     /// Square size; the board poses come out in this unit.
     #[arg(long, value_name = "S")]
     pub square: f64,
-    /// Hold k3 at 0 (OpenCV's CALIB_FIX_K3).
-    #[arg(long)]
-    pub fix_k3: bool,
-    /// Hold p1, p2 at 0 (OpenCV's CALIB_ZERO_TANGENT_DIST).
-    #[arg(long)]
-    pub zero_tangent: bool,
-    /// Also fit k4, k5, k6 (OpenCV's CALIB_RATIONAL_MODEL); eight coefficients.
-    #[arg(long)]
-    pub rational: bool,
-    /// Also fit s1…s4 (OpenCV's CALIB_THIN_PRISM_MODEL); twelve coefficients.
-    #[arg(long)]
-    pub thin_prism: bool,
+    #[command(flatten)]
+    pub lens: LensFlags,
     /// Skip the images in which the board is not found (OpenCV's samples do) instead of failing.
     #[arg(long)]
     pub skip_missing: bool,
@@ -56,20 +45,7 @@ pub fn run(args: Args) -> Result<()> {
     if !(args.square > 0.0 && args.square.is_finite()) {
         bail!("--square: must be a positive length, got {}", args.square);
     }
-    let opencv_yaml = match &args.opencv_out {
-        None => false,
-        Some(p) => match p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
-            Some("xml") => false,
-            Some("yml" | "yaml") => true,
-            _ => bail!("--opencv-out {}: OpenCV FileStorage is written as .xml, .yml or .yaml", p.display()),
-        },
-    };
-    for out in args.out.iter().chain(args.opencv_out.iter()) {
-        let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-        if !dir.is_dir() {
-            bail!("{}: cannot write there: {} is not a folder", out.display(), dir.display());
-        }
-    }
+    let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let (cols, rows) = (args.corners.0 as usize, args.corners.1 as usize);
     let mut size = None;
     let mut views = Vec::new();
@@ -90,8 +66,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let (w, h, _) = size.expect("clap requires one image");
-    let free = Free { lenses: true, k3: !args.fix_k3, tangential: !args.zero_tangent, rational: args.rational, thin_prism: args.thin_prism, ..Default::default() };
-    let calib = calibrate_camera(&views, w, h, cols, rows, args.square, free)?;
+    let calib = calibrate_camera(&views, w, h, cols, rows, args.square, args.lens.free())?;
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);
