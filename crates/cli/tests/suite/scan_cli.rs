@@ -304,6 +304,15 @@ fn calibrate_camera_agrees_with_the_procam_calibration_and_feeds_the_renderer() 
     let e = fails_on_one_line(&["scan", "calibrate-camera", &whites[0], &whites[1], "--corners", "9x7", "--square", "75", "--out", &bad]);
     assert!(e.contains("at least 3 views"), "{e}");
     assert!(!s.path("bad.json").exists());
+    // --skip-missing leaves the photograph without the board out, with one warning naming it,
+    // and calibrates from the rest: the same camera as from the three boards alone.
+    let out = lucent().args(["scan", "calibrate-camera", &whites[0], &black, &whites[1], &whites[2], "--corners", "9x7", "--square", "75", "--skip-missing", "--json"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.trim_end().lines().count() == 1 && err.contains("graycode_41.png") && err.contains("skipped"), "{err}");
+    let skipped: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(skipped["views"].as_array().unwrap().len(), 3);
+    assert_eq!(skipped["fx"], v["fx"]);
 }
 
 /// `scan calibrate --thin-prism` (OpenCV's CALIB_THIN_PRISM_MODEL) on the three shared captures:
