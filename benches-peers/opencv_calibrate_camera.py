@@ -4,7 +4,7 @@ normalised image) + cornerSubPix (23 × 23 window) + calibrateCamera on the same
 beside lucent's result on them; prints both and their differences, or JSON with --json.
 
 usage: opencv_calibrate_camera.py IMAGE... --corners 11x8 --square 20 [--lucent BIN]
-       [--fix-k3] [--zero-tangent] [--rational] [--thin-prism] [--json]
+       [--fix-k3] [--zero-tangent] [--rational] [--thin-prism] [--tilted] [--json]
 Needs opencv-contrib-python-headless (or opencv-python) and numpy (PyPI).
 """
 import argparse, json, os, subprocess, sys, time
@@ -20,14 +20,15 @@ def main():
     ap.add_argument('--corners', required=True)
     ap.add_argument('--square', type=float, required=True)
     ap.add_argument('--lucent', default=os.environ.get('LUCENT', os.path.join(ROOT, 'target/release/lucent')))
-    for f in ['fix-k3', 'zero-tangent', 'rational', 'thin-prism']:
+    for f in ['fix-k3', 'zero-tangent', 'rational', 'thin-prism', 'tilted']:
         ap.add_argument('--' + f, action='store_true')
     ap.add_argument('--json', action='store_true')
     a = ap.parse_args()
     cols, rows = map(int, a.corners.split('x'))
     flags = (cv2.CALIB_FIX_K3 if a.fix_k3 else 0) | (cv2.CALIB_ZERO_TANGENT_DIST if a.zero_tangent else 0) \
-        | (cv2.CALIB_RATIONAL_MODEL if a.rational else 0) | (cv2.CALIB_THIN_PRISM_MODEL if a.thin_prism else 0)
-    n_coef = 12 if a.thin_prism else 8 if a.rational else 5
+        | (cv2.CALIB_RATIONAL_MODEL if a.rational else 0) | (cv2.CALIB_THIN_PRISM_MODEL if a.thin_prism else 0) \
+        | (cv2.CALIB_TILTED_MODEL if a.tilted else 0)
+    n_coef = 14 if a.tilted else 12 if a.thin_prism else 8 if a.rational else 5
     objp = np.zeros((cols * rows, 3), np.float32)
     objp[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * a.square
     t0 = time.perf_counter()
@@ -49,7 +50,7 @@ def main():
                                              criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 200, 1e-12))
     t_cv = time.perf_counter() - t0
     args = [a.lucent, 'scan', 'calibrate-camera', *a.images, '--corners', a.corners, '--square', str(a.square), '--json']
-    args += [f'--{f}' for f in ['fix-k3', 'zero-tangent', 'rational', 'thin-prism'] if getattr(a, f.replace('-', '_'))]
+    args += [f'--{f}' for f in ['fix-k3', 'zero-tangent', 'rational', 'thin-prism', 'tilted'] if getattr(a, f.replace('-', '_'))]
     t0 = time.perf_counter()
     r = subprocess.run(args, capture_output=True, text=True)
     t_lu = time.perf_counter() - t0

@@ -8,9 +8,9 @@ parameters free (CALIB_USE_INTRINSIC_GUESS), which is what `lucent scan calibrat
 
 usage: procam_calibrate_opencv.py CAPTURE_DIR... [--projector 1024x768] [--corners 9x7]
        [--square 75] [--half-window 23] [--black-threshold 40] [--white-threshold 5] [--json OUT]
-       [--fix-k3] [--zero-tangent] [--rational] [--thin-prism]   (OpenCV's CALIB_FIX_K3,
-       CALIB_ZERO_TANGENT_DIST, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL in every fit, as
-       `lucent scan calibrate --fix-k3 --zero-tangent --rational --thin-prism`)
+       [--fix-k3] [--zero-tangent] [--rational] [--thin-prism] [--tilted]   (OpenCV's CALIB_FIX_K3,
+       CALIB_ZERO_TANGENT_DIST, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL, CALIB_TILTED_MODEL in
+       every fit, as `lucent scan calibrate --fix-k3 --zero-tangent --rational --thin-prism --tilted`)
 Needs opencv-contrib-python-headless and numpy (PyPI).
 """
 import argparse, glob, json, os, sys, time
@@ -32,9 +32,10 @@ def main():
     ap.add_argument('--zero-tangent', action='store_true')
     ap.add_argument('--rational', action='store_true')
     ap.add_argument('--thin-prism', action='store_true')
+    ap.add_argument('--tilted', action='store_true')
     a = ap.parse_args()
     extra = (cv2.CALIB_FIX_K3 if a.fix_k3 else 0) | (cv2.CALIB_ZERO_TANGENT_DIST if a.zero_tangent else 0) | (cv2.CALIB_RATIONAL_MODEL if a.rational else 0) \
-        | (cv2.CALIB_THIN_PRISM_MODEL if a.thin_prism else 0)
+        | (cv2.CALIB_THIN_PRISM_MODEL if a.thin_prism else 0) | (cv2.CALIB_TILTED_MODEL if a.tilted else 0)
     pw, ph = map(int, a.projector.split('x'))
     cols, rows = map(int, a.corners.split('x'))
     objp = np.zeros((cols * rows, 3), np.float32)
@@ -95,7 +96,7 @@ def main():
     total = time.perf_counter() - t0
 
     def dev(k, dist, rms):
-        return {'fx': k[0, 0], 'fy': k[1, 1], 'cx': k[0, 2], 'cy': k[1, 2], 'distortion': dist.ravel()[:12 if a.thin_prism else 8 if a.rational else 5].tolist(), 'rms_px': rms}
+        return {'fx': k[0, 0], 'fy': k[1, 1], 'cx': k[0, 2], 'cy': k[1, 2], 'distortion': dist.ravel()[:14 if a.tilted else 12 if a.thin_prism else 8 if a.rational else 5].tolist(), 'rms_px': rms}
     out = {
         'opencv': cv2.__version__,
         'camera': dev(kc, dc, rc), 'projector': dev(kp, dp, rp),

@@ -50,6 +50,7 @@ __all__ = [
     "CALIB_FIX_K3",
     "CALIB_RATIONAL_MODEL",
     "CALIB_THIN_PRISM_MODEL",
+    "CALIB_TILTED_MODEL",
     "Scene",
 ]
 
@@ -609,7 +610,8 @@ CALIB_ZERO_TANGENT_DIST = 8
 CALIB_FIX_K3 = 128
 CALIB_RATIONAL_MODEL = 1 << 14
 CALIB_THIN_PRISM_MODEL = 1 << 15
-_CALIB_FLAGS = CALIB_ZERO_TANGENT_DIST | CALIB_FIX_K3 | CALIB_RATIONAL_MODEL | CALIB_THIN_PRISM_MODEL
+CALIB_TILTED_MODEL = 1 << 18
+_CALIB_FLAGS = CALIB_ZERO_TANGENT_DIST | CALIB_FIX_K3 | CALIB_RATIONAL_MODEL | CALIB_THIN_PRISM_MODEL | CALIB_TILTED_MODEL
 
 
 def find_chessboard_corners(image, pattern_size):
@@ -661,20 +663,20 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
     camera_matrix, dist_coeffs : ignored
         Accepted for OpenCV's signature (whose initial guess needs CALIB_USE_INTRINSIC_GUESS).
     flags : int
-        A combination of CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL and
-        CALIB_THIN_PRISM_MODEL (OpenCV's values); other flags are refused.
+        A combination of CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL,
+        CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL (OpenCV's values); other flags are refused.
 
     Returns
     -------
     (rms, camera_matrix, dist_coeffs, rvecs, tvecs)
         As OpenCV: the RMS reprojection error in pixels, the 3×3 camera matrix, the (1, n)
         distortion coefficients (n = 5, 8 with CALIB_RATIONAL_MODEL, 12 with
-        CALIB_THIN_PRISM_MODEL), and per view the (3, 1) Rodrigues vector and translation (in the
+        CALIB_THIN_PRISM_MODEL, 14 with CALIB_TILTED_MODEL), and per view the (3, 1) Rodrigues vector and translation (in the
         object points' unit) of the target → camera transform.
     """
     flags = int(flags)
     if flags & ~_CALIB_FLAGS:
-        raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL and CALIB_THIN_PRISM_MODEL are supported, got {flags}")
+        raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL are supported, got {flags}")
     if len(object_points) != len(image_points):
         raise ValueError(f"object_points and image_points: {len(object_points)} and {len(image_points)} views")
     if len(object_points) == 0:
@@ -689,7 +691,7 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
     rms, (fx, fy, cx, cy), dist, rvecs, tvecs = _lucent.calibrate_camera_flat(
         [float(v) for v in obj[0][:, :2].ravel()], [[float(v) for v in p.ravel()] for p in img], w, h,
         bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST),
-        bool(flags & CALIB_RATIONAL_MODEL), bool(flags & CALIB_THIN_PRISM_MODEL))
+        bool(flags & CALIB_RATIONAL_MODEL), bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
     k = _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
     return (rms, k, _np.asarray(dist, dtype=float).reshape(1, -1),
             tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),

@@ -15,6 +15,7 @@ CALIB_ZERO_TANGENT_DIST: int
 CALIB_FIX_K3: int
 CALIB_RATIONAL_MODEL: int
 CALIB_THIN_PRISM_MODEL: int
+CALIB_TILTED_MODEL: int
 
 _Real = Union[float, npt.ArrayLike]
 _Complex = Union[complex, float, npt.ArrayLike]

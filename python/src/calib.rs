@@ -37,6 +37,7 @@ pub fn calibrate_camera_flat(
     zero_tangent: bool,
     rational: bool,
     thin_prism: bool,
+    tilted: bool,
 ) -> PyResult<(f64, [f64; 4], Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>)> {
     if object_xy.iter().any(|x| !x.is_finite()) {
         return Err(value("object_points: must be finite"));
@@ -44,7 +45,7 @@ pub fn calibrate_camera_flat(
     let obj: Vec<[f64; 2]> = object_xy.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
     let views: Vec<(String, Vec<[f64; 2]>)> =
         image_points.iter().enumerate().map(|(i, v)| (format!("image_points[{i}]"), v.chunks_exact(2).map(|p| [p[0], p[1]]).collect())).collect();
-    let free = Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, ..Default::default() };
+    let free = Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() };
     let c = calibrate_camera_planar(&obj, &views, width, height, free).map_err(|e| value(format!("{e:#}")))?;
     Ok((c.rms_px, [c.fx, c.fy, c.cx, c.cy], c.dist, c.views.iter().map(|v| v.rvec).collect(), c.views.iter().map(|v| v.tvec).collect()))
 }

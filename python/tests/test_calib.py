@@ -35,6 +35,12 @@ def test_calibrate_camera_recovers_a_known_camera():
     assert d[0, 2] == 0.0 and d[0, 3] == 0.0 and d[0, 4] == 0.0
     _, _, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), flags=lucent.CALIB_THIN_PRISM_MODEL)
     assert d.shape == (1, 12)
+    # A tilted sensor (OpenCV's 14-coefficient model) is recovered with CALIB_TILTED_MODEL.
+    tilted = np.r_[DIST, np.zeros(7), 0.015, -0.02]
+    pts = [lucent.project_points(OBJ, r, t, K, tilted) for r, t in POSES]
+    rms, k, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), flags=lucent.CALIB_TILTED_MODEL)
+    assert d.shape == (1, 14) and rms < 1e-8
+    assert np.abs(d.ravel() - tilted).max() < 1e-8 and np.abs(k - K).max() < 1e-6 * K[0, 0]
 
 
 def test_calibrate_camera_refuses_what_it_does_not_do():

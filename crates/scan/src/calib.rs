@@ -255,7 +255,8 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
 /// [`calibrate_corners_from`] with a choice of the distortion terms both devices fit: `free.k3`
 /// false holds k3 at 0 (OpenCV's `CALIB_FIX_K3`), `free.tangential` false holds p1 = p2 = 0
 /// (`CALIB_ZERO_TANGENT_DIST`), `free.rational` fits k4…k6 (`CALIB_RATIONAL_MODEL`) and
-/// `free.thin_prism` s1…s4 (`CALIB_THIN_PRISM_MODEL`).
+/// `free.thin_prism` s1…s4 (`CALIB_THIN_PRISM_MODEL`) and `free.tilted` τx, τy
+/// (`CALIB_TILTED_MODEL`).
 pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>, free: bundle::Free) -> anyhow::Result<ProcamCalibration> {
     use anyhow::{bail, Context};
     use bundle::{refine, State, ViewObs};
@@ -269,17 +270,7 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
             [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h)].iter().map(|&(u, v)| ((u - d.cx) / d.fx).hypot((v - d.cy) / d.fy)).fold(0.0f64, f64::max)
         };
         let free = bundle::Free { rational_radius: [corner_radius(&five.camera), corner_radius(&five.projector)], ..free };
-        let c = calibrate_corners_with(rig, captures, Some(&five), free)?;
-        // A denominator that reaches 0 inside the image fits the corners but maps no ray there
-        // (render::camera::OpenCv's check, which triangulation and rendering rely on).
-        for (name, d) in [("camera", &c.camera), ("projector", &c.projector)] {
-            let dist = render::camera::Distortion::from_opencv(&d.distortion)?;
-            let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
-            if let Err(e) = render::camera::OpenCv::new(render::camera::Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, dist, id, d.width, d.height) {
-                bail!("--rational: the fitted {name} model is not usable ({e}); these captures do not determine k4, k5, k6: calibrate without --rational");
-            }
-        }
-        return Ok(c);
+        return calibrate_corners_with(rig, captures, Some(&five), free);
     }
     let n = rig.cols * rig.rows;
     if captures.len() < if init.is_some() { 2 } else { 3 } {
@@ -325,6 +316,9 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
                 if !free.thin_prism {
                     l.prism = [0.0; 4];
                 }
+                if !free.tilted {
+                    l.tilt = [0.0; 2];
+                }
                 l
             };
             let cam = lens(&c.camera);
@@ -339,8 +333,30 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
         None => stereo_start(captures, rig, &mono)?,
     };
     let fit = refine(&obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
-    let coefficients = if free.thin_prism { 12 } else if free.rational { 8 } else { 5 };
-    finish(rig, captures, &obj, &views, &fit, coefficients)
+    let c = finish(rig, captures, &obj, &views, &fit, coefficient_count(free))?;
+    // A rational denominator that reaches 0, or a tilt that turns part of the image beyond the
+    // horizon, fits the corners but maps no ray there (render::camera::OpenCv's check, which
+    // triangulation and rendering rely on).
+    if free.rational || free.tilted {
+        for (name, d) in [("camera", &c.camera), ("projector", &c.projector)] {
+            usable(d.fx, d.fy, d.cx, d.cy, &d.distortion, d.width, d.height, free).with_context(|| name.to_string())?;
+        }
+    }
+    Ok(c)
+}
+
+/// Whether a fitted lens maps a ray to every pixel of its `width` × `height` image; the error
+/// names the flag whose terms these captures do not determine.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn usable(fx: f64, fy: f64, cx: f64, cy: f64, dist: &[f64], width: u32, height: u32, free: bundle::Free) -> anyhow::Result<()> {
+    let what = if free.rational { "--rational (k4, k5, k6)" } else { "--tilted (τx, τy)" };
+    let check = || -> anyhow::Result<()> {
+        let d = render::camera::Distortion::from_opencv(dist)?;
+        let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        render::camera::OpenCv::new(render::camera::Intrinsics { fx, fy, cx, cy }, d, id, width, height)?;
+        Ok(())
+    };
+    check().map_err(|e| anyhow::anyhow!("the fitted model is not usable ({e}); these views do not determine {what}: calibrate without it"))
 }
 
 type MonoFit<'a> = dyn Fn(&dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, (u32, u32), &str) -> anyhow::Result<bundle::State> + 'a;
@@ -362,8 +378,22 @@ fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit) -> anyho
     Ok(bundle::State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() })
 }
 
-/// The result of a fit, its distortion as OpenCV's first `coefficients` (5, 8 with k4…k6, or 12
-/// with s1…s4 as well; OpenCV writes 12 with the thin prism model, k4…k6 then 0 unless fitted).
+/// How many of OpenCV's distortion coefficients a fit with `free` writes, as OpenCV does: 14 with
+/// the tilted model, 12 with the thin prism model, 8 with the rational model, else 5 (terms in
+/// between that were not fitted are 0).
+pub fn coefficient_count(free: bundle::Free) -> usize {
+    if free.tilted {
+        14
+    } else if free.thin_prism {
+        12
+    } else if free.rational {
+        8
+    } else {
+        5
+    }
+}
+
+/// The result of a fit, its distortion as OpenCV's first `coefficients` ([`coefficient_count`]).
 fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], views: &[bundle::ViewObs], fit: &bundle::State, coefficients: usize) -> anyhow::Result<ProcamCalibration> {
     let e = bundle::rms(obj, views, fit);
     let device = |l: &model::Lens, size: (u32, u32), rms_px: f64| DeviceCalibration {
@@ -373,7 +403,7 @@ fn finish(rig: &Rig, captures: &[CaptureCorners], obj: &[homography::Point2], vi
         fy: l.fy,
         cx: l.cx,
         cy: l.cy,
-        distortion: l.dist.iter().chain(&l.rational).chain(&l.prism).copied().take(coefficients).collect(),
+        distortion: l.dist.iter().chain(&l.rational).chain(&l.prism).chain(&l.tilt).copied().take(coefficients).collect(),
         rms_px,
     };
     let rm = fit.stereo.r();

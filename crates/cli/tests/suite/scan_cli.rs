@@ -338,6 +338,13 @@ fn calibrate_thin_prism_writes_twelve_coefficients() {
     }
     let (r5, r12) = (five["rms_px"].as_f64().unwrap(), prism["rms_px"].as_f64().unwrap());
     assert!(r12 <= r5 * (1.0 + 1e-9), "thin prism RMS {r12} vs five coefficients {r5}");
+    // With --tilted these three captures give a camera whose radial map turns back inside the
+    // image (OpenCV's fit with CALIB_TILTED_MODEL tilts the sensor by 20°): refused on one line.
+    let mut args: Vec<&str> = vec!["scan", "calibrate"];
+    args.extend(caps.iter().map(|c| c.as_str()));
+    args.extend(["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--tilted", "--json"]);
+    let e = fails_on_one_line(&args);
+    assert!(e.contains("--tilted") && e.contains("not usable"), "{e}");
 }
 
 /// `scan calibrate` on the three shared captures: the JSON keys of the contract, the stereo RMS

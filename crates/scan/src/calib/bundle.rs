@@ -53,11 +53,13 @@ pub struct Free {
     pub rational_radius: [f64; 2],
     /// The thin prism terms s1…s4 (OpenCV's `CALIB_THIN_PRISM_MODEL`); off by default.
     pub thin_prism: bool,
+    /// The sensor tilt τx, τy (OpenCV's `CALIB_TILTED_MODEL`); off by default.
+    pub tilted: bool,
 }
 
 impl Default for Free {
     fn default() -> Self {
-        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2], thin_prism: false }
+        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2], thin_prism: false, tilted: false }
     }
 }
 
@@ -68,7 +70,7 @@ const BARRIER_SAMPLES: usize = 24;
 /// Pixels of residual per unit the denominator falls below the floor.
 const BARRIER_WEIGHT: f64 = 1e3;
 
-const LENS: usize = 16;
+const LENS: usize = 18;
 
 struct Problem<'a> {
     obj: &'a [Vector3<f64>],
@@ -259,9 +261,9 @@ pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
 fn free_indices(free: Free, stereo: bool, len: usize) -> Vec<usize> {
     let mut idx = Vec::new();
     let ndev = if stereo { 2 } else { 1 };
-    let (r, s) = (free.rational, free.thin_prism);
+    let (r, s, t) = (free.rational, free.thin_prism, free.tilted);
     for d in 0..ndev {
-        for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r, s, s, s, s].iter().enumerate() {
+        for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r, s, s, s, s, t, t].iter().enumerate() {
             if free.lenses && *on {
                 idx.push(d * LENS + i);
             }
@@ -302,7 +304,7 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
 /// [`Free`] (five distortion coefficients per device) for independent Gaussian pixel noise of
 /// `sigma_px` on every corner: the square roots of the diagonal of σ²(JᵀJ)⁻¹ over the fitted
 /// parameters at `state` (the linearised covariance of the least-squares estimate); NaN for the
-/// terms such a fit holds (k4, k5, k6, s1…s4).
+/// terms such a fit holds (k4, k5, k6, s1…s4, τx, τy).
 pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64) -> Vec<f64> {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let x = pack_state(state);

@@ -43,7 +43,8 @@ pub struct CameraCalibration {
     pub cx: f64,
     /// Principal point y (pixels).
     pub cy: f64,
-    /// OpenCV's distortion coefficients: k1, k2, p1, p2, k3 (5), then k4…k6 (8), then s1…s4 (12).
+    /// OpenCV's distortion coefficients: k1, k2, p1, p2, k3 (5), then k4…k6 (8), then s1…s4 (12),
+    /// then τx, τy in radians (14).
     pub dist: Vec<f64>,
     /// RMS reprojection error over all corners (pixels).
     pub rms_px: f64,
@@ -121,15 +122,9 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
     };
     let e = bundle::rms(&obj, &obs, &fit);
     let l = &fit.cam;
-    let coefficients = if free.thin_prism { 12 } else if free.rational { 8 } else { 5 };
-    let dist: Vec<f64> = l.dist.iter().chain(&l.rational).chain(&l.prism).copied().take(coefficients).collect();
-    if free.rational {
-        // A denominator that reaches 0 inside the image maps no ray there.
-        let d = render::camera::Distortion::from_opencv(&dist)?;
-        let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
-        if let Err(e) = render::camera::OpenCv::new(render::camera::Intrinsics { fx: l.fx, fy: l.fy, cx: l.cx, cy: l.cy }, d, id, width, height) {
-            bail!("--rational: the fitted model is not usable ({e}); these views do not determine k4, k5, k6: calibrate without --rational");
-        }
+    let dist: Vec<f64> = l.dist.iter().chain(&l.rational).chain(&l.prism).chain(&l.tilt).copied().take(super::coefficient_count(free)).collect();
+    if free.rational || free.tilted {
+        super::usable(l.fx, l.fy, l.cx, l.cy, &dist, width, height, free)?;
     }
     Ok(CameraCalibration {
         width,

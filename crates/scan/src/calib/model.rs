@@ -1,5 +1,6 @@
 //! The device model of the calibration: OpenCV's pinhole with distortion k1, k2, p1, p2, k3, the
-//! rational model's k4, k5, k6 and the thin prism s1…s4 (formula in `render::camera::opencv`),
+//! rational model's k4, k5, k6, the thin prism s1…s4 and the sensor tilt τx, τy (formula in
+//! `render::camera::opencv`),
 //! and rigid poses as Rodrigues vector + translation.
 
 use super::homography::Point2;
@@ -23,12 +24,14 @@ pub struct Lens {
     pub rational: [f64; 3],
     /// [s1, s2, s3, s4]: OpenCV's thin prism terms (0 unless they are fitted).
     pub prism: [f64; 4],
+    /// [τx, τy]: OpenCV's sensor tilt (radians; 0 unless fitted).
+    pub tilt: [f64; 2],
 }
 
 impl Lens {
     /// A distortion-free lens.
     pub fn pinhole(fx: f64, fy: f64, cx: f64, cy: f64) -> Lens {
-        Lens { fx, fy, cx, cy, dist: [0.0; 5], rational: [0.0; 3], prism: [0.0; 4] }
+        Lens { fx, fy, cx, cy, dist: [0.0; 5], rational: [0.0; 3], prism: [0.0; 4], tilt: [0.0; 2] }
     }
 
     /// The camera matrix K.
@@ -40,28 +43,28 @@ impl Lens {
     pub fn project(&self, x: &Vector3<f64>) -> Point2 {
         let [k1, k2, p1, p2, k3] = self.dist;
         let [k4, k5, k6] = self.rational;
-        let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: self.prism, ..Distortion::default() };
+        let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: self.prism, tau_rad: self.tilt };
         let (u, v) = d.distort(x[0] / x[2], x[1] / x[2]);
         [self.fx * u + self.cx, self.fy * v + self.cy]
     }
 
-    /// The sixteen parameters in the order fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6, s1, s2,
-    /// s3, s4.
-    pub fn to_array(&self) -> [f64; 16] {
-        let (d, q, s) = (self.dist, self.rational, self.prism);
-        [self.fx, self.fy, self.cx, self.cy, d[0], d[1], d[2], d[3], d[4], q[0], q[1], q[2], s[0], s[1], s[2], s[3]]
+    /// The eighteen parameters in the order fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6, s1, s2,
+    /// s3, s4, τx, τy.
+    pub fn to_array(&self) -> [f64; 18] {
+        let (d, q, s, t) = (self.dist, self.rational, self.prism, self.tilt);
+        [self.fx, self.fy, self.cx, self.cy, d[0], d[1], d[2], d[3], d[4], q[0], q[1], q[2], s[0], s[1], s[2], s[3], t[0], t[1]]
     }
 
     /// Inverse of [`Lens::to_array`].
     pub fn from_slice(p: &[f64]) -> Lens {
-        Lens { fx: p[0], fy: p[1], cx: p[2], cy: p[3], dist: [p[4], p[5], p[6], p[7], p[8]], rational: [p[9], p[10], p[11]], prism: [p[12], p[13], p[14], p[15]] }
+        Lens { fx: p[0], fy: p[1], cx: p[2], cy: p[3], dist: [p[4], p[5], p[6], p[7], p[8]], rational: [p[9], p[10], p[11]], prism: [p[12], p[13], p[14], p[15]], tilt: [p[16], p[17]] }
     }
 
-    /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4]]]);
-    /// terms not given are 0 (a sensor tilt, entries 13–14, is not part of this model).
+    /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, τx,
+    /// τy]]]]); terms not given are 0.
     pub fn from_opencv(fx: f64, fy: f64, cx: f64, cy: f64, d: &[f64]) -> Lens {
         let g = |i: usize| d.get(i).copied().unwrap_or(0.0);
-        Lens { fx, fy, cx, cy, dist: [g(0), g(1), g(2), g(3), g(4)], rational: [g(5), g(6), g(7)], prism: [g(8), g(9), g(10), g(11)] }
+        Lens { fx, fy, cx, cy, dist: [g(0), g(1), g(2), g(3), g(4)], rational: [g(5), g(6), g(7)], prism: [g(8), g(9), g(10), g(11)], tilt: [g(12), g(13)] }
     }
 }
 

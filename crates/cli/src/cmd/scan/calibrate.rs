@@ -81,12 +81,16 @@ pub struct LensFlags {
     /// lists twelve coefficients (k4…k6 are 0 unless --rational).
     #[arg(long)]
     pub thin_prism: bool,
+    /// Also fit the sensor tilt τx, τy (OpenCV's CALIB_TILTED_MODEL); the distortion then lists
+    /// fourteen coefficients.
+    #[arg(long)]
+    pub tilted: bool,
 }
 
 impl LensFlags {
     /// The parameters the fit may move.
     pub fn free(&self) -> scan::calib::bundle::Free {
-        scan::calib::bundle::Free { lenses: true, k3: !self.fix_k3, tangential: !self.zero_tangent, rational: self.rational, thin_prism: self.thin_prism, ..Default::default() }
+        scan::calib::bundle::Free { lenses: true, k3: !self.fix_k3, tangential: !self.zero_tangent, rational: self.rational, thin_prism: self.thin_prism, tilted: self.tilted, ..Default::default() }
     }
 }
 
@@ -154,8 +158,13 @@ pub fn run(args: Args) -> Result<()> {
                 println!("{:9} rational denominator k4 {k4:.4} k5 {k5:.4} k6 {k6:.4}", "");
             }
         }
-        if let [_, _, _, s1, s2, s3, s4] = *extra {
+        if let [_, _, _, s1, s2, s3, s4, ..] = *extra {
             println!("{:9} thin prism s1 {s1:.5} s2 {s2:.5} s3 {s3:.5} s4 {s4:.5}", "");
+        }
+        if let [.., tx, ty] = *extra {
+            if extra.len() == 9 {
+                println!("{:9} sensor tilt τx {tx:.6} τy {ty:.6} rad", "");
+            }
         }
     };
     dev("camera", &calib.camera);

@@ -1,5 +1,5 @@
 //! `lucent scan calibrate-camera IMAGE… --corners CxR --square S [--fix-k3] [--zero-tangent]
-//! [--rational] [--thin-prism] [--out CAMERA.json] [--opencv-out CAMERA.yml] [--json]`: one
+//! [--rational] [--thin-prism] [--tilted] [--out CAMERA.json] [--opencv-out CAMERA.yml] [--json]`: one
 //! camera from photographs of a chessboard, as OpenCV's `findChessboardCorners` +
 //! `cornerSubPix` + `calibrateCamera` (scan::calib::camera; docs/scanning.md).
 
@@ -89,8 +89,11 @@ pub fn run(args: Args) -> Result<()> {
             println!("       rational denominator k4 {k4:.4} k5 {k5:.4} k6 {k6:.4}");
         }
     }
-    if let [_, _, _, s1, s2, s3, s4] = d[5..] {
+    if let [_, _, _, s1, s2, s3, s4, ..] = d[5..] {
         println!("       thin prism s1 {s1:.5} s2 {s2:.5} s3 {s3:.5} s4 {s4:.5}");
+    }
+    if let [_, _, _, _, _, _, _, tx, ty] = d[5..] {
+        println!("       sensor tilt τx {tx:.6} τy {ty:.6} rad");
     }
     for v in &calib.views {
         println!("  {}: board at {:.1} units, RMS {:.3} px", v.name, (v.tvec[0].powi(2) + v.tvec[1].powi(2) + v.tvec[2].powi(2)).sqrt(), v.rms_px);
