@@ -80,25 +80,32 @@ impl GrayImage {
         let sum: f32 = k.iter().sum();
         let k: Vec<f32> = k.iter().map(|v| v / sum).collect();
         let (w, h) = (self.width, self.height);
+        // Horizontal pass: taps in the order −r…r (clamped at the borders), each row on its own.
         let mut tmp = vec![0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
+        for (y, row_out) in tmp.chunks_exact_mut(w).enumerate() {
+            let row = &self.data[y * w..(y + 1) * w];
+            for (x, o) in row_out.iter_mut().enumerate() {
                 let mut s = 0.0;
-                for (o, kv) in (-r..=r).zip(&k) {
-                    s += kv * self.px(x as isize + o, y as isize);
+                if x as isize >= r && (x as isize) + r < w as isize {
+                    for (j, kv) in k.iter().enumerate() {
+                        s += kv * row[x + j - r as usize];
+                    }
+                } else {
+                    for (off, kv) in (-r..=r).zip(&k) {
+                        s += kv * row[(x as isize + off).clamp(0, w as isize - 1) as usize];
+                    }
                 }
-                tmp[y * w + x] = s;
+                *o = s;
             }
         }
-        let t = GrayImage { width: w, height: h, data: tmp };
+        // Vertical pass: the same taps, accumulated a row at a time (the same sums per pixel).
         let mut out = vec![0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = 0.0;
-                for (o, kv) in (-r..=r).zip(&k) {
-                    s += kv * t.px(x as isize, y as isize + o);
+        for (y, row_out) in out.chunks_exact_mut(w).enumerate() {
+            for (off, kv) in (-r..=r).zip(&k) {
+                let yy = (y as isize + off).clamp(0, h as isize - 1) as usize;
+                for (o, v) in row_out.iter_mut().zip(&tmp[yy * w..(yy + 1) * w]) {
+                    *o += kv * v;
                 }
-                out[y * w + x] = s;
             }
         }
         GrayImage { width: w, height: h, data: out }

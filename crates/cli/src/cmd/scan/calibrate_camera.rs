@@ -47,19 +47,29 @@ pub fn run(args: Args) -> Result<()> {
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let (cols, rows) = (args.corners.0 as usize, args.corners.1 as usize);
+    // Each photograph is read and searched on its own (in parallel); sizes, skips and errors are
+    // then taken in the order given.
+    use rayon::prelude::*;
+    let found: Vec<Result<(String, (usize, usize), Option<Vec<[f64; 2]>>)>> = args
+        .images
+        .par_iter()
+        .map(|path| {
+            let img = GrayImage::load(path)?;
+            Ok((path.display().to_string(), (img.width, img.height), find_chessboard(&img, cols, rows)))
+        })
+        .collect();
     let mut size = None;
     let mut views = Vec::new();
-    for path in &args.images {
-        let img = GrayImage::load(path)?;
-        let name = path.display().to_string();
+    for f in found {
+        let (name, (iw, ih), corners) = f?;
         match size {
-            None => size = Some((img.width as u32, img.height as u32, name.clone())),
-            Some((w, h, ref first)) if (w, h) != (img.width as u32, img.height as u32) => {
-                bail!("{name}: {}x{} pixels, but {first} is {w}x{h}: one camera's photographs share one size", img.width, img.height)
+            None => size = Some((iw as u32, ih as u32, name.clone())),
+            Some((w, h, ref first)) if (w, h) != (iw as u32, ih as u32) => {
+                bail!("{name}: {iw}x{ih} pixels, but {first} is {w}x{h}: one camera's photographs share one size")
             }
             Some(_) => {}
         }
-        match find_chessboard(&img, cols, rows) {
+        match corners {
             Some(c) => views.push((name, c)),
             None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} chessboard found; skipped"),
             None => bail!("{name}: no {cols}×{rows} lattice of chessboard corners found (--skip-missing leaves such images out)"),
