@@ -46,6 +46,7 @@ __all__ = [
     "undistort_points",
     "find_chessboard_corners",
     "calibrate_camera",
+    "calibrate_procam",
     "CALIB_ZERO_TANGENT_DIST",
     "CALIB_FIX_K3",
     "CALIB_RATIONAL_MODEL",
@@ -696,6 +697,46 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
     return (rms, k, _np.asarray(dist, dtype=float).reshape(1, -1),
             tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
             tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
+
+
+def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, step=1, black_threshold=40, white_threshold=5) -> Result:
+    """Projector–camera calibration from Gray-code captures of a chessboard, as ``lucent scan
+    calibrate`` (and kamino410/procam-calibration's ``calibrate.py``) computes it.
+
+    Parameters
+    ----------
+    captures : list of folders
+        One folder per board pose, each with ``graycode_00.png`` … (the patterns of
+        ``lucent scan patterns``, white and black last); at least 3.
+    projector_size : (width, height)
+        The projector's resolution, pixels.
+    pattern_size : (cols, rows)
+        Inner corners of the chessboard per row and per column.
+    square : float
+        Square size; the translation and board poses come out in this unit.
+    flags : int
+        CALIB_FIX_K3, CALIB_ZERO_TANGENT_DIST, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL,
+        CALIB_TILTED_MODEL (OpenCV's values), for both devices.
+    step, black_threshold, white_threshold
+        As ``lucent scan calibrate --step --black-threshold --white-threshold``.
+
+    Returns
+    -------
+    Result
+        The keys of ``lucent scan calibrate --json``: ``camera`` and ``projector`` (width, height,
+        fx, fy, cx, cy, distortion, rms_px), ``rotation`` and ``translation`` (camera → projector,
+        X_p = R X_c + T), ``rms_px`` and the board pose of each capture.
+    """
+    flags = int(flags)
+    if flags & ~_CALIB_FLAGS:
+        raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL are supported, got {flags}")
+    pw, ph = (int(v) for v in projector_size)
+    cols, rows = (int(v) for v in pattern_size)
+    bits = (bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
+            bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
+    text = _lucent.calibrate_procam_json([str(c) for c in captures], (pw, ph), cols, rows, float(square), bits, int(step),
+                                         (int(black_threshold), int(white_threshold)))
+    return Result(_json.loads(text))
 
 
 def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -> _np.ndarray:

@@ -75,6 +75,9 @@ def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Seque
                      camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...]]:
     """(rms, K, dist, rvecs, tvecs) from views of one planar target (cv2.calibrateCamera; CALIB_* flags above)."""
+def calibrate_procam(captures: Sequence[_Path], projector_size: Tuple[int, int], pattern_size: Tuple[int, int], square: float,
+                     flags: int = 0, step: int = 1, black_threshold: int = 40, white_threshold: int = 5) -> Result:
+    """Projector–camera calibration from Gray-code captures (the keys of `lucent scan calibrate --json`)."""
 
 class Scene:
     """A scene ready to render (docs/scene-format.md)."""

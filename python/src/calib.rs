@@ -2,7 +2,7 @@
 //! (+ `cornerSubPix`) and `calibrateCamera` (the `scan` crate's corner finder, Zhang's closed form
 //! and Levenberg–Marquardt; docs/scanning.md).
 
-use crate::errors::value;
+use crate::errors::{value, OrPy};
 use pyo3::prelude::*;
 use scan::calib::bundle::Free;
 use scan::calib::camera::calibrate_camera_planar;
@@ -46,6 +46,41 @@ pub fn calibrate_camera_flat(
     let views: Vec<(String, Vec<[f64; 2]>)> =
         image_points.iter().enumerate().map(|(i, v)| (format!("image_points[{i}]"), v.chunks_exact(2).map(|p| [p[0], p[1]]).collect())).collect();
     let free = Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() };
-    let c = calibrate_camera_planar(&obj, &views, width, height, free).map_err(|e| value(format!("{e:#}")))?;
+    let c = calibrate_camera_planar(&obj, &views, width, height, free).or_py()?;
     Ok((c.rms_px, [c.fx, c.fy, c.cx, c.cy], c.dist, c.views.iter().map(|v| v.rvec).collect(), c.views.iter().map(|v| v.tvec).collect()))
+}
+
+/// `lucent scan calibrate` on capture folders: the calibration JSON it writes.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn calibrate_procam_json(
+    py: Python<'_>,
+    captures: Vec<std::path::PathBuf>,
+    projector: (u32, u32),
+    cols: usize,
+    rows: usize,
+    square: f64,
+    flags: (bool, bool, bool, bool, bool),
+    step: u32,
+    thresholds: (i32, i32),
+) -> PyResult<String> {
+    if !(square > 0.0 && square.is_finite()) {
+        return Err(value(format!("square: must be a positive length, got {square}")));
+    }
+    if cols < 3 || rows < 3 {
+        return Err(value(format!("pattern_size: the board needs at least 3×3 inner corners, got {cols}×{rows}")));
+    }
+    if projector.0 == 0 || projector.1 == 0 {
+        return Err(value("projector_size: must be positive"));
+    }
+    let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
+    let rig = scan::calib::Rig { cols, rows, square, camera: (0, 0), projector };
+    let opts = scan::calib::CalibrateOptions {
+        decode: scan::decode::DecodeSettings { black_threshold: thresholds.0, white_threshold: thresholds.1, refine: true },
+        step,
+        free: Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() },
+        ..Default::default()
+    };
+    let (calib, _) = py.allow_threads(|| scan::calib::calibrate_dirs(&captures, &rig, &opts, &|| {})).or_py()?;
+    serde_json::to_string(&calib).map_err(|e| value(e.to_string()))
 }

@@ -113,3 +113,21 @@ def test_calibrate_camera_agrees_with_live_opencv():
     assert abs(ours[0] - theirs[0]) < 1e-3 * theirs[0]
     assert np.abs(ours[1] - theirs[1]).max() < 1e-3 * K[0, 0]
     assert np.abs(ours[2] - theirs[2]).max() < 2e-3
+
+
+def test_calibrate_procam_equals_the_command():
+    import json
+    from conftest import ROOT, cli
+    caps = [ROOT.parent / "shared" / "data" / "structured-light" / "procam-sample" / f"capture_{i}" for i in range(3)]
+    if not all(c.is_dir() for c in caps):
+        pytest.skip("the shared procam captures are not here")
+    r = lucent.calibrate_procam(caps, (1024, 768), (9, 7), 75.0, flags=lucent.CALIB_FIX_K3)
+    out = cli("scan", "calibrate", *caps, "--projector", "1024x768", "--corners", "9x7", "--square", "75", "--fix-k3", "--json")
+    assert out.returncode == 0, out.stderr
+    want = json.loads(out.stdout)
+    assert r == want
+    assert r.camera["distortion"][4] == 0.0 and r.rms_px < 0.6
+    with pytest.raises(ValueError, match="at least 3"):
+        lucent.calibrate_procam(caps[:2], (1024, 768), (9, 7), 75.0)
+    with pytest.raises(OSError):
+        lucent.calibrate_procam([caps[0], caps[1], ROOT / "no-such-capture"], (1024, 768), (9, 7), 75.0)
