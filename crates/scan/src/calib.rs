@@ -346,10 +346,14 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
 }
 
 /// Whether a fitted lens maps a ray to every pixel of its `width` × `height` image; the error
-/// names the flag whose terms these captures do not determine.
+/// names the flags whose terms these views do not determine.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn usable(fx: f64, fy: f64, cx: f64, cy: f64, dist: &[f64], width: u32, height: u32, free: bundle::Free) -> anyhow::Result<()> {
-    let what = if free.rational { "--rational (k4, k5, k6)" } else { "--tilted (τx, τy)" };
+    let what = match (free.rational, free.tilted) {
+        (true, true) => "--rational (k4, k5, k6) and --tilted (τx, τy)",
+        (true, false) => "--rational (k4, k5, k6)",
+        _ => "--tilted (τx, τy)",
+    };
     let check = || -> anyhow::Result<()> {
         let d = render::camera::Distortion::from_opencv(dist)?;
         let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
