@@ -615,6 +615,17 @@ CALIB_TILTED_MODEL = 1 << 18
 _CALIB_FLAGS = CALIB_ZERO_TANGENT_DIST | CALIB_FIX_K3 | CALIB_RATIONAL_MODEL | CALIB_THIN_PRISM_MODEL | CALIB_TILTED_MODEL
 
 
+def _pair(v, name, least):
+    """Two whole numbers, each at least `least` (a size or a corner count), or ValueError."""
+    try:
+        a, b = (int(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected two whole numbers, got {v!r}") from None
+    if a < least or b < least:
+        raise ValueError(f"{name}: each must be at least {least}, got ({a}, {b})")
+    return a, b
+
+
 def find_chessboard_corners(image, pattern_size):
     """The inner corners of a chessboard, as ``cv2.findChessboardCorners`` followed by
     ``cv2.cornerSubPix`` finds them.
@@ -640,8 +651,10 @@ def find_chessboard_corners(image, pattern_size):
         a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
     elif a.ndim != 2:
         raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
-    cols, rows = (int(v) for v in pattern_size)
+    cols, rows = _pair(pattern_size, "pattern_size", 3)
     h, w = a.shape
+    if h < 8 or w < 8:
+        raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
     c = _lucent.find_chessboard_flat([float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h, cols, rows)
     if c is None:
         return False, None
@@ -688,7 +701,7 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
     if _np.any(obj[0][:, 2] != 0):
         raise ValueError("object_points: the target must lie in the plane z = 0")
     img = [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
-    w, h = (int(v) for v in image_size)
+    w, h = _pair(image_size, "image_size", 1)
     rms, (fx, fy, cx, cy), dist, rvecs, tvecs = _lucent.calibrate_camera_flat(
         [float(v) for v in obj[0][:, :2].ravel()], [[float(v) for v in p.ravel()] for p in img], w, h,
         bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST),
@@ -730,8 +743,8 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
     flags = int(flags)
     if flags & ~_CALIB_FLAGS:
         raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL are supported, got {flags}")
-    pw, ph = (int(v) for v in projector_size)
-    cols, rows = (int(v) for v in pattern_size)
+    pw, ph = _pair(projector_size, "projector_size", 1)
+    cols, rows = _pair(pattern_size, "pattern_size", 3)
     bits = (bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
             bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
     text = _lucent.calibrate_procam_json([str(c) for c in captures], (pw, ph), cols, rows, float(square), bits, int(step),

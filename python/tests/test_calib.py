@@ -53,6 +53,12 @@ def test_calibrate_camera_refuses_what_it_does_not_do():
         lucent.calibrate_camera([bent] * 5, pts, (640, 480))
     with pytest.raises(ValueError, match="at least 3 views"):
         lucent.calibrate_camera([OBJ] * 2, pts[:2], (640, 480))
+    with pytest.raises(ValueError, match="image_size"):
+        lucent.calibrate_camera([OBJ] * 5, pts, (-640, 480))
+    with pytest.raises(ValueError, match="pattern_size"):
+        lucent.find_chessboard_corners(np.zeros((480, 640), np.uint8), (-9, 6))
+    with pytest.raises(ValueError, match="8×8"):
+        lucent.find_chessboard_corners(np.zeros((4, 4), np.uint8), (9, 6))
 
 
 def chessboard_image(h_board_to_px, width=640, height=480, ss=4):
