@@ -93,10 +93,9 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
             bail!("{name}: {} image points for {} object points", c.len(), obj.len());
         }
     }
-    let obj = obj.to_vec();
     let obs: Vec<ViewObs> = views.iter().map(|(_, c)| ViewObs { cam: c.clone(), proj: vec![] }).collect();
     let fit = if free.rational {
-        let five = calibrate_camera_planar(&obj, views, width, height, Free { rational: false, ..free })?;
+        let five = calibrate_camera_planar(obj, views, width, height, Free { rational: false, ..free })?;
         let corner_radius = [(-0.5, -0.5), (width as f64 - 0.5, -0.5), (-0.5, height as f64 - 0.5), (width as f64 - 0.5, height as f64 - 0.5)]
             .iter()
             .map(|&(u, v)| ((u - five.cx) / five.fx).hypot((v - five.cy) / five.fy))
@@ -105,7 +104,7 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
         lens.rational = [0.0; 3];
         let poses = five.views.iter().map(|v| model::Pose { rvec: v.rvec.into(), t: v.tvec.into() }).collect();
         let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
-        refine(&obj, &obs, &init, Free { rational_radius: [corner_radius, 0.0], ..free }, MAX_RMS_PX).context("camera")?
+        refine(obj, &obs, &init, Free { rational_radius: [corner_radius, 0.0], ..free }, MAX_RMS_PX).context("camera")?
     } else {
         let mut hs = Vec::new();
         for (name, c) in views {
@@ -118,9 +117,9 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
             poses.push(zhang::pose_from_homography(h, &lens.k()).with_context(|| format!("{name}: no board pose"))?);
         }
         let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
-        refine(&obj, &obs, &init, free, MAX_RMS_PX).context("camera")?
+        refine(obj, &obs, &init, free, MAX_RMS_PX).context("camera")?
     };
-    let e = bundle::rms(&obj, &obs, &fit);
+    let e = bundle::rms(obj, &obs, &fit);
     let l = &fit.cam;
     let dist: Vec<f64> = l.dist.iter().chain(&l.rational).chain(&l.prism).chain(&l.tilt).copied().take(super::coefficient_count(free)).collect();
     if free.rational || free.tilted {
