@@ -18,13 +18,20 @@ import numpy as np
 
 
 def project(K, d, X):
-    """OpenCV's model with k1, k2, p1, p2, k3, written out."""
+    """OpenCV's model written out: k1, k2, p1, p2, k3, the rational k4…k6, the thin prism s1…s4
+    and the sensor tilt τx, τy (computeTiltProjectionMatrix), as many as `d` gives."""
     x, y = X[:, 0] / X[:, 2], X[:, 1] / X[:, 2]
-    k1, k2, p1, p2, k3 = (list(d) + [0.0] * 5)[:5]
+    k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4, tx, ty = (list(d) + [0.0] * 14)[:14]
     r2 = x * x + y * y
-    f = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
-    xd = x * f + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-    yd = y * f + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    f = (1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3) / (1 + k4 * r2 + k5 * r2 ** 2 + k6 * r2 ** 3)
+    xd = x * f + 2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r2 ** 2
+    yd = y * f + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r2 ** 2
+    rx = np.array([[1, 0, 0], [0, np.cos(tx), np.sin(tx)], [0, -np.sin(tx), np.cos(tx)]])
+    ry = np.array([[np.cos(ty), 0, -np.sin(ty)], [0, 1, 0], [np.sin(ty), 0, np.cos(ty)]])
+    rxy = ry @ rx
+    tilt = np.array([[rxy[2, 2], 0, -rxy[0, 2]], [0, rxy[2, 2], -rxy[1, 2]], [0, 0, 1]]) @ rxy
+    v = tilt @ np.stack([xd, yd, np.ones_like(xd)])
+    xd, yd = v[0] / v[2], v[1] / v[2]
     return np.stack([K[0, 0] * xd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1)
 
 
