@@ -114,6 +114,11 @@ pub(super) fn check_outputs(out: Option<&std::path::Path>, opencv_out: Option<&s
     Ok(yaml)
 }
 
+/// Writes `text` to `out` under a temporary name, then renames it (a failed run leaves a good file).
+pub(super) fn write_text(out: &std::path::Path, text: &str) -> Result<()> {
+    render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, text).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))
+}
+
 pub fn run(args: Args) -> Result<()> {
     if !(args.square > 0.0 && args.square.is_finite()) {
         bail!("--square: must be a positive length, got {}", args.square);
@@ -138,10 +143,10 @@ pub fn run(args: Args) -> Result<()> {
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);
-        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, &fs).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
+        write_text(out, &fs)?;
     }
     if let Some(out) = &args.out {
-        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
+        write_text(out, &format!("{text}\n"))?;
     }
     if args.json {
         println!("{text}");

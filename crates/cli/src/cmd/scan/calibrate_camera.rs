@@ -9,7 +9,7 @@ use anyhow::{bail, Result};
 use scan::calib::camera::calibrate_camera;
 use scan::calib::chessboard::{find_chessboard, GrayImage};
 
-use super::calibrate::{check_outputs, parse_corners, LensFlags};
+use super::calibrate::{check_outputs, parse_corners, write_text, LensFlags};
 
 /// Arguments of `lucent scan calibrate-camera`.
 #[derive(clap::Args, Debug)]
@@ -80,10 +80,10 @@ pub fn run(args: Args) -> Result<()> {
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);
-        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, &fs).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
+        write_text(out, &fs)?;
     }
     if let Some(out) = &args.out {
-        render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, format!("{text}\n")).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))?;
+        write_text(out, &format!("{text}\n"))?;
     }
     if args.json {
         println!("{text}");
