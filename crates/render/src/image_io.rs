@@ -145,8 +145,19 @@ pub fn write_image(path: &Path, image: &Image, exposure_stops: f32) -> Result<()
 /// Reads a PNG (decoded to linear with the sRGB curve; 8 or 16 bits; grey or colour; alpha
 /// ignored), an OpenEXR (first layer with R, G, B channels), a PFM (either byte order) or a
 /// Radiance RGBE `.hdr` (see [`decode_hdr`]).
+///
+/// JPEG (`.jpg`, `.jpeg`; photographs) is read as PNG is, 8-bit sRGB decoded to linear; lucent
+/// never writes it (lossy), so it is not a [`Format`].
 pub fn read_image(path: &Path) -> Result<Image> {
-    let format = Format::from_path(path)?;
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    if matches!(ext.as_deref(), Some("jpg" | "jpeg")) {
+        let result = std::fs::read(path).context("cannot open").and_then(|bytes| read_8bit(&bytes, image::ImageFormat::Jpeg, "JPEG"));
+        return result.with_context(|| format!("reading {}", path.display()));
+    }
+    let format = Format::from_path(path).map_err(|_| match ext {
+        Some(other) => anyhow!("{}: unknown image extension `.{other}` (expected .png, .jpg, .exr, .pfm or .hdr)", path.display()),
+        None => anyhow!("{}: no image extension (expected .png, .jpg, .exr, .pfm or .hdr)", path.display()),
+    })?;
     let result = std::fs::read(path).context("cannot open").and_then(|bytes| decode_image(&bytes, format));
     result.with_context(|| format!("reading {}", path.display()))
 }
@@ -218,7 +229,12 @@ fn srgb8(linear: f64) -> u8 {
 use image::ImageEncoder as _;
 
 fn read_png(bytes: &[u8]) -> Result<Image> {
-    let decoded = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).map_err(|e| anyhow!("PNG decoder: {e}"))?;
+    read_8bit(bytes, image::ImageFormat::Png, "PNG")
+}
+
+/// An sRGB-encoded file (PNG or JPEG, 8 or 16 bits) decoded to linear RGB.
+fn read_8bit(bytes: &[u8], format: image::ImageFormat, name: &str) -> Result<Image> {
+    let decoded = image::load_from_memory_with_format(bytes, format).map_err(|e| anyhow!("{name} decoder: {e}"))?;
     let (width, height) = (decoded.width(), decoded.height());
     let rgb: Vec<[f32; 3]> = match decoded.color() {
         image::ColorType::L8 | image::ColorType::La8 | image::ColorType::Rgb8 | image::ColorType::Rgba8 => {

@@ -118,6 +118,36 @@ fn png_16_bit_decodes_to_linear() {
 }
 
 #[test]
+fn jpeg_photographs_decode_to_linear_and_are_never_written() {
+    let dir = temp_dir("jpeg");
+    let path = dir.join("photo.JPG");
+    // Flat 8 × 8 blocks of one grey level each: a JPEG's DC term carries them exactly.
+    let (w, h) = (16u32, 8u32);
+    let raw: Vec<u8> = (0..w * h).map(|i| if i % w < 8 { 40 } else { 200 }).collect();
+    let buf = image::GrayImage::from_raw(w, h, raw).unwrap();
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, 100).encode_image(&buf).unwrap();
+    std::fs::write(&path, &bytes).unwrap();
+    let img = read_image(&path).unwrap();
+    assert_eq!((img.width, img.height), (w, h));
+    let reference = image::load_from_memory(&bytes).unwrap().to_rgb8();
+    for (p, q) in img.rgb.iter().zip(reference.pixels()) {
+        for c in 0..3 {
+            assert_eq!(p[c], srgb_decode(q[c] as f64 / 255.0) as f32);
+        }
+    }
+    assert!((img.rgb[0][0] as f64 - srgb_decode(40.0 / 255.0)).abs() < 2e-3, "{:?}", img.rgb[0]);
+    assert!((img.rgb[15][0] as f64 - srgb_decode(200.0 / 255.0)).abs() < 2e-2, "{:?}", img.rgb[15]);
+    // lucent writes no lossy format: the extension is refused before anything is written.
+    let out = dir.join("out.jpg");
+    assert!(write_image(&out, &img, 0.0).is_err());
+    assert!(!out.exists());
+    // A file of another kind names the extensions that are read.
+    let e = read_image(&dir.join("x.tif")).unwrap_err().to_string();
+    assert!(e.contains(".jpg") && e.contains("x.tif"), "{e}");
+}
+
+#[test]
 fn pfm_rows_are_stored_bottom_to_top_little_endian() {
     let dir = temp_dir("pfm-rows");
     let (w, h) = (3u32, 4u32);

@@ -108,16 +108,28 @@ fn edge_on_ray(img: &Image, c: [f64; 2], u: [f64; 2], s_pred: f64, dark: bool, s
     None
 }
 
-/// The strongest step of the right polarity along the ray within [lo, hi] (pixels from c).
+/// The strongest step of the right polarity along the ray within [lo, hi] (pixels from c): the
+/// largest difference of the samples 1 px beyond and 1 px before, sampled every ½ px (the edge is
+/// then located to sub-pixel by [`edge_on_ray`]).
 fn strongest_step(img: &Image, c: [f64; 2], u: [f64; 2], lo: f64, hi: f64, dark: bool) -> Option<f64> {
-    let n = ((hi - lo) / STEP).ceil() as usize;
-    let vals: Vec<Option<f64>> = (0..=n + 4).map(|k| img.bilinear(c[0] + (lo + (k as f64 - 2.0) * STEP) * u[0], c[1] + (lo + (k as f64 - 2.0) * STEP) * u[1])).collect();
+    const SEARCH: f64 = 0.5;
+    let n = ((hi - lo) / SEARCH).ceil() as usize;
+    let at = |k: usize| {
+        let t = lo + (k as f64 - 2.0) * SEARCH;
+        img.bilinear(c[0] + t * u[0], c[1] + t * u[1])
+    };
+    // The last five samples, k − 4 … k.
+    let mut ring = [None; 5];
     let mut best: Option<(f64, f64)> = None;
-    for k in 2..=n + 2 {
-        let (Some(p), Some(q)) = (vals[k - 2], vals[k + 2]) else { continue };
+    for k in 0..=n + 4 {
+        ring[k % 5] = at(k);
+        if k < 4 {
+            continue;
+        }
+        let (Some(p), Some(q)) = (ring[(k - 4) % 5], ring[k % 5]) else { continue };
         let d = if dark { q - p } else { p - q };
         if d > 0.0 && best.is_none_or(|b| d > b.1) {
-            best = Some((lo + (k as f64 - 2.0) * STEP, d));
+            best = Some((lo + (k as f64 - 4.0) * SEARCH, d));
         }
     }
     best.map(|b| b.0)
@@ -147,6 +159,15 @@ pub fn refine(img: &Image, cand: &Candidate, s: &DetectSettings) -> Option<Marke
     let n_rays = ((4.0 * std::f64::consts::PI * r).ceil() as usize).clamp(48, 360);
     let dirs: Vec<[f64; 2]> = (0..n_rays).map(|k| (k as f64 + 0.5) / n_rays as f64 * std::f64::consts::TAU).map(|a| [a.cos(), a.sin()]).collect();
     let c0 = [cand.x, cand.y];
+    // Most Hough candidates are not discs: 16 evenly spaced rays reject them first, when fewer
+    // than half of those find an edge (a disc that passes the full test rarely fails this one).
+    let probe = (0..16).filter(|k| {
+        let u = dirs[k * n_rays / 16];
+        strongest_step(img, c0, u, (0.4 * r).max(1.0), 1.7 * r, cand.dark).is_some_and(|s0| edge_on_ray(img, c0, u, s0, cand.dark, s).is_some())
+    });
+    if probe.count() < 8 {
+        return None;
+    }
     let mut pts = Vec::with_capacity(n_rays);
     for u in &dirs {
         let Some(s0) = strongest_step(img, c0, *u, (0.4 * r).max(1.0), 1.7 * r, cand.dark) else { continue };

@@ -24,11 +24,14 @@ pub struct HoughSettings {
     pub min_score: f64,
     /// Most candidates returned (strongest first).
     pub max_candidates: usize,
+    /// Only dark discs on a light ground (`Some(true)`), only light discs on a dark one
+    /// (`Some(false)`), or both (`None`); one polarity costs half the votes.
+    pub dark: Option<bool>,
 }
 
 impl Default for HoughSettings {
     fn default() -> Self {
-        HoughSettings { radius_min_px: 3.0, radius_max_px: 60.0, min_score: 0.25, max_candidates: 400 }
+        HoughSettings { radius_min_px: 3.0, radius_max_px: 60.0, min_score: 0.25, max_candidates: 400, dark: None }
     }
 }
 
@@ -121,6 +124,9 @@ pub fn candidates(img: &Image, s: &HoughSettings) -> Vec<Candidate> {
             }
             let (dx, dy) = (gx[i] as f64 / mag[i] as f64, gy[i] as f64 / mag[i] as f64);
             for (pol, sign) in [(0usize, -1.0), (1, 1.0)] {
+                if s.dark.is_some_and(|d| d != (pol == 0)) {
+                    continue;
+                }
                 for &(r, c, sn) in &radii {
                     let (cx, cy) = (x as f64 + sign * r * dx, y as f64 + sign * r * dy);
                     let (fx, fy) = (cx.floor(), cy.floor());
@@ -139,6 +145,9 @@ pub fn candidates(img: &Image, s: &HoughSettings) -> Vec<Candidate> {
     }
     let mut out = Vec::new();
     for (pol, a) in acc.iter().enumerate() {
+        if s.dark.is_some_and(|d| d != (pol == 0)) {
+            continue;
+        }
         // Coherent 3×3 sums.
         let mut s3 = vec![[0f64; 2]; w * h];
         for y in 1..h - 1 {

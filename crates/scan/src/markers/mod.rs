@@ -4,6 +4,7 @@
 //!
 //! - [`hough`]: the size-invariant (phase-coded) circle Hough transform of Atherton & Kerbyson.
 //! - [`ellipse`]: Fitzgibbon's direct ellipse fit, and the image of a 3-D circle's centre.
+//! - [`grid`]: symmetric and asymmetric circle grids as calibration targets.
 //! - [`detect`]: candidates refined to ellipses from sub-pixel edge points.
 //! - [`stereo`]: epipolar matching, the perspective correction of the centres, triangulation.
 //! - [`register`]: Umeyama's closed form and RANSAC over correspondence triples.
@@ -13,6 +14,7 @@
 
 pub mod detect;
 pub mod ellipse;
+pub mod grid;
 pub mod hough;
 pub mod register;
 pub mod stereo;
@@ -58,7 +60,8 @@ impl Image {
         if !(x >= 0.0 && y >= 0.0 && x <= (self.width - 1) as f64 && y <= (self.height - 1) as f64) {
             return None;
         }
-        let (x0, y0) = ((x.floor() as usize).min(self.width.saturating_sub(2)), (y.floor() as usize).min(self.height.saturating_sub(2)));
+        // x, y ≥ 0 here, so truncation is the floor (without a libm call on baseline x86-64).
+        let (x0, y0) = ((x as usize).min(self.width.saturating_sub(2)), (y as usize).min(self.height.saturating_sub(2)));
         let (ax, ay) = (x - x0 as f64, y - y0 as f64);
         let i = y0 * self.width + x0;
         let p = |k: usize| self.data[k] as f64;

@@ -189,3 +189,64 @@ impl MarkerScene {
         })
     }
 }
+
+/// A flat target of discs (a circle grid) seen through a pinhole camera, drawn directly (no
+/// renderer): the board plane maps to pixels by `homography` (board (x, y, 1) → pixel, OpenCV's
+/// pixel convention), each pixel is the mean of 4 × 4 samples, and a uniform noise of width
+/// `noise` from a fixed sequence is added.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlatTarget {
+    /// Board plane → pixels (H = K [r₁ r₂ t] for a pinhole camera K and board pose R, t).
+    pub homography: Matrix3<f64>,
+    /// Disc centres (board units).
+    pub centres: Vec<[f64; 2]>,
+    /// Disc radius (board units).
+    pub radius: f64,
+    /// The paper's extent: x from, x to, y from, y to (board units).
+    pub paper: [f64; 4],
+    /// Levels of the discs, the paper and the wall around it (linear).
+    pub levels: [f64; 3],
+    /// Width of the uniform noise (linear units).
+    pub noise: f64,
+}
+
+impl FlatTarget {
+    /// The target's image, `width` × `height` pixels (linear grey); `None` when the homography is
+    /// singular.
+    pub fn draw(&self, width: usize, height: usize) -> Option<super::Image> {
+        let hinv = self.homography.try_inverse()?;
+        let board = |x: f64, y: f64| {
+            let p = hinv * Vector3::new(x, y, 1.0);
+            (p.x / p.z, p.y / p.z)
+        };
+        let [disc, paper, wall] = self.levels;
+        let mut data = vec![0f32; width * height];
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        for y in 0..height {
+            for x in 0..width {
+                // Only the discs near the pixel's centre (2 board units covers a pixel's footprint
+                // for any target drawn at a sensible scale).
+                let (bx, by) = board(x as f64, y as f64);
+                let near: Vec<&[f64; 2]> = self.centres.iter().filter(|c| (bx - c[0]).hypot(by - c[1]) < self.radius + 2.0).collect();
+                let mut sum = 0.0;
+                for sy in 0..4 {
+                    for sx in 0..4 {
+                        let (bx, by) = board(x as f64 - 0.375 + 0.25 * sx as f64, y as f64 - 0.375 + 0.25 * sy as f64);
+                        let on_paper = bx >= self.paper[0] && bx <= self.paper[1] && by >= self.paper[2] && by <= self.paper[3];
+                        sum += if near.iter().any(|c| (bx - c[0]).hypot(by - c[1]) < self.radius) {
+                            disc
+                        } else if on_paper {
+                            paper
+                        } else {
+                            wall
+                        };
+                    }
+                }
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let u = (state >> 40) as f64 / (1u64 << 24) as f64 - 0.5;
+                data[y * width + x] = (sum / 16.0 + u * self.noise) as f32;
+            }
+        }
+        super::Image::new(width, height, data).ok()
+    }
+}

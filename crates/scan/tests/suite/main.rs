@@ -3,6 +3,7 @@
 mod calib;
 mod calib_real;
 mod chessboard;
+mod circles;
 mod common;
 mod decode;
 mod eval;

@@ -1,13 +1,16 @@
-//! `lucent scan calibrate-camera IMAGE… --corners CxR --square S [--fix-k3] [--zero-tangent]
-//! [--rational] [--thin-prism] [--tilted] [--out CAMERA.json] [--opencv-out CAMERA.yml] [--json]`: one
-//! camera from photographs of a chessboard, as OpenCV's `findChessboardCorners` +
-//! `cornerSubPix` + `calibrateCamera` (scan::calib::camera; docs/scanning.md).
+//! `lucent scan calibrate-camera IMAGE… --corners CxR --square S [--pattern KIND] [--fix-k3]
+//! [--zero-tangent] [--rational] [--thin-prism] [--tilted] [--out CAMERA.json]
+//! [--opencv-out CAMERA.yml] [--json]`: one camera from photographs of a chessboard or a circle
+//! grid, as OpenCV's `findChessboardCorners` + `cornerSubPix` (or `findCirclesGrid`) +
+//! `calibrateCamera` (scan::calib::camera, scan::markers::grid; docs/scanning.md).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
-use scan::calib::camera::calibrate_camera;
+use scan::calib::camera::calibrate_camera_planar;
 use scan::calib::chessboard::{find_chessboard, GrayImage};
+use scan::calib::zhang::board_points;
+use scan::markers::grid::{find_circles_grid, grid_points, GridKind};
 
 use super::calibrate::{check_outputs, parse_corners, write_text, LensFlags};
 
@@ -17,12 +20,19 @@ pub struct Args {
     /// Photographs of the chessboard (PNG, JPEG, …; all of one size), one board pose each; at least 3.
     #[arg(required = true, num_args = 1..)]
     pub images: Vec<PathBuf>,
-    /// Inner corners of the chessboard COLSxROWS (corners per row first, as OpenCV's pattern size).
+    /// Pattern size COLSxROWS, as OpenCV's patternSize: the chessboard's inner corners per row
+    /// and rows, or a circle grid's discs per row and rows.
     #[arg(long, value_name = "CxR", value_parser = parse_corners)]
     pub corners: (u32, u32),
-    /// Square size; the board poses come out in this unit.
+    /// Square size; the board poses come out in this unit. For circle grids the spacing s of
+    /// OpenCV's object points: neighbouring discs of a symmetric grid are s apart, those of one row
+    /// of an asymmetric grid 2s.
     #[arg(long, value_name = "S")]
     pub square: f64,
+    /// The target: `chessboard`, `circles` (a symmetric circle grid) or `acircles` (an asymmetric
+    /// one, OpenCV's CALIB_CB_ASYMMETRIC_GRID: rows of discs 2s apart, every second row shifted by s).
+    #[arg(long, value_name = "KIND", default_value = "chessboard", value_parser = ["chessboard", "circles", "acircles"])]
+    pub pattern: String,
     #[command(flatten)]
     pub lens: LensFlags,
     /// Skip the images in which the board is not found (OpenCV's samples do) instead of failing.
@@ -41,21 +51,43 @@ pub struct Args {
     pub json: bool,
 }
 
+/// One photograph: its name, size (pixels) and the target's points if found.
+type Found = (String, (usize, usize), Option<Vec<[f64; 2]>>);
+
 pub fn run(args: Args) -> Result<()> {
     if !(args.square > 0.0 && args.square.is_finite()) {
         bail!("--square: must be a positive length, got {}", args.square);
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let (cols, rows) = (args.corners.0 as usize, args.corners.1 as usize);
+    let grid = match args.pattern.as_str() {
+        "circles" => Some(GridKind::Symmetric),
+        "acircles" => Some(GridKind::Asymmetric),
+        _ => None,
+    };
+    let what = match grid {
+        None => "chessboard",
+        Some(GridKind::Symmetric) => "symmetric circle grid",
+        Some(GridKind::Asymmetric) => "asymmetric circle grid",
+    };
     // Each photograph is read and searched on its own (in parallel); sizes, skips and errors are
     // then taken in the order given.
     use rayon::prelude::*;
-    let found: Vec<Result<(String, (usize, usize), Option<Vec<[f64; 2]>>)>> = args
+    let found: Vec<Result<Found>> = args
         .images
         .par_iter()
         .map(|path| {
-            let img = GrayImage::load(path)?;
-            Ok((path.display().to_string(), (img.width, img.height), find_chessboard(&img, cols, rows)))
+            let name = path.display().to_string();
+            Ok(match grid {
+                None => {
+                    let img = GrayImage::load(path)?;
+                    (name, (img.width, img.height), find_chessboard(&img, cols, rows))
+                }
+                Some(kind) => {
+                    let img = scan::markers::Image::read(path)?;
+                    (name, (img.width, img.height), find_circles_grid(&img, kind, cols, rows))
+                }
+            })
         })
         .collect();
     let mut size = None;
@@ -71,12 +103,17 @@ pub fn run(args: Args) -> Result<()> {
         }
         match corners {
             Some(c) => views.push((name, c)),
-            None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} chessboard found; skipped"),
+            None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} {what} found; skipped"),
+            None if grid.is_some() => bail!("{name}: no {cols}×{rows} {what} found (--skip-missing leaves such images out)"),
             None => bail!("{name}: no {cols}×{rows} lattice of chessboard corners found (--skip-missing leaves such images out)"),
         }
     }
     let (w, h, _) = size.expect("clap requires one image");
-    let calib = calibrate_camera(&views, w, h, cols, rows, args.square, args.lens.free())?;
+    let object = match grid {
+        None => board_points(cols, rows, args.square),
+        Some(kind) => grid_points(kind, cols, rows, args.square),
+    };
+    let calib = calibrate_camera_planar(&object, &views, w, h, args.lens.free())?;
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);
