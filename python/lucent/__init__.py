@@ -45,6 +45,9 @@ __all__ = [
     "project_points",
     "undistort_points",
     "find_chessboard_corners",
+    "find_circles_grid",
+    "CALIB_CB_SYMMETRIC_GRID",
+    "CALIB_CB_ASYMMETRIC_GRID",
     "calibrate_camera",
     "calibrate_procam",
     "CALIB_ZERO_TANGENT_DIST",
@@ -656,6 +659,53 @@ def find_chessboard_corners(image, pattern_size):
     if h < 8 or w < 8:
         raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
     c = _lucent.find_chessboard_flat([float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h, cols, rows)
+    if c is None:
+        return False, None
+    return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
+
+
+#: The circle-grid layouts of :func:`find_circles_grid` (the values of ``cv2.CALIB_CB_*``).
+CALIB_CB_SYMMETRIC_GRID = 1
+CALIB_CB_ASYMMETRIC_GRID = 2
+
+
+def find_circles_grid(image, pattern_size, flags=CALIB_CB_SYMMETRIC_GRID):
+    """The disc centres of a circle grid, as ``cv2.findCirclesGrid`` finds them.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) array
+        8-bit grey levels, taken as they are (no response curve is undone, as OpenCV's blob
+        detector thresholds them); a colour image is taken in OpenCV's BGR order and converted
+        with OpenCV's luma weights.
+    pattern_size : (cols, rows)
+        Discs per row and rows, as OpenCV's ``patternSize``.
+    flags : int
+        :data:`CALIB_CB_SYMMETRIC_GRID` (a square lattice) or :data:`CALIB_CB_ASYMMETRIC_GRID`
+        (rows of discs 2s apart, every second row shifted by s).
+
+    Returns
+    -------
+    (found, centers)
+        ``found`` a bool; ``centers`` a (cols·rows, 1, 2) float32 array of pixel positions (OpenCV
+        convention), or None. They are in the order of OpenCV's object points: row i, disc j at
+        (j·s, i·s) for a symmetric grid and ((2j + i mod 2)·s, i·s) for an asymmetric one. The
+        centres are those of ellipses fitted to sub-pixel edge points of each disc (lucent's
+        marker detector, docs/markers.md).
+    """
+    a = _np.asarray(image)
+    if a.ndim == 3 and a.shape[2] in (3, 4):
+        a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
+    elif a.ndim != 2:
+        raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
+    cols, rows = _pair(pattern_size, "pattern_size", 1)
+    kind = int(flags) & (CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID)
+    if int(flags) & ~(CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID) or kind not in (CALIB_CB_SYMMETRIC_GRID, CALIB_CB_ASYMMETRIC_GRID):
+        raise ValueError(f"flags: expected CALIB_CB_SYMMETRIC_GRID (1) or CALIB_CB_ASYMMETRIC_GRID (2), got {flags!r}")
+    h, w = a.shape
+    if h < 8 or w < 8:
+        raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
+    c = _lucent.find_circles_grid_flat([float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h, cols, rows, kind == CALIB_CB_ASYMMETRIC_GRID)
     if c is None:
         return False, None
     return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)

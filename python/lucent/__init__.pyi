@@ -16,6 +16,8 @@ CALIB_FIX_K3: int
 CALIB_RATIONAL_MODEL: int
 CALIB_THIN_PRISM_MODEL: int
 CALIB_TILTED_MODEL: int
+CALIB_CB_SYMMETRIC_GRID: int
+CALIB_CB_ASYMMETRIC_GRID: int
 
 _Real = Union[float, npt.ArrayLike]
 _Complex = Union[complex, float, npt.ArrayLike]
@@ -71,6 +73,8 @@ def undistort_points(image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
     """Normalised undistorted coordinates of (N, 2) pixels (cv2.undistortPoints without R, P)."""
 def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int]) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) corners) of a chessboard in an 8-bit grey or BGR image (cv2.findChessboardCorners + cornerSubPix)."""
+def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], flags: int = ...) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
+    """(found, (N, 1, 2) disc centres) of a symmetric or asymmetric circle grid in an 8-bit image (cv2.findCirclesGrid)."""
 def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Sequence[npt.ArrayLike], image_size: Tuple[int, int],
                      camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...]]:

@@ -1,6 +1,6 @@
-//! Chessboard corners and camera calibration from Python, as OpenCV's `findChessboardCorners`
-//! (+ `cornerSubPix`) and `calibrateCamera` (the `scan` crate's corner finder, Zhang's closed form
-//! and Levenberg–Marquardt; docs/scanning.md).
+//! Chessboard corners, circle grids and camera calibration from Python, as OpenCV's
+//! `findChessboardCorners` (+ `cornerSubPix`), `findCirclesGrid` and `calibrateCamera` (the `scan`
+//! crate's corner and disc finders, Zhang's closed form and Levenberg–Marquardt; docs/scanning.md).
 
 use crate::errors::{value, OrPy};
 use pyo3::prelude::*;
@@ -21,6 +21,24 @@ pub fn find_chessboard_flat(grey: Vec<f32>, width: usize, height: usize, cols: u
     }
     let img = GrayImage { width, height, data: grey };
     Ok(find_chessboard(&img, cols, rows).map(|c| c.into_iter().flatten().collect()))
+}
+
+/// The discs of a `cols` × `rows` circle grid (flat u, v in the order of OpenCV's object points,
+/// `scan::markers::grid`) in a grey image of `width` × `height` 8-bit codes (row-major, taken as
+/// they are); None when no such grid is found.
+#[pyfunction]
+pub fn find_circles_grid_flat(py: Python<'_>, grey: Vec<f32>, width: usize, height: usize, cols: usize, rows: usize, asymmetric: bool) -> PyResult<Option<Vec<f64>>> {
+    use scan::markers::grid::{find_circles_grid, GridKind};
+    if grey.len() != width * height || width < 8 || height < 8 {
+        return Err(value(format!("image: expected {width}×{height} grey levels (at least 8×8), got {}", grey.len())));
+    }
+    if cols * rows < 4 {
+        return Err(value(format!("pattern_size: the grid needs at least 4 discs, got {cols}×{rows}")));
+    }
+    // The codes as they are, as `scan calibrate-camera --pattern` reads photographs.
+    let img = scan::markers::Image::new(width, height, grey.iter().map(|v| v / 255.0).collect()).or_py()?;
+    let kind = if asymmetric { GridKind::Asymmetric } else { GridKind::Symmetric };
+    Ok(py.allow_threads(|| find_circles_grid(&img, kind, cols, rows)).map(|c| c.into_iter().flatten().collect()))
 }
 
 /// Calibrate a camera from one planar target (flat x, y of its points, z = 0) seen in several

@@ -84,7 +84,10 @@ pub fn run(args: Args) -> Result<()> {
                     (name, (img.width, img.height), find_chessboard(&img, cols, rows))
                 }
                 Some(kind) => {
-                    let img = scan::markers::Image::read(path)?;
+                    // The discs' edges are located on the photograph's codes as they are (as
+                    // OpenCV's blob detector thresholds them): docs/scanning.md, "Circle grids".
+                    let g = GrayImage::load(path)?;
+                    let img = scan::markers::Image::new(g.width, g.height, g.data.iter().map(|v| v / 255.0).collect())?;
                     (name, (img.width, img.height), find_circles_grid(&img, kind, cols, rows))
                 }
             })
