@@ -258,30 +258,38 @@ pub fn calibrate_corners_from(rig: &Rig, captures: &[CaptureCorners], init: Opti
 /// `free.thin_prism` s1…s4 (`CALIB_THIN_PRISM_MODEL`) and `free.tilted` τx, τy
 /// (`CALIB_TILTED_MODEL`).
 pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Option<&ProcamCalibration>, free: bundle::Free) -> anyhow::Result<ProcamCalibration> {
+    calibrate_planar(rig, &zhang::board_points(rig.cols, rig.rows, rig.square), captures, init, free, ["camera", "projector"])
+}
+
+/// [`calibrate_corners_with`] for any planar target seen by two devices: `obj` are its points
+/// (z = 0, in the unit of the result), each capture's `cam` and `proj` their pixels in the two
+/// devices in the same order (NaN where not seen). Two cameras calibrate this way as OpenCV's
+/// `stereoCalibrate` does, the second in the place of the projector (`rig.projector` its size).
+/// `devices` names the two in errors.
+pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[CaptureCorners], init: Option<&ProcamCalibration>, free: bundle::Free, devices: [&str; 2]) -> anyhow::Result<ProcamCalibration> {
     use anyhow::{bail, Context};
     use bundle::{refine, State, ViewObs};
     // The rational model's denominator trades against the numerator over a board's field, so
     // its fit starts from the five-coefficient solution rather than from Zhang's closed form.
     if free.rational && init.is_none() {
-        let five = calibrate_corners_with(rig, captures, None, bundle::Free { rational: false, ..free })?;
+        let five = calibrate_planar(rig, obj, captures, None, bundle::Free { rational: false, ..free }, devices)?;
         // The normalised radius of each device's image corners, for the fit's barrier.
         let corner_radius = |d: &DeviceCalibration| {
             let (w, h) = (d.width as f64 - 0.5, d.height as f64 - 0.5);
             [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h)].iter().map(|&(u, v)| ((u - d.cx) / d.fx).hypot((v - d.cy) / d.fy)).fold(0.0f64, f64::max)
         };
         let free = bundle::Free { rational_radius: [corner_radius(&five.camera), corner_radius(&five.projector)], ..free };
-        return calibrate_corners_with(rig, captures, Some(&five), free);
+        return calibrate_planar(rig, obj, captures, Some(&five), free, devices);
     }
-    let n = rig.cols * rig.rows;
+    let n = obj.len();
     if captures.len() < if init.is_some() { 2 } else { 3 } {
         bail!("degenerate pose set: calibration needs at least 3 captures, got {}", captures.len());
     }
     for c in captures {
         if c.cam.len() != n || c.proj.len() != n {
-            bail!("capture {}: {} camera and {} projector corners, expected {n}", c.name, c.cam.len(), c.proj.len());
+            bail!("capture {}: {} {} and {} {} points, expected {n}", c.name, c.cam.len(), devices[0], c.proj.len(), devices[1]);
         }
     }
-    let obj = zhang::board_points(rig.cols, rig.rows, rig.square);
     let mono = |pts: &dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, size: (u32, u32), what: &str| -> anyhow::Result<State> {
         let mut hs = Vec::new();
         for c in captures {
@@ -296,7 +304,7 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
         }
         let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: pts(c).clone(), proj: vec![] }).collect();
         let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
-        refine(&obj, &views, &init, free, MAX_RMS_PX).with_context(|| what.to_string())
+        refine(obj, &views, &init, free, MAX_RMS_PX).with_context(|| what.to_string())
     };
     let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
     let start = match init {
@@ -324,21 +332,21 @@ pub fn calibrate_corners_with(rig: &Rig, captures: &[CaptureCorners], init: Opti
             let cam = lens(&c.camera);
             let mut poses = Vec::new();
             for cap in captures {
-                let h = homography::fit_homography(&obj, &cap.cam).with_context(|| format!("camera, capture {}: the corners do not determine a homography", cap.name))?;
+                let h = homography::fit_homography(obj, &cap.cam).with_context(|| format!("{}, capture {}: the corners do not determine a homography", devices[0], cap.name))?;
                 poses.push(zhang::pose_from_homography(&h, &cam.k()).with_context(|| format!("capture {}: no board pose", cap.name))?);
             }
             let r = nalgebra::Matrix3::from_fn(|i, j| c.rotation[i][j]);
             State { cam, proj: Some(lens(&c.projector)), stereo: model::Pose::from_rt(&r, nalgebra::Vector3::from(c.translation)), poses }
         }
-        None => stereo_start(captures, rig, &mono)?,
+        None => stereo_start(captures, rig, &mono, devices)?,
     };
-    let fit = refine(&obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
-    let c = finish(rig, captures, &obj, &views, &fit, coefficient_count(free))?;
+    let fit = refine(obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
+    let c = finish(rig, captures, obj, &views, &fit, coefficient_count(free))?;
     // A rational denominator that reaches 0, or a tilt that turns part of the image beyond the
     // horizon, fits the corners but maps no ray there (render::camera::OpenCv's check, which
     // triangulation and rendering rely on).
     if free.rational || free.tilted {
-        for (name, d) in [("camera", &c.camera), ("projector", &c.projector)] {
+        for (name, d) in [(devices[0], &c.camera), (devices[1], &c.projector)] {
             usable(d.fx, d.fy, d.cx, d.cy, &d.distortion, d.width, d.height, free).with_context(|| name.to_string())?;
         }
     }
@@ -366,9 +374,9 @@ pub(crate) fn usable(fx: f64, fy: f64, cx: f64, cy: f64, dist: &[f64], width: u3
 type MonoFit<'a> = dyn Fn(&dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, (u32, u32), &str) -> anyhow::Result<bundle::State> + 'a;
 
 /// Per-device fits and the stereo pose averaged over the captures.
-fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit) -> anyhow::Result<bundle::State> {
-    let cam = mono(&|c| &c.cam, rig.camera, "camera")?;
-    let proj = mono(&|c| &c.proj, rig.projector, "projector")?;
+fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit, devices: [&str; 2]) -> anyhow::Result<bundle::State> {
+    let cam = mono(&|c| &c.cam, rig.camera, devices[0])?;
+    let proj = mono(&|c| &c.proj, rig.projector, devices[1])?;
     let mut rsum = nalgebra::Matrix3::zeros();
     let mut tsum = nalgebra::Vector3::zeros();
     for (pc, pp) in cam.poses.iter().zip(&proj.poses) {

@@ -54,48 +54,85 @@ pub struct Args {
 /// One photograph: its name, size (pixels) and the target's points if found.
 type Found = (String, (usize, usize), Option<Vec<[f64; 2]>>);
 
+/// The calibration target of `--pattern` and `--corners`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Target {
+    /// None: a chessboard.
+    pub grid: Option<GridKind>,
+    pub cols: usize,
+    pub rows: usize,
+}
+
+impl Target {
+    pub fn new(pattern: &str, corners: (u32, u32)) -> Target {
+        let grid = match pattern {
+            "circles" => Some(GridKind::Symmetric),
+            "acircles" => Some(GridKind::Asymmetric),
+            _ => None,
+        };
+        Target { grid, cols: corners.0 as usize, rows: corners.1 as usize }
+    }
+
+    /// What the target is, for messages.
+    pub fn what(&self) -> &'static str {
+        match self.grid {
+            None => "chessboard",
+            Some(GridKind::Symmetric) => "symmetric circle grid",
+            Some(GridKind::Asymmetric) => "asymmetric circle grid",
+        }
+    }
+
+    /// Its points (z = 0) in the unit of `square`, in the order the finders return them.
+    pub fn object_points(&self, square: f64) -> Vec<[f64; 2]> {
+        match self.grid {
+            None => board_points(self.cols, self.rows, square),
+            Some(kind) => grid_points(kind, self.cols, self.rows, square),
+        }
+    }
+
+    /// Each photograph read and searched on its own (in parallel), in the order given.
+    pub fn find_all(&self, images: &[PathBuf]) -> Vec<Result<Found>> {
+        use rayon::prelude::*;
+        images
+            .par_iter()
+            .map(|path| {
+                let name = path.display().to_string();
+                let img = GrayImage::load(path)?;
+                let found = match self.grid {
+                    None => find_chessboard(&img, self.cols, self.rows),
+                    Some(kind) => {
+                        // The discs' edges are located on the photograph's codes as they are (as
+                        // OpenCV's blob detector thresholds them): docs/scanning.md, "Circle grids".
+                        let grey = scan::markers::Image::new(img.width, img.height, img.data.iter().map(|v| v / 255.0).collect())?;
+                        find_circles_grid(&grey, kind, self.cols, self.rows)
+                    }
+                };
+                Ok((name, (img.width, img.height), found))
+            })
+            .collect()
+    }
+
+    /// The error for a photograph in which the target is not found.
+    pub fn missing(&self, name: &str) -> anyhow::Error {
+        let (cols, rows) = (self.cols, self.rows);
+        match self.grid {
+            None => anyhow::anyhow!("{name}: no {cols}×{rows} lattice of chessboard corners found (--skip-missing leaves such images out)"),
+            Some(_) => anyhow::anyhow!("{name}: no {cols}×{rows} {} found (--skip-missing leaves such images out)", self.what()),
+        }
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     if !(args.square > 0.0 && args.square.is_finite()) {
         bail!("--square: must be a positive length, got {}", args.square);
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
-    let (cols, rows) = (args.corners.0 as usize, args.corners.1 as usize);
-    let grid = match args.pattern.as_str() {
-        "circles" => Some(GridKind::Symmetric),
-        "acircles" => Some(GridKind::Asymmetric),
-        _ => None,
-    };
-    let what = match grid {
-        None => "chessboard",
-        Some(GridKind::Symmetric) => "symmetric circle grid",
-        Some(GridKind::Asymmetric) => "asymmetric circle grid",
-    };
-    // Each photograph is read and searched on its own (in parallel); sizes, skips and errors are
-    // then taken in the order given.
-    use rayon::prelude::*;
-    let found: Vec<Result<Found>> = args
-        .images
-        .par_iter()
-        .map(|path| {
-            let name = path.display().to_string();
-            Ok(match grid {
-                None => {
-                    let img = GrayImage::load(path)?;
-                    (name, (img.width, img.height), find_chessboard(&img, cols, rows))
-                }
-                Some(kind) => {
-                    // The discs' edges are located on the photograph's codes as they are (as
-                    // OpenCV's blob detector thresholds them): docs/scanning.md, "Circle grids".
-                    let g = GrayImage::load(path)?;
-                    let img = scan::markers::Image::new(g.width, g.height, g.data.iter().map(|v| v / 255.0).collect())?;
-                    (name, (img.width, img.height), find_circles_grid(&img, kind, cols, rows))
-                }
-            })
-        })
-        .collect();
+    let target = Target::new(&args.pattern, args.corners);
+    let (cols, rows) = (target.cols, target.rows);
+    // Sizes, skips and errors are taken in the order given.
     let mut size = None;
     let mut views = Vec::new();
-    for f in found {
+    for f in target.find_all(&args.images) {
         let (name, (iw, ih), corners) = f?;
         match size {
             None => size = Some((iw as u32, ih as u32, name.clone())),
@@ -106,17 +143,12 @@ pub fn run(args: Args) -> Result<()> {
         }
         match corners {
             Some(c) => views.push((name, c)),
-            None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} {what} found; skipped"),
-            None if grid.is_some() => bail!("{name}: no {cols}×{rows} {what} found (--skip-missing leaves such images out)"),
-            None => bail!("{name}: no {cols}×{rows} lattice of chessboard corners found (--skip-missing leaves such images out)"),
+            None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} {} found; skipped", target.what()),
+            None => return Err(target.missing(&name)),
         }
     }
     let (w, h, _) = size.expect("clap requires one image");
-    let object = match grid {
-        None => board_points(cols, rows, args.square),
-        Some(kind) => grid_points(kind, cols, rows, args.square),
-    };
-    let calib = calibrate_camera_planar(&object, &views, w, h, args.lens.free())?;
+    let calib = calibrate_camera_planar(&target.object_points(args.square), &views, w, h, args.lens.free())?;
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);

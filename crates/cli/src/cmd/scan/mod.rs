@@ -12,6 +12,7 @@ pub mod decode;
 pub mod patterns;
 pub mod calibrate;
 pub mod calibrate_camera;
+pub mod calibrate_stereo;
 pub mod reconstruct;
 pub mod markers;
 pub mod label;
@@ -32,8 +33,10 @@ pub enum Command {
     Decode(decode::Args),
     /// Calibrate projector and camera from chessboard captures (local homographies, Zhang, LM).
     Calibrate(calibrate::Args),
-    /// Calibrate one camera from photographs of a chessboard (OpenCV's calibrateCamera).
+    /// Calibrate one camera from photographs of a chessboard or circle grid (OpenCV's calibrateCamera).
     CalibrateCamera(calibrate_camera::Args),
+    /// Calibrate two cameras and their relative pose from simultaneous photographs (OpenCV's stereoCalibrate).
+    CalibrateStereo(calibrate_stereo::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
     /// Find circular markers; match and triangulate them in two calibrated views; register a model.
@@ -49,6 +52,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Decode(a) => decode::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::CalibrateCamera(a) => calibrate_camera::run(a),
+        Command::CalibrateStereo(a) => calibrate_stereo::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Markers(a) => markers::run(a),
         Command::Label(a) => label::run(a),

@@ -1,0 +1,128 @@
+//! `lucent scan calibrate-stereo --left IMAGE… --right IMAGE… --corners CxR --square S
+//! [--pattern KIND] [--fix-k3] [--zero-tangent] [--rational] [--thin-prism] [--tilted]
+//! [--skip-missing] [--out CALIB.json] [--opencv-out CALIB.xml] [--json]`: two cameras and their
+//! relative pose from simultaneous photographs of one target, as OpenCV's `calibrateCamera` per
+//! camera followed by `stereoCalibrate` with free intrinsics (scan::calib::calibrate_planar;
+//! docs/scanning.md, "Stereo cameras").
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use scan::calib::{calibrate_planar, CaptureCorners, Rig};
+
+use super::calibrate::{check_outputs, parse_corners, write_text, LensFlags};
+use super::calibrate_camera::Target;
+
+/// Arguments of `lucent scan calibrate-stereo`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Photographs of the first camera (PNG, JPEG, …; one size), one target pose each.
+    #[arg(long, required = true, num_args = 1.., value_name = "IMAGE")]
+    pub left: Vec<PathBuf>,
+    /// Photographs of the second camera taken at the same moments, in the same order.
+    #[arg(long, required = true, num_args = 1.., value_name = "IMAGE")]
+    pub right: Vec<PathBuf>,
+    /// Pattern size COLSxROWS, as OpenCV's patternSize (chessboard inner corners, or discs per
+    /// row and rows of a circle grid).
+    #[arg(long, value_name = "CxR", value_parser = parse_corners)]
+    pub corners: (u32, u32),
+    /// Square size (the grid spacing s for circle grids, as `calibrate-camera`); the translation
+    /// and board poses come out in this unit.
+    #[arg(long, value_name = "S")]
+    pub square: f64,
+    /// The target: `chessboard`, `circles` or `acircles` (as `calibrate-camera`).
+    #[arg(long, value_name = "KIND", default_value = "chessboard", value_parser = ["chessboard", "circles", "acircles"])]
+    pub pattern: String,
+    #[command(flatten)]
+    pub lens: LensFlags,
+    /// Leave out the pairs in which either camera does not see the whole target, instead of failing.
+    #[arg(long)]
+    pub skip_missing: bool,
+    /// Write the calibration JSON here (the format of `scan calibrate`, the second camera in the
+    /// `projector` entry, so that `scan markers --calibration` reads it; temporary name, then renamed).
+    #[arg(long, value_name = "CALIB.json")]
+    pub out: Option<PathBuf>,
+    /// Also write OpenCV FileStorage (`.xml`, `.yml` or `.yaml`) with the node names of
+    /// `scan calibrate --opencv-out` (the second camera as proj_int, proj_dist).
+    #[arg(long, value_name = "CALIB.xml")]
+    pub opencv_out: Option<PathBuf>,
+    /// Print the calibration JSON on stdout instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !(args.square > 0.0 && args.square.is_finite()) {
+        bail!("--square: must be a positive length, got {}", args.square);
+    }
+    if args.left.len() != args.right.len() {
+        bail!("--left has {} photographs and --right {}: they are taken in pairs", args.left.len(), args.right.len());
+    }
+    let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
+    let target = Target::new(&args.pattern, args.corners);
+    let mut sizes: [Option<(u32, u32, String)>; 2] = [None, None];
+    let mut found = [Vec::new(), Vec::new()];
+    for (side, images) in [&args.left, &args.right].into_iter().enumerate() {
+        for f in target.find_all(images) {
+            let (name, (iw, ih), points) = f?;
+            match &sizes[side] {
+                None => sizes[side] = Some((iw as u32, ih as u32, name.clone())),
+                Some((w, h, first)) if (*w, *h) != (iw as u32, ih as u32) => {
+                    bail!("{name}: {iw}x{ih} pixels, but {first} is {w}x{h}: one camera's photographs share one size")
+                }
+                Some(_) => {}
+            }
+            found[side].push((name, points));
+        }
+    }
+    let [left, right] = found;
+    let mut captures = Vec::new();
+    for ((ln, lp), (rn, rp)) in left.into_iter().zip(right) {
+        match (lp, rp) {
+            (Some(cam), Some(proj)) => captures.push(CaptureCorners { name: format!("{ln} + {rn}"), cam, proj }),
+            (lp, _) => {
+                let missing = if lp.is_none() { &ln } else { &rn };
+                if !args.skip_missing {
+                    return Err(target.missing(missing));
+                }
+                eprintln!("lucent: {missing}: no {}×{} {} found; the pair {ln} + {rn} is skipped", target.cols, target.rows, target.what());
+            }
+        }
+    }
+    let (Some((lw, lh, _)), Some((rw, rh, _))) = (&sizes[0], &sizes[1]) else { bail!("no photographs") };
+    let rig = Rig { cols: target.cols, rows: target.rows, square: args.square, camera: (*lw, *lh), projector: (*rw, *rh) };
+    let calib = calibrate_planar(&rig, &target.object_points(args.square), &captures, None, args.lens.free(), ["left camera", "right camera"])
+        .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace("at least 3 captures", "at least 3 pairs of photographs")))?;
+    let text = serde_json::to_string_pretty(&calib)?;
+    if let Some(out) = &args.opencv_out {
+        write_text(out, &calib.to_filestorage(opencv_yaml))?;
+    }
+    if let Some(out) = &args.out {
+        write_text(out, &format!("{text}\n"))?;
+    }
+    if args.json {
+        println!("{text}");
+        return Ok(());
+    }
+    for (what, d) in [("left ", &calib.camera), ("right", &calib.projector)] {
+        let k = &d.distortion;
+        println!(
+            "{what} {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.4} k2 {:.4} p1 {:.5} p2 {:.5} k3 {:.4}; RMS {:.3} px",
+            d.width, d.height, d.fx, d.fy, d.cx, d.cy, k[0], k[1], k[2], k[3], k[4], d.rms_px
+        );
+    }
+    let t = calib.translation;
+    println!(
+        "right = R·left + T: T ({:.3}, {:.3}, {:.3}), baseline {:.3} units; {} pairs, RMS {:.3} px",
+        t[0],
+        t[1],
+        t[2],
+        (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt(),
+        calib.captures.len(),
+        calib.rms_px
+    );
+    for out in args.out.iter().chain(args.opencv_out.iter()) {
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
