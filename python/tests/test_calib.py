@@ -61,9 +61,9 @@ def test_calibrate_camera_refuses_what_it_does_not_do():
         lucent.find_chessboard_corners(np.zeros((4, 4), np.uint8), (9, 6))
 
 
-def chessboard_image(h_board_to_px, width=640, height=480, ss=4):
-    """8-bit image of a chessboard (squares of SQUARE; inner corner (i, j) at (i, j)·SQUARE) seen
-    through a homography, each pixel the mean of ss × ss samples (pixel centres at integers)."""
+def supersampled(h_board_to_px, shade, width=640, height=480, ss=4):
+    """The mean over ss × ss samples per pixel (pixel centres at integers) of shade(bx, by), the
+    value at board position (bx, by) seen through the homography."""
     off = (np.arange(ss) + 0.5) / ss - 0.5
     ys, xs = np.mgrid[0:height, 0:width].astype(float)
     acc = np.zeros((height, width))
@@ -71,12 +71,18 @@ def chessboard_image(h_board_to_px, width=640, height=480, ss=4):
     for dy in off:
         for dx in off:
             p = np.stack([xs + dx, ys + dy, np.ones_like(xs)], -1) @ hinv.T
-            bx, by = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
-            sx, sy = np.floor(bx / SQUARE + 1), np.floor(by / SQUARE + 1)
-            inside = (sx >= 0) & (sx <= COLS) & (sy >= 0) & (sy <= ROWS)
-            dark = ((sx + sy) % 2 == 0) & inside
-            acc += np.where(dark, 30.0, 220.0)
-    return np.round(acc / ss ** 2).astype(np.uint8)
+            acc += shade(p[..., 0] / p[..., 2], p[..., 1] / p[..., 2])
+    return acc / ss ** 2
+
+
+def chessboard_image(h_board_to_px, width=640, height=480, ss=4):
+    """8-bit image of a chessboard (squares of SQUARE; inner corner (i, j) at (i, j)·SQUARE) seen
+    through a homography, each pixel the mean of ss × ss samples."""
+    def shade(bx, by):
+        sx, sy = np.floor(bx / SQUARE + 1), np.floor(by / SQUARE + 1)
+        inside = (sx >= 0) & (sx <= COLS) & (sy >= 0) & (sy <= ROWS)
+        return np.where(((sx + sy) % 2 == 0) & inside, 30.0, 220.0)
+    return np.round(supersampled(h_board_to_px, shade, width, height, ss)).astype(np.uint8)
 
 
 def test_find_chessboard_corners_on_a_drawn_board():
@@ -142,19 +148,12 @@ def test_calibrate_procam_equals_the_command():
 def circle_grid_image(h_board_to_px, centres, radius, width=640, height=480, ss=4):
     """8-bit sRGB image of dark discs (linear 0.05) on white paper (linear 0.75) seen through a
     homography, each pixel the mean of ss × ss linear samples, then encoded."""
-    off = (np.arange(ss) + 0.5) / ss - 0.5
-    ys, xs = np.mgrid[0:height, 0:width].astype(float)
-    acc = np.zeros((height, width))
-    hinv = np.linalg.inv(h_board_to_px)
-    for dy in off:
-        for dx in off:
-            p = np.stack([xs + dx, ys + dy, np.ones_like(xs)], -1) @ hinv.T
-            bx, by = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
-            d2 = np.full(bx.shape, np.inf)
-            for cx, cy in centres:
-                d2 = np.minimum(d2, (bx - cx) ** 2 + (by - cy) ** 2)
-            acc += np.where(d2 < radius ** 2, 0.05, 0.75)
-    lin = acc / ss ** 2
+    def shade(bx, by):
+        d2 = np.full(bx.shape, np.inf)
+        for cx, cy in centres:
+            d2 = np.minimum(d2, (bx - cx) ** 2 + (by - cy) ** 2)
+        return np.where(d2 < radius ** 2, 0.05, 0.75)
+    lin = supersampled(h_board_to_px, shade, width, height, ss)
     enc = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
     return np.round(255 * enc).astype(np.uint8)
 

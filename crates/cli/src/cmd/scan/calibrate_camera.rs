@@ -14,12 +14,9 @@ use scan::markers::grid::{find_circles_grid, grid_points, GridKind};
 
 use super::calibrate::{check_outputs, parse_corners, write_text, LensFlags};
 
-/// Arguments of `lucent scan calibrate-camera`.
+/// The calibration target's flags, shared by `calibrate-camera` and `calibrate-stereo`.
 #[derive(clap::Args, Debug)]
-pub struct Args {
-    /// Photographs of the chessboard (PNG, JPEG, …; all of one size), one board pose each; at least 3.
-    #[arg(required = true, num_args = 1..)]
-    pub images: Vec<PathBuf>,
+pub struct TargetArgs {
     /// Pattern size COLSxROWS, as OpenCV's patternSize: the chessboard's inner corners per row
     /// and rows, or a circle grid's discs per row and rows.
     #[arg(long, value_name = "CxR", value_parser = parse_corners)]
@@ -33,6 +30,16 @@ pub struct Args {
     /// one, OpenCV's CALIB_CB_ASYMMETRIC_GRID: rows of discs 2s apart, every second row shifted by s).
     #[arg(long, value_name = "KIND", default_value = "chessboard", value_parser = ["chessboard", "circles", "acircles"])]
     pub pattern: String,
+}
+
+/// Arguments of `lucent scan calibrate-camera`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Photographs of the chessboard (PNG, JPEG, …; all of one size), one board pose each; at least 3.
+    #[arg(required = true, num_args = 1..)]
+    pub images: Vec<PathBuf>,
+    #[command(flatten)]
+    pub target: TargetArgs,
     #[command(flatten)]
     pub lens: LensFlags,
     /// Skip the images in which the board is not found (OpenCV's samples do) instead of failing.
@@ -64,13 +71,17 @@ pub(super) struct Target {
 }
 
 impl Target {
-    pub fn new(pattern: &str, corners: (u32, u32)) -> Target {
-        let grid = match pattern {
+    /// The target of the flags; an error for a square size that is not a positive length.
+    pub fn from_args(a: &TargetArgs) -> Result<Target> {
+        if !(a.square > 0.0 && a.square.is_finite()) {
+            bail!("--square: must be a positive length, got {}", a.square);
+        }
+        let grid = match a.pattern.as_str() {
             "circles" => Some(GridKind::Symmetric),
             "acircles" => Some(GridKind::Asymmetric),
             _ => None,
         };
-        Target { grid, cols: corners.0 as usize, rows: corners.1 as usize }
+        Ok(Target { grid, cols: a.corners.0 as usize, rows: a.corners.1 as usize })
     }
 
     /// What the target is, for messages.
@@ -123,11 +134,8 @@ impl Target {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if !(args.square > 0.0 && args.square.is_finite()) {
-        bail!("--square: must be a positive length, got {}", args.square);
-    }
+    let target = Target::from_args(&args.target)?;
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
-    let target = Target::new(&args.pattern, args.corners);
     let (cols, rows) = (target.cols, target.rows);
     // Sizes, skips and errors are taken in the order given.
     let mut size = None;
@@ -148,7 +156,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let (w, h, _) = size.expect("clap requires one image");
-    let calib = calibrate_camera_planar(&target.object_points(args.square), &views, w, h, args.lens.free())?;
+    let calib = calibrate_camera_planar(&target.object_points(args.target.square), &views, w, h, args.lens.free())?;
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
         let fs = calib.to_filestorage(opencv_yaml);

@@ -10,8 +10,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use scan::calib::{calibrate_planar, CaptureCorners, Rig};
 
-use super::calibrate::{check_outputs, parse_corners, write_text, LensFlags};
-use super::calibrate_camera::Target;
+use super::calibrate::{check_outputs, write_text, LensFlags};
+use super::calibrate_camera::{Target, TargetArgs};
 
 /// Arguments of `lucent scan calibrate-stereo`.
 #[derive(clap::Args, Debug)]
@@ -22,17 +22,8 @@ pub struct Args {
     /// Photographs of the second camera taken at the same moments, in the same order.
     #[arg(long, required = true, num_args = 1.., value_name = "IMAGE")]
     pub right: Vec<PathBuf>,
-    /// Pattern size COLSxROWS, as OpenCV's patternSize (chessboard inner corners, or discs per
-    /// row and rows of a circle grid).
-    #[arg(long, value_name = "CxR", value_parser = parse_corners)]
-    pub corners: (u32, u32),
-    /// Square size (the grid spacing s for circle grids, as `calibrate-camera`); the translation
-    /// and board poses come out in this unit.
-    #[arg(long, value_name = "S")]
-    pub square: f64,
-    /// The target: `chessboard`, `circles` or `acircles` (as `calibrate-camera`).
-    #[arg(long, value_name = "KIND", default_value = "chessboard", value_parser = ["chessboard", "circles", "acircles"])]
-    pub pattern: String,
+    #[command(flatten)]
+    pub target: TargetArgs,
     #[command(flatten)]
     pub lens: LensFlags,
     /// Leave out the pairs in which either camera does not see the whole target, instead of failing.
@@ -52,14 +43,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if !(args.square > 0.0 && args.square.is_finite()) {
-        bail!("--square: must be a positive length, got {}", args.square);
-    }
+    let target = Target::from_args(&args.target)?;
     if args.left.len() != args.right.len() {
         bail!("--left has {} photographs and --right {}: they are taken in pairs", args.left.len(), args.right.len());
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
-    let target = Target::new(&args.pattern, args.corners);
     let mut sizes: [Option<(u32, u32, String)>; 2] = [None, None];
     let mut found = [Vec::new(), Vec::new()];
     for (side, images) in [&args.left, &args.right].into_iter().enumerate() {
@@ -90,8 +78,8 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let (Some((lw, lh, _)), Some((rw, rh, _))) = (&sizes[0], &sizes[1]) else { bail!("no photographs") };
-    let rig = Rig { cols: target.cols, rows: target.rows, square: args.square, camera: (*lw, *lh), projector: (*rw, *rh) };
-    let calib = calibrate_planar(&rig, &target.object_points(args.square), &captures, None, args.lens.free(), ["left camera", "right camera"])
+    let rig = Rig { cols: target.cols, rows: target.rows, square: args.target.square, camera: (*lw, *lh), projector: (*rw, *rh) };
+    let calib = calibrate_planar(&rig, &target.object_points(args.target.square), &captures, None, args.lens.free(), ["left camera", "right camera"])
         .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace("at least 3 captures", "at least 3 pairs of photographs")))?;
     let text = serde_json::to_string_pretty(&calib)?;
     if let Some(out) = &args.opencv_out {
