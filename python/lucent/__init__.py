@@ -49,6 +49,9 @@ __all__ = [
     "CALIB_CB_SYMMETRIC_GRID",
     "CALIB_CB_ASYMMETRIC_GRID",
     "calibrate_camera",
+    "stereo_calibrate",
+    "CALIB_USE_INTRINSIC_GUESS",
+    "CALIB_FIX_INTRINSIC",
     "calibrate_procam",
     "CALIB_ZERO_TANGENT_DIST",
     "CALIB_FIX_K3",
@@ -741,8 +744,25 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
     flags = int(flags)
     if flags & ~_CALIB_FLAGS:
         raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL are supported, got {flags}")
+    obj, img = _planar_target(object_points, image_points, "image_points")
+    w, h = _pair(image_size, "image_size", 1)
+    rms, (fx, fy, cx, cy), dist, rvecs, tvecs = _lucent.calibrate_camera_flat(
+        [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img], w, h, *_lens_flags(flags))
+    k = _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+    return (rms, k, _np.asarray(dist, dtype=float).reshape(1, -1),
+            tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
+            tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
+
+
+#: Stereo flags of :func:`stereo_calibrate` (the values of ``cv2.CALIB_*``).
+CALIB_USE_INTRINSIC_GUESS = 1
+CALIB_FIX_INTRINSIC = 256
+
+
+def _planar_target(object_points, image_points, name):
+    """The one planar target's (N, 2) points and each view's (N, 2) pixels, or ValueError."""
     if len(object_points) != len(image_points):
-        raise ValueError(f"object_points and image_points: {len(object_points)} and {len(image_points)} views")
+        raise ValueError(f"object_points and {name}: {len(object_points)} and {len(image_points)} views")
     if len(object_points) == 0:
         raise ValueError("object_points: no views")
     obj = [_np.asarray(o, dtype=float).reshape(-1, 3) for o in object_points]
@@ -750,16 +770,65 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         raise ValueError("object_points: lucent calibrates from one planar target, the same points in every view")
     if _np.any(obj[0][:, 2] != 0):
         raise ValueError("object_points: the target must lie in the plane z = 0")
-    img = [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
+    return obj[0][:, :2], [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
+
+
+def _lens_flags(flags):
+    return (bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
+            bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
+
+
+def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1, dist_coeffs1,
+                     camera_matrix2, dist_coeffs2, image_size, flags=0):
+    """Calibrate two cameras and their relative pose from views of one planar target seen by both,
+    as ``cv2.stereoCalibrate`` (lucent's own fit, that of ``lucent scan calibrate-stereo``).
+
+    Parameters
+    ----------
+    object_points : list of (N, 3) arrays, one per view
+        The target's points, in the plane z = 0, the same in every view.
+    image_points1, image_points2 : lists of (N, 2) or (N, 1, 2) arrays
+        Their pixels in the first and second camera.
+    camera_matrix1, dist_coeffs1, camera_matrix2, dist_coeffs2
+        Used with CALIB_USE_INTRINSIC_GUESS (the start of the fit) or CALIB_FIX_INTRINSIC (held);
+        otherwise ignored (None is accepted) and each camera starts from its own calibration.
+    image_size : (width, height)
+        Pixels, of both cameras.
+    flags : int
+        0 (all free), CALIB_USE_INTRINSIC_GUESS or CALIB_FIX_INTRINSIC, combined with
+        CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL,
+        CALIB_TILTED_MODEL. Unlike cv2, whose default is CALIB_FIX_INTRINSIC, 0 fits everything.
+
+    Returns
+    -------
+    (rms, camera_matrix1, dist_coeffs1, camera_matrix2, dist_coeffs2, R, T, E, F)
+        As OpenCV: the RMS reprojection error over both cameras (pixels), the cameras, the
+        rotation and (3, 1) translation with X₂ = R X₁ + T, the essential matrix E = [T]ₓ R and
+        the fundamental matrix F = K₂⁻ᵀ E K₁⁻¹.
+    """
+    flags = int(flags)
+    allowed = _CALIB_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC
+    if flags & ~allowed:
+        raise ValueError(f"flags: only CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC and the lens flags of calibrate_camera are supported, got {flags}")
+    if len(image_points1) != len(image_points2):
+        raise ValueError(f"image_points1 and image_points2: {len(image_points1)} and {len(image_points2)} views")
+    obj, img1 = _planar_target(object_points, image_points1, "image_points1")
+    _, img2 = _planar_target(object_points, image_points2, "image_points2")
     w, h = _pair(image_size, "image_size", 1)
-    rms, (fx, fy, cx, cy), dist, rvecs, tvecs = _lucent.calibrate_camera_flat(
-        [float(v) for v in obj[0][:, :2].ravel()], [[float(v) for v in p.ravel()] for p in img], w, h,
-        bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST),
-        bool(flags & CALIB_RATIONAL_MODEL), bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
-    k = _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-    return (rms, k, _np.asarray(dist, dtype=float).reshape(1, -1),
-            tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
-            tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
+    guess = None
+    if flags & (CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC):
+        if camera_matrix1 is None or camera_matrix2 is None:
+            raise ValueError("camera_matrix1, camera_matrix2: CALIB_USE_INTRINSIC_GUESS and CALIB_FIX_INTRINSIC need both cameras")
+        guess = (_camera_args(camera_matrix1, dist_coeffs1), _camera_args(camera_matrix2, dist_coeffs2))
+    rms, c1, d1, c2, d2, r, t = _lucent.stereo_calibrate_flat(
+        [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img1], [[float(v) for v in p.ravel()] for p in img2],
+        w, h, guess, bool(flags & CALIB_FIX_INTRINSIC), _lens_flags(flags))
+    k = lambda c: _np.array([[c[0], 0.0, c[2]], [0.0, c[1], c[3]], [0.0, 0.0, 1.0]])
+    k1, k2, r, t = k(c1), k(c2), _np.asarray(r, dtype=float), _np.asarray(t, dtype=float).reshape(3, 1)
+    tx = _np.array([[0.0, -t[2, 0], t[1, 0]], [t[2, 0], 0.0, -t[0, 0]], [-t[1, 0], t[0, 0], 0.0]])
+    e = tx @ r
+    f = _np.linalg.inv(k2).T @ e @ _np.linalg.inv(k1)
+    return (rms, k1, _np.asarray(d1, dtype=float).reshape(1, -1), k2, _np.asarray(d2, dtype=float).reshape(1, -1), r, t, e, f)
 
 
 def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, step=1, black_threshold=40, white_threshold=5) -> Result:

@@ -18,6 +18,8 @@ CALIB_THIN_PRISM_MODEL: int
 CALIB_TILTED_MODEL: int
 CALIB_CB_SYMMETRIC_GRID: int
 CALIB_CB_ASYMMETRIC_GRID: int
+CALIB_USE_INTRINSIC_GUESS: int
+CALIB_FIX_INTRINSIC: int
 
 _Real = Union[float, npt.ArrayLike]
 _Complex = Union[complex, float, npt.ArrayLike]
@@ -75,6 +77,11 @@ def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int])
     """(found, (N, 1, 2) corners) of a chessboard in an 8-bit grey or BGR image (cv2.findChessboardCorners + cornerSubPix)."""
 def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], flags: int = ...) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) disc centres) of a symmetric or asymmetric circle grid in an 8-bit image (cv2.findCirclesGrid)."""
+def stereo_calibrate(object_points: Sequence[npt.ArrayLike], image_points1: Sequence[npt.ArrayLike], image_points2: Sequence[npt.ArrayLike],
+                     camera_matrix1: Optional[npt.ArrayLike], dist_coeffs1: Optional[npt.ArrayLike],
+                     camera_matrix2: Optional[npt.ArrayLike], dist_coeffs2: Optional[npt.ArrayLike],
+                     image_size: Tuple[int, int], flags: int = ...) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(rms, K1, D1, K2, D2, R, T, E, F) of two cameras from one planar target (cv2.stereoCalibrate; flags 0 fits everything)."""
 def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Sequence[npt.ArrayLike], image_size: Tuple[int, int],
                      camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...]]:

@@ -68,6 +68,57 @@ pub fn calibrate_camera_flat(
     Ok((c.rms_px, [c.fx, c.fy, c.cx, c.cy], c.dist, c.views.iter().map(|v| v.rvec).collect(), c.views.iter().map(|v| v.tvec).collect()))
 }
 
+/// One camera's start or held values for [`stereo_calibrate_flat`]: row-major 3×3 matrix and
+/// OpenCV distortion coefficients.
+type Guess = (Vec<f64>, Vec<f64>);
+
+/// Two cameras from one planar target seen by both in each view (OpenCV's `stereoCalibrate`):
+/// (RMS over both cameras in pixels, [fx, fy, cx, cy] and distortion of each camera, the
+/// row-major rotation and the translation with X₂ = R X₁ + T). Without `guess` each camera starts
+/// from its own calibration; with it (`use_guess`) the fit starts there, or (`fix_intrinsic`)
+/// holds the cameras there and fits only the poses.
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn stereo_calibrate_flat(
+    py: Python<'_>,
+    object_xy: Vec<f64>,
+    points1: Vec<Vec<f64>>,
+    points2: Vec<Vec<f64>>,
+    width: u32,
+    height: u32,
+    guess: Option<(Guess, Guess)>,
+    fix_intrinsic: bool,
+    flags: (bool, bool, bool, bool, bool),
+) -> PyResult<(f64, [f64; 4], Vec<f64>, [f64; 4], Vec<f64>, [[f64; 3]; 3], [f64; 3])> {
+    use scan::calib::{calibrate_planar, CaptureCorners, DeviceCalibration, Rig};
+    if object_xy.iter().any(|x| !x.is_finite()) {
+        return Err(value("object_points: must be finite"));
+    }
+    if points1.len() != points2.len() {
+        return Err(value(format!("image_points1 and image_points2: {} and {} views", points1.len(), points2.len())));
+    }
+    let obj: Vec<[f64; 2]> = object_xy.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let pts = |v: &[f64]| v.chunks_exact(2).map(|p| [p[0], p[1]]).collect::<Vec<_>>();
+    let captures: Vec<CaptureCorners> = points1.iter().zip(&points2).enumerate().map(|(i, (a, b))| CaptureCorners { name: format!("view {i}"), cam: pts(a), proj: pts(b) }).collect();
+    let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
+    let free = Free { lenses: !fix_intrinsic, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() };
+    let rig = Rig { cols: obj.len(), rows: 1, square: 1.0, camera: (width, height), projector: (width, height) };
+    let devices = ["image_points1", "image_points2"];
+    let c = py
+        .allow_threads(|| -> anyhow::Result<scan::calib::ProcamCalibration> {
+            // The stereo pose always starts from a joint fit from each camera's own calibration;
+            // a guess then replaces the cameras for the last fit.
+            let joint = calibrate_planar(&rig, &obj, &captures, None, Free { lenses: true, ..free }, devices)?;
+            let Some(((k1, d1), (k2, d2))) = &guess else { return Ok(joint) };
+            let device = |k: &[f64], d: &[f64], like: &DeviceCalibration| DeviceCalibration { fx: k[0], fy: k[4], cx: k[2], cy: k[5], distortion: d.to_vec(), ..like.clone() };
+            let init = scan::calib::ProcamCalibration { camera: device(k1, d1, &joint.camera), projector: device(k2, d2, &joint.projector), ..joint };
+            calibrate_planar(&rig, &obj, &captures, Some(&init), free, devices)
+        })
+        .or_py()?;
+    let dev = |d: &DeviceCalibration| [d.fx, d.fy, d.cx, d.cy];
+    Ok((c.rms_px, dev(&c.camera), c.camera.distortion.clone(), dev(&c.projector), c.projector.distortion.clone(), c.rotation, c.translation))
+}
+
 /// `lucent scan calibrate` on capture folders: the calibration JSON it writes.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]

@@ -200,3 +200,75 @@ def test_find_circles_grid_on_a_drawn_asymmetric_grid():
     assert np.abs(theirs - centres.reshape(-1, 2)).max() < 0.5
     e_cv = np.linalg.norm(theirs.reshape(-1, 2) - ellipse_centres(h, obj, 3.0), axis=1)
     print(f"centre error, median / max: lucent {np.median(e):.4f} / {e.max():.4f} px, OpenCV {np.median(e_cv):.4f} / {e_cv.max():.4f} px")
+
+
+def rodrigues(r):
+    r = np.asarray(r, dtype=float)
+    th = np.linalg.norm(r)
+    if th == 0:
+        return np.eye(3)
+    k = r / th
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(th) * kx + (1 - np.cos(th)) * kx @ kx
+
+
+K2 = np.array([[870.0, 0.0, 330.0], [0.0, 868.0, 236.5], [0.0, 0.0, 1.0]])
+DIST2 = np.array([-0.12, 0.05, -0.0004, 0.0007, 0.0])
+R12 = rodrigues([0.01, -0.17, 0.02])   # X₂ = R X₁ + T
+T12 = np.array([-120.0, 2.0, 8.0])
+
+
+def stereo_views(dist1=DIST, dist2=DIST2):
+    p1, p2 = [], []
+    for r, t in POSES:
+        r1 = rodrigues(r)
+        p1.append(lucent.project_points(OBJ, r, t, K, dist1))
+        # The same board in the second camera: R₂ = R R₁, t₂ = R t₁ + T, as a Rodrigues vector.
+        r2 = R12 @ r1
+        th = np.arccos(np.clip((np.trace(r2) - 1) / 2, -1, 1))
+        w = np.array([r2[2, 1] - r2[1, 2], r2[0, 2] - r2[2, 0], r2[1, 0] - r2[0, 1]]) * th / (2 * np.sin(th))
+        p2.append(lucent.project_points(OBJ, w, R12 @ np.asarray(t) + T12, K2, dist2))
+    return p1, p2
+
+
+def test_stereo_calibrate_recovers_a_known_rig():
+    p1, p2 = stereo_views()
+    rms, k1, d1, k2, d2, r, t, e, f = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480))
+    assert rms < 1e-8
+    assert np.abs(k1 - K).max() < 1e-6 * K[0, 0] and np.abs(k2 - K2).max() < 1e-6 * K2[0, 0]
+    assert np.abs(d1.ravel() - DIST).max() < 1e-8 and np.abs(d2.ravel() - DIST2).max() < 1e-8
+    assert np.abs(r - R12).max() < 1e-9 and np.abs(t.ravel() - T12).max() < 1e-6
+    # E = [T]ₓ R; with distortion-free cameras F relates the pixels: x₂ᵀ F x₁ = 0.
+    q1, q2 = stereo_views(np.zeros(5), np.zeros(5))
+    _, k1, _, k2, _, r, t, e, f = lucent.stereo_calibrate([OBJ] * len(q1), q1, q2, None, None, None, None, (640, 480), flags=lucent.CALIB_FIX_K3 | lucent.CALIB_ZERO_TANGENT_DIST)
+    assert np.abs(e - np.cross(np.eye(3), t.ravel()) @ r).max() < 1e-9 * np.linalg.norm(t)
+    x1 = np.c_[q1[0], np.ones(len(OBJ))]
+    x2 = np.c_[q2[0], np.ones(len(OBJ))]
+    assert np.abs(np.einsum('ij,jk,ik->i', x2, f, x1)).max() < 1e-9 * np.abs(f).max() * 640 ** 2
+    # Held intrinsics (CALIB_FIX_INTRINSIC): wrong ones stay exactly where they were put.
+    k_wrong = K * np.array([[1.01], [1.01], [1.0]])
+    _, k1, d1, _, _, r, t, _, _ = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, k_wrong, DIST, K2, DIST2, (640, 480), flags=lucent.CALIB_FIX_INTRINSIC)
+    assert np.array_equal(k1, k_wrong) and np.array_equal(d1.ravel(), DIST)
+    with pytest.raises(ValueError, match="camera_matrix1"):
+        lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480), flags=lucent.CALIB_FIX_INTRINSIC)
+    with pytest.raises(ValueError, match="views"):
+        lucent.stereo_calibrate([OBJ] * len(p1), p1, p2[:-1], None, None, None, None, (640, 480))
+
+
+def test_stereo_calibrate_agrees_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(5)
+    p1, p2 = stereo_views()
+    p1 = [p + rng.normal(0, 0.2, p.shape) for p in p1]
+    p2 = [p + rng.normal(0, 0.2, p.shape) for p in p2]
+    ours = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480))
+    obj = [OBJ.astype(np.float32)] * len(p1)
+    f32 = lambda ps: [p.astype(np.float32).reshape(-1, 1, 2) for p in ps]
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 200, 1e-14)
+    _, k1, d1, _, _ = cv2.calibrateCamera(obj, f32(p1), (640, 480), None, None, criteria=crit)
+    _, k2, d2, _, _ = cv2.calibrateCamera(obj, f32(p2), (640, 480), None, None, criteria=crit)
+    theirs = cv2.stereoCalibrate(obj, f32(p1), f32(p2), k1, d1, k2, d2, (640, 480), flags=cv2.CALIB_USE_INTRINSIC_GUESS, criteria=crit)
+    # One least-squares problem (float32 pixels in OpenCV): the same minimum.
+    assert abs(ours[0] - theirs[0]) < 1e-3 * theirs[0]
+    assert np.abs(ours[5] - theirs[5]).max() < 1e-4 and np.abs(ours[6] - theirs[6]).max() < 1e-3 * np.linalg.norm(T12)
+    assert np.abs(ours[1] - theirs[1]).max() < 1e-3 * K[0, 0] and np.abs(ours[3] - theirs[3]).max() < 1e-3 * K2[0, 0]
