@@ -50,6 +50,7 @@ __all__ = [
     "CALIB_CB_ASYMMETRIC_GRID",
     "calibrate_camera",
     "stereo_calibrate",
+    "undistort",
     "CALIB_USE_INTRINSIC_GUESS",
     "CALIB_FIX_INTRINSIC",
     "calibrate_procam",
@@ -829,6 +830,36 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     e = tx @ r
     f = _np.linalg.inv(k2).T @ e @ _np.linalg.inv(k1)
     return (rms, k1, _np.asarray(d1, dtype=float).reshape(1, -1), k2, _np.asarray(d2, dtype=float).reshape(1, -1), r, t, e, f)
+
+
+def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
+    """A photograph with its lens distortion removed, as ``cv2.undistort`` (lucent's own remap,
+    that of ``lucent scan undistort``).
+
+    Parameters
+    ----------
+    src : (H, W) or (H, W, C) uint8 array
+        The photograph.
+    camera_matrix, dist_coeffs
+        Its camera (OpenCV's 3×3 matrix and 0–14 distortion coefficients).
+    new_camera_matrix : 3×3, optional
+        The output's pinhole camera (``camera_matrix`` by default, as OpenCV).
+
+    Returns
+    -------
+    ndarray of the shape and dtype of ``src``: each output pixel the photograph's value where the
+    lens puts that pixel's ray, blended bilinearly; black where the photograph does not see it.
+    The values are interpolated as stored (as OpenCV); OpenCV quantises the weights to 1/32 px.
+    """
+    a = _np.asarray(src)
+    if a.dtype != _np.uint8 or a.ndim not in (2, 3):
+        raise ValueError(f"src: expected an (H, W) or (H, W, C) uint8 array, got {a.dtype} of shape {a.shape}")
+    h, w = a.shape[:2]
+    c = 1 if a.ndim == 2 else a.shape[2]
+    k, d = _camera_args(camera_matrix, dist_coeffs)
+    k_new = None if new_camera_matrix is None else _camera_args(new_camera_matrix, None)[0]
+    out = _lucent.undistort_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, k, d, k_new)
+    return _np.frombuffer(out, dtype=_np.uint8).reshape(a.shape).copy()
 
 
 def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, step=1, black_threshold=40, white_threshold=5) -> Result:

@@ -119,6 +119,28 @@ pub fn stereo_calibrate_flat(
     Ok((c.rms_px, dev(&c.camera), c.camera.distortion.clone(), dev(&c.projector), c.projector.distortion.clone(), c.rotation, c.translation))
 }
 
+/// An 8-bit image (`width` × `height` × `channels`, row-major, interleaved) with its lens
+/// distortion removed (OpenCV's `undistort`, `scan::calib::undistort`): the camera is the row-major
+/// 3×3 `k` with OpenCV's distortion `dist`, the output the pinhole camera `k_new` (or `k`).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn undistort_flat(py: Python<'_>, image: &[u8], width: usize, height: usize, channels: usize, k: Vec<f64>, dist: Vec<f64>, k_new: Option<Vec<f64>>) -> PyResult<Py<pyo3::types::PyBytes>> {
+    use render::camera::{Distortion, Intrinsics};
+    use scan::calib::undistort::{remap_bilinear, undistort_map};
+    if image.len() != width * height * channels || channels == 0 {
+        return Err(value(format!("src: expected {width}×{height}×{channels} values, got {}", image.len())));
+    }
+    let intr = |m: &[f64], name: &str| Intrinsics::from_camera_matrix(m).map_err(|e| value(format!("{name}: {e}")));
+    let kk = intr(&k, "camera_matrix")?;
+    let out = match &k_new {
+        Some(m) => intr(m, "new_camera_matrix")?,
+        None => kk,
+    };
+    let d = Distortion::from_opencv(&dist).map_err(|e| value(format!("dist_coeffs: {e}")))?;
+    let pixels = py.allow_threads(|| remap_bilinear(image, channels, width, height, &undistort_map(&kk, &d, &out, width, height)));
+    Ok(pyo3::types::PyBytes::new(py, &pixels).unbind())
+}
+
 /// `lucent scan calibrate` on capture folders: the calibration JSON it writes.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]

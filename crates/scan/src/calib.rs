@@ -6,6 +6,7 @@ pub mod chessboard;
 pub mod homography;
 pub mod model;
 pub mod procam;
+pub mod undistort;
 pub mod zhang;
 
 use serde::{Deserialize, Serialize};

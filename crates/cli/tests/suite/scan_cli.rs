@@ -416,6 +416,39 @@ fn calibrate_stereo_from_circle_grid_pairs() {
     assert!(e.contains("--left has 3") && e.contains("--right 2"), "{e}");
 }
 
+/// `scan undistort` on a shared capture's white frame: the PNG it writes is the library's remap of
+/// the photograph (`scan::calib::undistort`, tested against a known pattern and OpenCV), grey as
+/// the photograph; a camera calibrated at another size, an output that is not PNG and a file that
+/// is not a calibration are one-line errors that write nothing.
+#[test]
+fn undistort_writes_the_remapped_photograph_and_refuses_bad_input() {
+    use render::camera::{Distortion, Intrinsics};
+    let s = Scratch::new("scan-undistort");
+    let photo = sample_capture(0).join("graycode_40.png").display().to_string();
+    let cam = s.arg("cam.json");
+    std::fs::write(&cam, r#"{"width": 1280, "height": 1024, "fx": 3440.0, "fy": 3441.0, "cx": 530.0, "cy": 515.0, "dist": [-0.2, 0.8, 0.001, -0.002, 0.0]}"#).unwrap();
+    let out = s.arg("u.png");
+    let o = lucent().args(["scan", "undistort", &photo, "--camera", &cam, "--out", &out]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got = image::open(&out).unwrap();
+    assert_eq!(got.color(), image::ColorType::L8);
+    let src = image::open(&photo).unwrap().into_luma8();
+    let k = Intrinsics { fx: 3440.0, fy: 3441.0, cx: 530.0, cy: 515.0 };
+    let d = Distortion::from_opencv(&[-0.2, 0.8, 0.001, -0.002, 0.0]).unwrap();
+    let want = scan::calib::undistort::remap_bilinear(src.as_raw(), 1, 1280, 1024, &scan::calib::undistort::undistort_map(&k, &d, &k, 1280, 1024));
+    assert!(got.into_luma8().into_raw() == want);
+    let small = s.arg("small.json");
+    std::fs::write(&small, r#"{"width": 640, "height": 512, "fx": 1720.0, "fy": 1720.0, "cx": 265.0, "cy": 257.0, "dist": []}"#).unwrap();
+    let bad = s.arg("bad.png");
+    let e = fails_on_one_line(&["scan", "undistort", &photo, "--camera", &small, "--out", &bad]);
+    assert!(e.contains("graycode_40.png") && e.contains("640x512"), "{e}");
+    let e = fails_on_one_line(&["scan", "undistort", &photo, "--camera", &cam, "--out", &s.arg("u.jpg")]);
+    assert!(e.contains("PNG"), "{e}");
+    let e = fails_on_one_line(&["scan", "undistort", &photo, "--camera", &photo, "--out", &bad]);
+    assert!(e.contains("graycode_40.png"), "{e}");
+    assert!(!s.path("bad.png").exists() && !s.path("u.jpg").exists());
+}
+
 /// `scan calibrate --thin-prism` (OpenCV's CALIB_THIN_PRISM_MODEL) on the three shared captures:
 /// twelve coefficients per device in OpenCV's order with k4…k6 exactly 0, and a stereo RMS no
 /// larger than the five-coefficient model's, which it contains.

@@ -13,3 +13,4 @@ mod label;
 mod label_board;
 mod synth;
 mod triangulate;
+mod undistort;

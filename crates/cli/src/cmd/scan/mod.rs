@@ -13,6 +13,7 @@ pub mod patterns;
 pub mod calibrate;
 pub mod calibrate_camera;
 pub mod calibrate_stereo;
+pub mod undistort;
 pub mod reconstruct;
 pub mod markers;
 pub mod label;
@@ -37,6 +38,8 @@ pub enum Command {
     CalibrateCamera(calibrate_camera::Args),
     /// Calibrate two cameras and their relative pose from simultaneous photographs (OpenCV's stereoCalibrate).
     CalibrateStereo(calibrate_stereo::Args),
+    /// Remove a photograph's lens distortion with a camera calibration (OpenCV's undistort).
+    Undistort(undistort::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
     /// Find circular markers; match and triangulate them in two calibrated views; register a model.
@@ -53,6 +56,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Calibrate(a) => calibrate::run(a),
         Command::CalibrateCamera(a) => calibrate_camera::run(a),
         Command::CalibrateStereo(a) => calibrate_stereo::run(a),
+        Command::Undistort(a) => undistort::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Markers(a) => markers::run(a),
         Command::Label(a) => label::run(a),

@@ -1,0 +1,32 @@
+//! `lucent scan undistort IMAGE --camera CAMERA.json --out OUT.png`: a photograph with its lens
+//! distortion removed, as OpenCV's `undistort` (scan::calib::undistort; docs/scanning.md).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use render::load::calibration::{read_calibration, CalibrationNodes};
+
+/// Arguments of `lucent scan undistort`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The photograph (PNG or JPEG, 8-bit grey or colour).
+    pub image: PathBuf,
+    /// The camera: the JSON of `scan calibrate-camera`, or OpenCV FileStorage with camera_matrix
+    /// and distortion_coefficients (as `render --camera` reads it).
+    #[arg(long, value_name = "CAMERA.json")]
+    pub camera: PathBuf,
+    /// The undistorted image (PNG; grey or colour as the photograph; temporary name, then renamed).
+    #[arg(long, value_name = "OUT.png")]
+    pub out: PathBuf,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !args.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        bail!("--out {}: the undistorted image is written as PNG (.png)", args.out.display());
+    }
+    let calib = read_calibration(&args.camera, &CalibrationNodes::default())?;
+    let size = calib.width.zip(calib.height);
+    scan::calib::undistort::undistort_photo(&args.image, &calib.intrinsics, &calib.distortion, size, &args.out).with_context(|| format!("camera {}", args.camera.display()))?;
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
