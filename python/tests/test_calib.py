@@ -169,7 +169,9 @@ def ellipse_centres(h, centres, radius):
     return np.array(out)
 
 
-def test_find_circles_grid_on_a_drawn_asymmetric_grid():
+def drawn_asymmetric_grid():
+    """OpenCV's 4 × 11 asymmetric grid (spacing 10, disc radius 3) turned and tilted before the
+    camera K: (cols, rows, homography, object points, 8-bit image)."""
     cols, rows, s = 4, 11, 10.0
     obj = np.array([[(2 * j + i % 2) * s, i * s] for i in range(rows) for j in range(cols)])
     th = 0.4
@@ -177,7 +179,11 @@ def test_find_circles_grid_on_a_drawn_asymmetric_grid():
         np.array([[np.cos(2.0), -np.sin(2.0), 0], [np.sin(2.0), np.cos(2.0), 0], [0, 0, 1]])
     t = np.array([0.0, 0.0, 300.0]) - r @ np.array([35.0, 50.0, 0.0])
     h = K @ np.column_stack([r[:, 0], r[:, 1], t])
-    img = circle_grid_image(h, obj, 3.0)
+    return cols, rows, h, obj, circle_grid_image(h, obj, 3.0)
+
+
+def test_find_circles_grid_on_a_drawn_asymmetric_grid():
+    cols, rows, h, obj, img = drawn_asymmetric_grid()
     found, centres = lucent.find_circles_grid(img, (cols, rows), lucent.CALIB_CB_ASYMMETRIC_GRID)
     assert found and centres.shape == (cols * rows, 1, 2) and centres.dtype == np.float32
     # The order is OpenCV's object-point order: point k is obj[k], whatever the board's turn.
@@ -189,7 +195,13 @@ def test_find_circles_grid_on_a_drawn_asymmetric_grid():
         lucent.find_circles_grid(img, (cols, rows), 3)
     with pytest.raises(ValueError, match="pattern_size"):
         lucent.find_circles_grid(img, (-4, 11))
+
+
+def test_find_circles_grid_against_live_opencv():
     cv2 = pytest.importorskip("cv2")
+    cols, rows, h, obj, img = drawn_asymmetric_grid()
+    found, centres = lucent.find_circles_grid(img, (cols, rows), lucent.CALIB_CB_ASYMMETRIC_GRID)
+    e = np.linalg.norm(centres.reshape(-1, 2) - ellipse_centres(h, obj, 3.0), axis=1)
     ok, theirs = cv2.findCirclesGrid(img, (cols, rows), flags=cv2.CALIB_CB_ASYMMETRIC_GRID)
     assert ok
     # The same discs in the same order as OpenCV's, about as exact: median / max error 0.0165 /
@@ -274,7 +286,7 @@ def test_stereo_calibrate_agrees_with_live_opencv():
     assert np.abs(ours[1] - theirs[1]).max() < 1e-3 * K[0, 0] and np.abs(ours[3] - theirs[3]).max() < 1e-3 * K2[0, 0]
 
 
-def test_undistort_identity_and_against_live_opencv():
+def test_undistort_identity_colour_and_bad_input():
     th = 0.35
     r = np.array([[np.cos(th), 0, np.sin(th)], [0, 1, 0], [-np.sin(th), 0, np.cos(th)]])
     img = chessboard_image(K @ np.column_stack([r[:, 0], r[:, 1], [-95.0, -70.0, 520.0]]))
@@ -286,7 +298,15 @@ def test_undistort_identity_and_against_live_opencv():
     assert np.array_equal(ours[..., 0], lucent.undistort(img, K, DIST))
     with pytest.raises(ValueError, match="src"):
         lucent.undistort(img.astype(float), K, DIST)
+
+
+def test_undistort_against_live_opencv():
     cv2 = pytest.importorskip("cv2")
+    th = 0.35
+    r = np.array([[np.cos(th), 0, np.sin(th)], [0, 1, 0], [-np.sin(th), 0, np.cos(th)]])
+    img = chessboard_image(K @ np.column_stack([r[:, 0], r[:, 1], [-95.0, -70.0, 520.0]]))
+    colour = np.dstack([img, 255 - img, img // 2])
+    ours = lucent.undistort(colour, K, DIST)
     theirs = cv2.undistort(colour, K, DIST)
     d = np.abs(ours.astype(int) - theirs.astype(int))
     # The same remap: OpenCV rounds the interpolation weights to 1/32 px, so the two differ by
