@@ -54,9 +54,14 @@ const LEVEL_PX: f64 = 1.5;
 /// The detected markers of `img`, strongest Hough candidates first: refined radii within 5 % of the
 /// radius range, duplicates (centres within a pixel and radii within 20 %) removed.
 pub fn detect(img: &Image, s: &DetectSettings) -> Vec<Marker> {
-    let cands = candidates(img, &s.hough);
+    refine_all(img, &candidates(img, &s.hough), s)
+}
+
+/// Candidates refined to markers ([`refine`]), in the candidates' order: refined radii within 5 %
+/// of the radius range, duplicates (centres within a pixel and radii within 20 %) removed.
+pub fn refine_all(img: &Image, cands: &[Candidate], s: &DetectSettings) -> Vec<Marker> {
     let mut out: Vec<Marker> = Vec::new();
-    for c in &cands {
+    for c in cands {
         let Some(m) = refine(img, c, s) else { continue };
         if m.radius_px < 0.95 * s.hough.radius_min_px || m.radius_px > 1.05 * s.hough.radius_max_px {
             continue;

@@ -1,9 +1,10 @@
 //! Circle-grid calibration targets (OpenCV's `findCirclesGrid`): the centres of a symmetric or
 //! asymmetric grid of discs, in the order of the target's object points, for camera calibration.
 //!
-//! 1. **Discs.** The markers of [`super::detect`] (size-invariant Hough candidates refined to
-//!    sub-pixel ellipses from edge points); the discs of one polarity are kept (dark discs on a
-//!    light ground first, as OpenCV's blob detector looks for, then light on dark).
+//! 1. **Discs.** Candidates from thresholded regions ([`super::blobs`], as OpenCV's blob
+//!    detector finds them), refined to sub-pixel ellipses from edge points
+//!    ([`super::detect::refine`]); where they do not give the grid, the size-invariant Hough
+//!    candidates of [`super::detect`]. Dark discs on a light ground first, then light on dark.
 //! 2. **Lattice growth.** The grid's nearest neighbours span a lattice: along the rows and
 //!    columns of a symmetric grid (spacing s), along the diagonals of an asymmetric one (spacing
 //!    s√2 against 2s along its rows). From a seed disc and its two nearest neighbours in
@@ -36,6 +37,9 @@
 
 use std::collections::{HashMap, VecDeque};
 
+use super::blobs::threshold_candidates;
+use super::detect::refine_all;
+use super::hough::HoughSettings;
 use super::{detect, DetectSettings, Image, Marker};
 use crate::calib::homography::Point2;
 
@@ -75,10 +79,15 @@ pub fn find_circles_grid(img: &Image, kind: GridKind, cols: usize, rows: usize) 
     if cols == 0 || rows == 0 || cols * rows < 4 {
         return None;
     }
+    let s = DetectSettings::default();
     for dark in [true, false] {
-        let mut s = DetectSettings::default();
-        s.hough.dark = Some(dark);
-        if let Some(v) = find_grid_in(&detect(img, &s), kind, cols, rows) {
+        // Candidates from thresholded regions first (fast); the Hough transform where they do
+        // not give the grid (an uneven ground).
+        if let Some(v) = find_grid_in(&refine_all(img, &threshold_candidates(img, dark), &s), kind, cols, rows) {
+            return Some(v);
+        }
+        let hough = DetectSettings { hough: HoughSettings { dark: Some(dark), ..s.hough }, ..s };
+        if let Some(v) = find_grid_in(&detect(img, &hough), kind, cols, rows) {
             return Some(v);
         }
     }

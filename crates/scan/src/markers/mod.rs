@@ -3,6 +3,7 @@
 //! or similarity registration of a model carrying the same markers onto them.
 //!
 //! - [`hough`]: the size-invariant (phase-coded) circle Hough transform of Atherton & Kerbyson.
+//! - [`blobs`]: disc candidates from thresholded regions (fast, for calibration targets).
 //! - [`ellipse`]: Fitzgibbon's direct ellipse fit, and the image of a 3-D circle's centre.
 //! - [`grid`]: symmetric and asymmetric circle grids as calibration targets.
 //! - [`detect`]: candidates refined to ellipses from sub-pixel edge points.
@@ -12,6 +13,7 @@
 //!
 //! Pixels follow OpenCV's convention (integer coordinates at pixel centres, x right, y down).
 
+pub mod blobs;
 pub mod detect;
 pub mod ellipse;
 pub mod grid;
