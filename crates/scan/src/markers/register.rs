@@ -6,10 +6,12 @@
 //! Hypotheses: every triple of triangulated points (up to `max_triples`, drawn with a fixed seed
 //! beyond that) against every ordered triple of model markers whose side lengths agree (within
 //! the inlier distance, after the triple's own scale when scaling is allowed), each giving
-//! Umeyama's transform of the three pairs. A hypothesis scores the model markers that land within
-//! the inlier distance of a distinct triangulated point (nearest first); the best — most inliers,
-//! then the least squared residual — is refitted on all its inliers until the inlier set stops
-//! changing. Triangulated points left out are reported as outliers (wrong matches).
+//! Umeyama's transform of the three pairs (for a rigid fit the model pairs whose distance matches
+//! the triple's first side are found by binary search). A hypothesis scores the model markers that
+//! land within the inlier distance of a distinct triangulated point (nearest first); the best —
+//! most inliers, then the least squared residual — is refitted on all its inliers until the
+//! inlier set stops changing. The search ends early once a hypothesis places every marker, or
+//! after [`MAX_HYPOTHESES`] scored hypotheses. Triangulated points left out are reported as outliers (wrong matches).
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -89,13 +91,17 @@ pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>], with_scale: bool) -> 
     Ok(Similarity { rotation: r, translation: t, scale })
 }
 
+/// Most hypotheses [`register`] scores (each an Umeyama fit and an inlier count).
+pub const MAX_HYPOTHESES: usize = 200_000;
+
 /// Settings of [`register`].
 #[derive(Clone, Copy, Debug)]
 pub struct RegisterSettings {
     /// Fit a uniform scale as well (a similarity).
     pub with_scale: bool,
     /// Distance (target units) within which a transformed model marker counts as landing on a
-    /// triangulated one; None: 2 % of the largest distance between triangulated points.
+    /// triangulated one; None: 2 % of the triangulated markers' extent ([`robust_extent`], which
+    /// leaves far wrong matches out).
     pub inlier_distance: Option<f64>,
     /// Most triples of triangulated points tried.
     pub max_triples: usize,
@@ -153,6 +159,20 @@ fn inliers(tr: &Similarity, model: &[Vector3<f64>], target: &[Vector3<f64>], tau
     (pairs, ss)
 }
 
+/// The largest distance between the points that lie within 3 times the median distance of the
+/// coordinate-wise median point from it: the extent of the markers without the few wrong matches
+/// that triangulate far away (nearly parallel rays), which would otherwise set the inlier distance.
+pub fn robust_extent(t: &[Vector3<f64>]) -> f64 {
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let c = Vector3::new(median(t.iter().map(|p| p.x).collect()), median(t.iter().map(|p| p.y).collect()), median(t.iter().map(|p| p.z).collect()));
+    let r = median(t.iter().map(|p| (p - c).norm()).collect());
+    let core: Vec<&Vector3<f64>> = t.iter().filter(|p| (*p - c).norm() <= 3.0 * r).collect();
+    core.iter().flat_map(|a| core.iter().map(move |b| (*a - *b).norm())).fold(0.0, f64::max)
+}
+
 /// Registers `model` (unlabelled marker positions) onto `target` (triangulated markers) by
 /// RANSAC over correspondence triples (module documentation). Errors: fewer than 3 target points
 /// ("too few matches"), fewer than 3 model markers, collinear model or target markers, or no
@@ -172,8 +192,7 @@ pub fn register(model: &[[f64; 3]], target: &[[f64; 3]], s: &RegisterSettings) -
     if collinear(&t) {
         bail!("degenerate (collinear) markers: the triangulated markers lie on one line");
     }
-    let extent = t.iter().flat_map(|a| t.iter().map(move |b| (a - b).norm())).fold(0.0, f64::max);
-    let tau = s.inlier_distance.unwrap_or(0.02 * extent);
+    let tau = s.inlier_distance.unwrap_or_else(|| 0.02 * robust_extent(&t));
     if !(tau > 0.0) {
         bail!("inlier distance must be positive, got {tau}");
     }
@@ -199,36 +218,51 @@ pub fn register(model: &[[f64; 3]], target: &[[f64; 3]], s: &RegisterSettings) -
     let nm = m.len();
     let mut best: Option<(usize, f64, Similarity)> = None;
     let d = |a: &Vector3<f64>, b: &Vector3<f64>| (a - b).norm();
-    for tri in &triples {
+    // Ordered pairs of model markers by their distance: a rigid hypothesis's first side is looked
+    // up among them instead of trying every ordered model triple.
+    let mut model_pairs: Vec<(f64, usize, usize)> = (0..nm).flat_map(|a| (0..nm).filter(move |&b| b != a).map(move |b| (a, b))).map(|(a, b)| (d(&m[a], &m[b]), a, b)).collect();
+    model_pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let all_in = nm.min(nt);
+    let mut hypotheses = 0usize;
+    'triples: for tri in &triples {
         let tp = [t[tri[0]], t[tri[1]], t[tri[2]]];
         if collinear(&tp) {
             continue;
         }
         let sides = [d(&tp[0], &tp[1]), d(&tp[1], &tp[2]), d(&tp[0], &tp[2])];
-        for a in 0..nm {
-            for b in 0..nm {
-                if b == a {
+        let first: &[(f64, usize, usize)] = if s.with_scale {
+            &model_pairs
+        } else {
+            let lo = model_pairs.partition_point(|p| p.0 < sides[0] - 2.0 * tau);
+            let hi = model_pairs.partition_point(|p| p.0 <= sides[0] + 2.0 * tau);
+            &model_pairs[lo..hi]
+        };
+        for &(_, a, b) in first {
+            for c in 0..nm {
+                if c == a || c == b {
                     continue;
                 }
-                for c in 0..nm {
-                    if c == a || c == b {
-                        continue;
-                    }
-                    let mp = [m[a], m[b], m[c]];
-                    let ms = [d(&mp[0], &mp[1]), d(&mp[1], &mp[2]), d(&mp[0], &mp[2])];
-                    let k = if s.with_scale { (sides[0] + sides[1] + sides[2]) / (ms[0] + ms[1] + ms[2]) } else { 1.0 };
-                    if !(k > 0.0) || (0..3).any(|q| (sides[q] - k * ms[q]).abs() > 2.0 * tau) {
-                        continue;
-                    }
-                    let Ok(tr) = umeyama(&mp, &tp, s.with_scale) else { continue };
-                    let (pairs, ss) = inliers(&tr, &m, &t, tau);
-                    let better = match &best {
-                        None => true,
-                        Some((n, e, _)) => pairs.len() > *n || (pairs.len() == *n && ss < *e),
-                    };
-                    if better {
-                        best = Some((pairs.len(), ss, tr));
-                    }
+                let mp = [m[a], m[b], m[c]];
+                let ms = [d(&mp[0], &mp[1]), d(&mp[1], &mp[2]), d(&mp[0], &mp[2])];
+                let k = if s.with_scale { (sides[0] + sides[1] + sides[2]) / (ms[0] + ms[1] + ms[2]) } else { 1.0 };
+                if !(k > 0.0) || (0..3).any(|q| (sides[q] - k * ms[q]).abs() > 2.0 * tau) {
+                    continue;
+                }
+                let Ok(tr) = umeyama(&mp, &tp, s.with_scale) else { continue };
+                let (pairs, ss) = inliers(&tr, &m, &t, tau);
+                hypotheses += 1;
+                let better = match &best {
+                    None => true,
+                    Some((n, e, _)) => pairs.len() > *n || (pairs.len() == *n && ss < *e),
+                };
+                if better {
+                    best = Some((pairs.len(), ss, tr));
+                }
+                // Every marker placed: no hypothesis can do better than the refit below. A model
+                // with many markers (a regular grid matches itself in many ways) stops after
+                // `MAX_HYPOTHESES` scored hypotheses.
+                if best.as_ref().is_some_and(|b| b.0 == all_in) || hypotheses >= MAX_HYPOTHESES {
+                    break 'triples;
                 }
             }
         }

@@ -226,6 +226,27 @@ fn ransac_registration_rejects_a_wrong_match() {
     }
 }
 
+/// A regular grid of 44 markers (OpenCV's asymmetric circle grid, which matches itself under
+/// many shifts) triangulated with two wrong matches nearby and three far away (nearly parallel
+/// rays, thousands of units off): with the default inlier distance (2 % of the extent without the
+/// far points) the grid is registered exactly and the five wrong points are the outliers. With
+/// the extent of all points the inlier distance would exceed the grid itself.
+#[test]
+fn grid_registration_ignores_far_wrong_matches() {
+    let model: Vec<Vector3<f64>> = (0..11).flat_map(|i| (0..4).map(move |j| Vector3::new((2 * j + i % 2) as f64, i as f64, 0.0))).collect();
+    let r = *Rotation3::from_scaled_axis(Vector3::new(0.2, -0.5, 0.3)).matrix();
+    let t = Vector3::new(-3.0, -5.0, 28.0);
+    let mut target: Vec<[f64; 3]> = model.iter().map(|p| r * p + t).map(|p| [p.x, p.y, p.z]).collect();
+    target.extend([[t.x + 0.5, t.y + 0.4, t.z + 1.5], [t.x + 3.3, t.y + 7.1, t.z - 2.0], [-2054.0, -1349.0, 12812.0], [-30.0, 40.0, 3715.0], [15.0, 9.0, 1729.0]]);
+    let m: Vec<[f64; 3]> = model.iter().map(|p| [p.x, p.y, p.z]).collect();
+    let reg = register(&m, &target, &RegisterSettings::default()).unwrap();
+    assert_eq!(reg.outliers, vec![44, 45, 46, 47, 48]);
+    assert_eq!(reg.pairs.len(), 44);
+    assert!(reg.pairs.iter().all(|p| p.0 == p.1), "each model marker on its own point");
+    assert!((reg.transform.rotation - r).abs().max() < 1e-9 && (reg.transform.translation - t).norm() < 1e-9 * t.norm());
+    assert!(reg.inlier_distance < 0.3, "inlier distance {}", reg.inlier_distance);
+}
+
 /// Collinear markers and too few matches are refused with a message naming the cause.
 #[test]
 fn registration_refuses_collinear_markers_and_too_few_matches() {
