@@ -51,6 +51,7 @@ __all__ = [
     "calibrate_camera",
     "stereo_calibrate",
     "undistort",
+    "solve_pnp",
     "CALIB_USE_INTRINSIC_GUESS",
     "CALIB_FIX_INTRINSIC",
     "calibrate_procam",
@@ -830,6 +831,34 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     e = tx @ r
     f = _np.linalg.inv(k2).T @ e @ _np.linalg.inv(k1)
     return (rms, k1, _np.asarray(d1, dtype=float).reshape(1, -1), k2, _np.asarray(d2, dtype=float).reshape(1, -1), r, t, e, f)
+
+
+def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs):
+    """The pose of a known object from its image, as ``cv2.solvePnP`` (``SOLVEPNP_ITERATIVE``):
+    a closed-form start (the plane's homography for coplanar points, at least 4; the direct linear
+    transform otherwise, at least 6), then Levenberg–Marquardt on the reprojection error through
+    the full lens model (lucent's own implementation).
+
+    Parameters
+    ----------
+    object_points : (N, 3) or (N, 1, 3) array
+        The object's points, in its own frame.
+    image_points : (N, 2) or (N, 1, 2) array
+        Their pixels (OpenCV convention).
+    camera_matrix, dist_coeffs
+        The camera (OpenCV's 3×3 matrix and 0–14 distortion coefficients).
+
+    Returns
+    -------
+    (retval, rvec, tvec)
+        As OpenCV: True, and the (3, 1) Rodrigues vector and translation of the object → camera
+        transform. Configurations that determine no pose raise ``ValueError``.
+    """
+    obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    k, d = _camera_args(camera_matrix, dist_coeffs)
+    r, t, _ = _lucent.solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d)
+    return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
 
 
 def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):

@@ -141,6 +141,20 @@ pub fn undistort_flat(py: Python<'_>, image: &[u8], width: usize, height: usize,
     Ok(pyo3::types::PyBytes::new(py, &pixels).unbind())
 }
 
+/// The pose of object points (flat x, y, z) seen at pixels (flat u, v) by the camera `k`
+/// (row-major 3×3) with OpenCV's distortion `dist` (OpenCV's `solvePnP`, `scan::calib::pnp`):
+/// (Rodrigues vector, translation, RMS reprojection error in pixels).
+#[pyfunction]
+pub fn solve_pnp_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec<f64>) -> PyResult<([f64; 3], [f64; 3], f64)> {
+    let intr = render::camera::Intrinsics::from_camera_matrix(&k).map_err(|e| value(format!("camera_matrix: {e}")))?;
+    render::camera::Distortion::from_opencv(&dist).map_err(|e| value(format!("dist_coeffs: {e}")))?;
+    let lens = scan::calib::model::Lens::from_opencv(intr.fx, intr.fy, intr.cx, intr.cy, &dist);
+    let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let (pose, rms) = scan::calib::pnp::solve_pnp(&obj, &px, &lens).map_err(|e| value(format!("{e:#}")))?;
+    Ok(([pose.rvec[0], pose.rvec[1], pose.rvec[2]], [pose.t[0], pose.t[1], pose.t[2]], rms))
+}
+
 /// `lucent scan calibrate` on capture folders: the calibration JSON it writes.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]

@@ -314,3 +314,28 @@ def test_undistort_against_live_opencv():
     # percentile 2, max 4 levels; OpenCV 5.1.0).
     assert d.mean() < 0.2 and np.percentile(d, 99.9) <= 6, (d.mean(), np.percentile(d, 99.9), d.max())
     print(f"undistort against cv2: mean {d.mean():.3f}, 99.9th percentile {np.percentile(d, 99.9)}, max {d.max()} levels")
+
+
+def test_solve_pnp_recovers_a_known_pose():
+    rng = np.random.default_rng(11)
+    cloud = rng.uniform(-60, 60, (12, 3))
+    r, t = np.array([0.3, -0.45, 0.2]), np.array([-40.0, 25.0, 520.0])
+    for obj in (cloud, OBJ):
+        px = lucent.project_points(obj, r, t, K, DIST)
+        ok, rv, tv = lucent.solve_pnp(obj, px, K, DIST)
+        assert ok and rv.shape == (3, 1) and tv.shape == (3, 1)
+        assert np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
+    with pytest.raises(ValueError, match="at least 4"):
+        lucent.solve_pnp(OBJ[:3], lucent.project_points(OBJ[:3], r, t, K, DIST), K, DIST)
+
+
+def test_solve_pnp_agrees_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(12)
+    r, t = np.array([0.3, -0.45, 0.2]), np.array([-40.0, 25.0, 520.0])
+    for obj in (rng.uniform(-60, 60, (12, 3)), OBJ):
+        px = lucent.project_points(obj, r, t, K, DIST) + rng.normal(0, 0.3, (len(obj), 2))
+        _, rv, tv = lucent.solve_pnp(obj, px, K, DIST)
+        ok, rc, tc = cv2.solvePnP(obj, px, K, DIST, flags=cv2.SOLVEPNP_ITERATIVE)
+        # The same least-squares minimum.
+        assert ok and np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-4 * np.linalg.norm(t)

@@ -5,6 +5,7 @@ pub mod camera;
 pub mod chessboard;
 pub mod homography;
 pub mod model;
+pub mod pnp;
 pub mod procam;
 pub mod undistort;
 pub mod zhang;

@@ -9,6 +9,7 @@ mod decode;
 mod eval;
 mod graycode;
 mod markers;
+mod pnp;
 mod label;
 mod label_board;
 mod synth;

@@ -1,0 +1,194 @@
+//! The pose of a known object from its image in a calibrated camera (OpenCV's `solvePnP` with
+//! `SOLVEPNP_ITERATIVE`): a closed-form start, then Levenberg–Marquardt on the reprojection error
+//! in pixels through the full lens model.
+//!
+//! - **Start.** The pixels are taken to normalised coordinates with the camera matrix alone (the
+//!   distortion is left to the refinement). Coplanar points (the smallest singular value of the
+//!   centred points below 10⁻⁹ of the largest): the homography from their plane to the image
+//!   gives the pose (Zhang's decomposition, `zhang::pose_from_homography`), at least 4 points.
+//!   Otherwise the direct linear transform (Hartley & Zisserman, Multiple View Geometry, §7.1) on
+//!   Hartley-normalised points gives the 3 × 4 projection, whose left 3 × 3 block is rescaled to
+//!   the nearest rotation, at least 6 points.
+//! - **Refinement.** Levenberg–Marquardt over the Rodrigues vector and the translation, with
+//!   central-difference derivatives, until the step or the relative decrease of the squared error
+//!   falls below 10⁻¹⁴, at most 200 iterations.
+
+use anyhow::{bail, Result};
+use nalgebra::{DMatrix, Matrix3, Matrix6, SVector, Vector3, Vector6};
+
+use super::homography::{fit_homography, Point2};
+use super::model::{nearest_rotation, Lens, Pose};
+use super::zhang::pose_from_homography;
+
+/// The pose (object → camera) of the points `obj` seen at pixels `px` by `lens`, and the RMS
+/// reprojection error (pixels). Errors are one line: too few points, points and pixels of
+/// different counts, non-finite values, or a configuration that determines no pose.
+pub fn solve_pnp(obj: &[[f64; 3]], px: &[Point2], lens: &Lens) -> Result<(Pose, f64)> {
+    if obj.len() != px.len() {
+        bail!("{} object points but {} image points", obj.len(), px.len());
+    }
+    if obj.iter().flatten().chain(px.iter().flatten()).any(|v| !v.is_finite()) {
+        bail!("object and image points must be finite");
+    }
+    if obj.len() < 4 {
+        bail!("a pose needs at least 4 points, got {}", obj.len());
+    }
+    let x: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::from(*p)).collect();
+    let norm: Vec<Point2> = px.iter().map(|p| [(p[0] - lens.cx) / lens.fx, (p[1] - lens.cy) / lens.fy]).collect();
+    let start = match plane_frame(&x) {
+        Some((c, b)) => {
+            // Plane coordinates q = Bᵀ(X − c); pose of the plane frame from the homography.
+            let q: Vec<Point2> = x.iter().map(|p| b.transpose() * (p - c)).map(|v| [v[0], v[1]]).collect();
+            let Some(h) = fit_homography(&q, &norm) else { bail!("the points do not determine a homography (collinear?)") };
+            let Some(p) = pose_from_homography(&h, &Matrix3::identity()) else { bail!("no pose from the points' homography") };
+            let r = p.r() * b.transpose();
+            Pose::from_rt(&r, p.t - r * c)
+        }
+        None => {
+            if obj.len() < 6 {
+                bail!("points off one plane need at least 6 for a pose, got {}", obj.len());
+            }
+            dlt(&x, &norm).ok_or_else(|| anyhow::anyhow!("the points determine no projection (degenerate configuration)"))?
+        }
+    };
+    let pose = refine(&x, px, lens, start);
+    let rms = (sq_error(&x, px, lens, &pose) / px.len() as f64).sqrt();
+    if !rms.is_finite() {
+        bail!("the pose puts points behind the camera");
+    }
+    Ok((pose, rms))
+}
+
+/// The centroid and an orthonormal frame (columns e₁, e₂, n) of coplanar points; None when they
+/// are not coplanar.
+fn plane_frame(x: &[Vector3<f64>]) -> Option<(Vector3<f64>, Matrix3<f64>)> {
+    let c = x.iter().sum::<Vector3<f64>>() / x.len() as f64;
+    let m = DMatrix::from_fn(x.len(), 3, |i, j| x[i][j] - c[j]);
+    let svd = m.svd(false, true);
+    let s = &svd.singular_values;
+    let vt = svd.v_t?;
+    let order = {
+        let mut o = [0usize, 1, 2];
+        o.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
+        o
+    };
+    if s[order[2]] > 1e-9 * s[order[0]] {
+        return None;
+    }
+    let row = |i: usize| Vector3::new(vt[(i, 0)], vt[(i, 1)], vt[(i, 2)]);
+    let (e1, e2) = (row(order[0]), row(order[1]));
+    let n = e1.cross(&e2);
+    Some((c, Matrix3::from_columns(&[e1, e2, n])))
+}
+
+/// The pose from the direct linear transform on normalised coordinates.
+fn dlt(x: &[Vector3<f64>], norm: &[Point2]) -> Option<Pose> {
+    // Hartley normalisation of the object points: centroid at 0, mean distance √3.
+    let c = x.iter().sum::<Vector3<f64>>() / x.len() as f64;
+    let scale = 3f64.sqrt() / (x.iter().map(|p| (p - c).norm()).sum::<f64>() / x.len() as f64);
+    let mut a = DMatrix::zeros(2 * x.len(), 12);
+    for (i, (p, q)) in x.iter().zip(norm).enumerate() {
+        let xn = (p - c) * scale;
+        let hom = [xn[0], xn[1], xn[2], 1.0];
+        for k in 0..4 {
+            a[(2 * i, k)] = hom[k];
+            a[(2 * i, 8 + k)] = -q[0] * hom[k];
+            a[(2 * i + 1, 4 + k)] = hom[k];
+            a[(2 * i + 1, 8 + k)] = -q[1] * hom[k];
+        }
+    }
+    let svd = a.svd(false, true);
+    let vt = svd.v_t?;
+    let (imin, _) = svd.singular_values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
+    let p: Vec<f64> = vt.row(imin).iter().copied().collect();
+    let m = Matrix3::new(p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]);
+    let mut col = Vector3::new(p[3], p[7], p[11]);
+    let det = m.determinant();
+    if !(det.abs() > 0.0) {
+        return None;
+    }
+    // P = λ[R | t]: λ = ∛det(M) (sign included, so that det R = +1).
+    let lam = det.cbrt();
+    let r = nearest_rotation(&(m / lam));
+    col /= lam;
+    // Undo the normalisation: X_n = s(X − c), so R X_n + t = sR X + (t − sR c); the scale of a
+    // projection is free, so divide by s.
+    let t = col / scale - r * c;
+    let pose = Pose::from_rt(&r, t);
+    // The points must lie in front of the camera.
+    (x.iter().filter(|p| pose.apply(p)[2] > 0.0).count() * 2 > x.len()).then_some(pose)
+}
+
+fn residuals(x: &[Vector3<f64>], px: &[Point2], lens: &Lens, pose: &Pose) -> Vec<f64> {
+    let r = pose.r();
+    x.iter()
+        .zip(px)
+        .flat_map(|(p, q)| {
+            let c = r * p + pose.t;
+            if !(c[2] > 0.0) {
+                return [f64::INFINITY, f64::INFINITY];
+            }
+            let u = lens.project(&c);
+            [u[0] - q[0], u[1] - q[1]]
+        })
+        .collect()
+}
+
+fn sq_error(x: &[Vector3<f64>], px: &[Point2], lens: &Lens, pose: &Pose) -> f64 {
+    residuals(x, px, lens, pose).iter().map(|e| e * e).sum()
+}
+
+fn pose_of(v: &Vector6<f64>) -> Pose {
+    Pose { rvec: Vector3::new(v[0], v[1], v[2]), t: Vector3::new(v[3], v[4], v[5]) }
+}
+
+/// Levenberg–Marquardt over (rvec, t) (module documentation).
+fn refine(x: &[Vector3<f64>], px: &[Point2], lens: &Lens, start: Pose) -> Pose {
+    let mut v = Vector6::new(start.rvec[0], start.rvec[1], start.rvec[2], start.t[0], start.t[1], start.t[2]);
+    let mut err = sq_error(x, px, lens, &pose_of(&v));
+    let mut mu = 1e-3;
+    for _ in 0..200 {
+        let r0 = residuals(x, px, lens, &pose_of(&v));
+        let n = r0.len();
+        let mut j = DMatrix::zeros(n, 6);
+        for k in 0..6 {
+            let h = 1e-7 * v[k].abs().max(1e-3);
+            let (mut a, mut b) = (v, v);
+            a[k] += h;
+            b[k] -= h;
+            let (ra, rb) = (residuals(x, px, lens, &pose_of(&a)), residuals(x, px, lens, &pose_of(&b)));
+            for i in 0..n {
+                j[(i, k)] = (ra[i] - rb[i]) / (2.0 * h);
+            }
+        }
+        let jt = j.transpose();
+        let jtj: Matrix6<f64> = (&jt * &j).fixed_view::<6, 6>(0, 0).into_owned();
+        let g: Vector6<f64> = SVector::from_iterator((&jt * DMatrix::from_vec(n, 1, r0)).iter().copied());
+        let mut improved = false;
+        for _ in 0..20 {
+            let mut a = jtj;
+            for d in 0..6 {
+                a[(d, d)] += mu * jtj[(d, d)].max(1e-12);
+            }
+            let Some(step) = a.lu().solve(&(-g)) else { break };
+            let cand = v + step;
+            let e = sq_error(x, px, lens, &pose_of(&cand));
+            if e < err {
+                let small = step.norm() <= 1e-14 * (v.norm() + 1e-14) || (err - e) <= 1e-14 * err;
+                v = cand;
+                err = e;
+                mu = (mu / 3.0).max(1e-12);
+                improved = true;
+                if small {
+                    return pose_of(&v);
+                }
+                break;
+            }
+            mu *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    pose_of(&v)
+}
