@@ -13,6 +13,9 @@
 //!   central-difference derivatives, until the step or the relative decrease of the squared error
 //!   falls below 10⁻¹⁴, at most 200 iterations.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use anyhow::{bail, Result};
 use nalgebra::{DMatrix, Matrix3, Matrix6, SVector, Vector3, Vector6};
 

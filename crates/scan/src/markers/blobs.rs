@@ -7,6 +7,9 @@
 //! several levels with nearly the same centre are one candidate. The candidates only seed
 //! [`super::detect::refine`], which fits the disc's edge.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::hough::Candidate;
 use super::Image;
 
@@ -110,7 +113,7 @@ pub fn threshold_candidates(img: &Image, dark: bool) -> Vec<Candidate> {
             }
         }
     }
-    found.sort_by(|a, b| b.3.cmp(&a.3));
+    found.sort_by_key(|f| std::cmp::Reverse(f.3));
     found
         .into_iter()
         .map(|(x, y, r, k)| {
