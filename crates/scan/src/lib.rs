@@ -17,5 +17,6 @@ pub mod eval;
 pub mod graycode;
 pub mod markers;
 pub mod label;
+pub mod raster;
 pub mod synth;
 pub mod triangulate;

@@ -22,6 +22,7 @@
 //!    Without a given K, the smallest K ≤ `max_labels` is taken whose weighted RMS distance of the
 //!    regions to their label's centre is at most `spread_de` (ΔE\*ab).
 
+use crate::raster::neighbours4;
 use std::collections::VecDeque;
 
 use anyhow::{bail, Result};
@@ -334,10 +335,7 @@ pub fn watershed(gradient: &[f32], w: usize, h: usize, markers: &[i32]) -> Vec<i
     let mut lab = markers.to_vec();
     let mut queued = vec![false; w * h];
     let mut queue: Vec<VecDeque<u32>> = vec![VecDeque::new(); LEVELS];
-    let neighbours = |i: usize| -> [Option<usize>; 4] {
-        let (x, y) = (i % w, i / w);
-        [(x > 0).then(|| i - 1), (y > 0).then(|| i - w), (x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)]
-    };
+    let neighbours = |i: usize| neighbours4(i, w, h);
     let mut lowest = LEVELS;
     for i in 0..w * h {
         if lab[i] > 0 {

@@ -11,6 +11,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::hough::Candidate;
+use crate::raster::neighbours4;
 use super::Image;
 
 /// Levels between the image's 2nd and 98th percentiles at which it is cut.
@@ -64,23 +65,11 @@ pub fn threshold_candidates(img: &Image, dark: bool) -> Vec<Candidate> {
                 syy += yf * yf;
                 sxy += xf * yf;
                 border |= x == 0 || y == 0 || x == w - 1 || y == h - 1;
-                let mut visit = |j: usize| {
+                for j in neighbours4(i, w, h).into_iter().flatten() {
                     if label[j] == u32::MAX && inside(j) {
                         label[j] = next;
                         stack.push(j);
                     }
-                };
-                if x > 0 {
-                    visit(i - 1);
-                }
-                if x + 1 < w {
-                    visit(i + 1);
-                }
-                if y > 0 {
-                    visit(i - w);
-                }
-                if y + 1 < h {
-                    visit(i + w);
                 }
             }
             next += 1;
