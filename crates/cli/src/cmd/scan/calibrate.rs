@@ -119,6 +119,22 @@ pub(super) fn write_text(out: &std::path::Path, text: &str) -> Result<()> {
     render::image_io::write_atomic(out, |tmp| std::fs::write(tmp, text).map_err(|e| anyhow::anyhow!("{}: cannot write ({e})", out.display())))
 }
 
+/// The outputs the calibration commands share: `filestorage()` to `opencv_out` and the JSON
+/// `text` to `out` (each when given), and the JSON on stdout when `json`. Returns whether it
+/// printed the JSON (the summary is then left out).
+pub(super) fn write_outputs(text: &str, out: Option<&std::path::Path>, opencv_out: Option<&std::path::Path>, filestorage: impl FnOnce() -> String, json: bool) -> Result<bool> {
+    if let Some(o) = opencv_out {
+        write_text(o, &filestorage())?;
+    }
+    if let Some(o) = out {
+        write_text(o, &format!("{text}\n"))?;
+    }
+    if json {
+        println!("{text}");
+    }
+    Ok(json)
+}
+
 pub fn run(args: Args) -> Result<()> {
     if !(args.square > 0.0 && args.square.is_finite()) {
         bail!("--square: must be a positive length, got {}", args.square);
@@ -141,15 +157,7 @@ pub fn run(args: Args) -> Result<()> {
     progress.finish();
     let (calib, _) = result?;
     let text = serde_json::to_string_pretty(&calib)?;
-    if let Some(out) = &args.opencv_out {
-        let fs = calib.to_filestorage(opencv_yaml);
-        write_text(out, &fs)?;
-    }
-    if let Some(out) = &args.out {
-        write_text(out, &format!("{text}\n"))?;
-    }
-    if args.json {
-        println!("{text}");
+    if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
         return Ok(());
     }
     let dev = |name: &str, d: &scan::calib::DeviceCalibration| {

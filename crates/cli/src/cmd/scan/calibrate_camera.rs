@@ -12,7 +12,7 @@ use scan::calib::chessboard::{find_chessboard, GrayImage};
 use scan::calib::zhang::board_points;
 use scan::markers::grid::{find_circles_grid, grid_points, GridKind};
 
-use super::calibrate::{check_outputs, parse_corners, write_text, LensFlags};
+use super::calibrate::{check_outputs, parse_corners, write_outputs, LensFlags};
 
 /// The calibration target's flags, shared by `calibrate-camera` and `calibrate-stereo`.
 #[derive(clap::Args, Debug)]
@@ -158,15 +158,7 @@ pub fn run(args: Args) -> Result<()> {
     let (w, h, _) = size.expect("clap requires one image");
     let calib = calibrate_camera_planar(&target.object_points(args.target.square), &views, w, h, args.lens.free())?;
     let text = serde_json::to_string_pretty(&calib)?;
-    if let Some(out) = &args.opencv_out {
-        let fs = calib.to_filestorage(opencv_yaml);
-        write_text(out, &fs)?;
-    }
-    if let Some(out) = &args.out {
-        write_text(out, &format!("{text}\n"))?;
-    }
-    if args.json {
-        println!("{text}");
+    if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
         return Ok(());
     }
     let d = &calib.dist;

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use scan::calib::{calibrate_planar, CaptureCorners, Rig};
 
-use super::calibrate::{check_outputs, write_text, LensFlags};
+use super::calibrate::{check_outputs, write_outputs, LensFlags};
 use super::calibrate_camera::{Target, TargetArgs};
 
 /// Arguments of `lucent scan calibrate-stereo`.
@@ -82,14 +82,7 @@ pub fn run(args: Args) -> Result<()> {
     let calib = calibrate_planar(&rig, &target.object_points(args.target.square), &captures, None, args.lens.free(), ["left camera", "right camera"])
         .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace("at least 3 captures", "at least 3 pairs of photographs")))?;
     let text = serde_json::to_string_pretty(&calib)?;
-    if let Some(out) = &args.opencv_out {
-        write_text(out, &calib.to_filestorage(opencv_yaml))?;
-    }
-    if let Some(out) = &args.out {
-        write_text(out, &format!("{text}\n"))?;
-    }
-    if args.json {
-        println!("{text}");
+    if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
         return Ok(());
     }
     for (what, d) in [("left ", &calib.camera), ("right", &calib.projector)] {
