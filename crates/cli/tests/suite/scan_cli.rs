@@ -369,7 +369,8 @@ fn calibrate_camera_from_asymmetric_circle_grids() {
 /// cameras, plus a pair whose right photograph is blank: with `--skip-missing` the blank pair is
 /// left out with one warning, the baseline comes back within 0.5 % and the rotation within 0.1°,
 /// and the JSON and FileStorage files read back (`ProcamCalibration::read`) as the same
-/// calibration; without it the blank photograph is a one-line error, as are unequal counts.
+/// calibration; without it the blank photograph is a one-line error, as are unequal counts. The
+/// same photographs given for both cameras calibrate with a one-line warning (zero baseline).
 #[test]
 fn calibrate_stereo_from_circle_grid_pairs() {
     use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -409,6 +410,16 @@ fn calibrate_stereo_from_circle_grid_pairs() {
     let a = scan::calib::ProcamCalibration::read(Path::new(&json), None).unwrap();
     let b = scan::calib::ProcamCalibration::read(Path::new(&xml), Some((640, 480))).unwrap();
     assert_eq!((a.camera.fx, a.projector.fx, a.translation), (b.camera.fx, b.projector.fx, b.translation));
+    // The same photographs as both cameras: a calibration with a warning that the two share a
+    // centre.
+    let mut same: Vec<&str> = vec!["scan", "calibrate-stereo", "--left"];
+    same.extend(left[..4].iter().map(|f| f.as_str()));
+    same.push("--right");
+    same.extend(left[..4].iter().map(|f| f.as_str()));
+    same.extend(["--corners", "4x11", "--square", "10", "--pattern", "acircles", "--json"]);
+    let o = lucent().args(&same).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.trim_end().lines().count() == 1 && err.contains("share a centre"), "{err}");
     // Without --skip-missing; and unequal counts.
     let e = fails_on_one_line(&args);
     assert!(e.contains("r4.png") && e.contains("asymmetric circle grid"), "{e}");

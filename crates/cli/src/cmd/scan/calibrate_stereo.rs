@@ -81,6 +81,16 @@ pub fn run(args: Args) -> Result<()> {
     let rig = Rig { cols: target.cols, rows: target.rows, square: args.target.square, camera: (*lw, *lh), projector: (*rw, *rh) };
     let calib = calibrate_planar(&rig, &target.object_points(args.target.square), &captures, None, args.lens.free(), ["left camera", "right camera"])
         .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace("at least 3 captures", "at least 3 pairs of photographs")))?;
+    // Two cameras at one centre (the same photographs twice, or a rotating camera) calibrate,
+    // but nothing can be triangulated from them.
+    let baseline = calib.translation.iter().map(|t| t * t).sum::<f64>().sqrt();
+    let mut dist: Vec<f64> = calib.captures.iter().map(|c| c.tvec.iter().map(|t| t * t).sum::<f64>().sqrt()).collect();
+    dist.sort_by(f64::total_cmp);
+    if let Some(&d) = dist.get(dist.len() / 2) {
+        if baseline < 1e-3 * d {
+            eprintln!("lucent: warning: the two cameras share a centre (baseline {baseline:.3e} units, the target {d:.1} units away): nothing can be triangulated from this rig");
+        }
+    }
     let text = serde_json::to_string_pretty(&calib)?;
     if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
         return Ok(());
