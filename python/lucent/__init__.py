@@ -634,6 +634,20 @@ def _pair(v, name, least):
     return a, b
 
 
+def _grey_levels(image):
+    """An 8-bit grey or BGR image (OpenCV's luma weights) as flat grey levels, width and height;
+    ValueError for another shape or an image under 8 × 8 pixels."""
+    a = _np.asarray(image)
+    if a.ndim == 3 and a.shape[2] in (3, 4):
+        a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
+    elif a.ndim != 2:
+        raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
+    h, w = a.shape
+    if h < 8 or w < 8:
+        raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
+    return [float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h
+
+
 def find_chessboard_corners(image, pattern_size):
     """The inner corners of a chessboard, as ``cv2.findChessboardCorners`` followed by
     ``cv2.cornerSubPix`` finds them.
@@ -654,16 +668,9 @@ def find_chessboard_corners(image, pattern_size):
         top-left, or None when no such lattice is found. The array goes as it is into
         ``cv2.calibrateCamera`` or :func:`calibrate_camera`.
     """
-    a = _np.asarray(image)
-    if a.ndim == 3 and a.shape[2] in (3, 4):
-        a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
-    elif a.ndim != 2:
-        raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
     cols, rows = _pair(pattern_size, "pattern_size", 3)
-    h, w = a.shape
-    if h < 8 or w < 8:
-        raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
-    c = _lucent.find_chessboard_flat([float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h, cols, rows)
+    grey, w, h = _grey_levels(image)
+    c = _lucent.find_chessboard_flat(grey, w, h, cols, rows)
     if c is None:
         return False, None
     return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
@@ -698,19 +705,12 @@ def find_circles_grid(image, pattern_size, flags=CALIB_CB_SYMMETRIC_GRID):
         centres are those of ellipses fitted to sub-pixel edge points of each disc (lucent's
         marker detector, docs/markers.md).
     """
-    a = _np.asarray(image)
-    if a.ndim == 3 and a.shape[2] in (3, 4):
-        a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
-    elif a.ndim != 2:
-        raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
     cols, rows = _pair(pattern_size, "pattern_size", 1)
     kind = int(flags) & (CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID)
     if int(flags) & ~(CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID) or kind not in (CALIB_CB_SYMMETRIC_GRID, CALIB_CB_ASYMMETRIC_GRID):
         raise ValueError(f"flags: expected CALIB_CB_SYMMETRIC_GRID (1) or CALIB_CB_ASYMMETRIC_GRID (2), got {flags!r}")
-    h, w = a.shape
-    if h < 8 or w < 8:
-        raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
-    c = _lucent.find_circles_grid_flat([float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h, cols, rows, kind == CALIB_CB_ASYMMETRIC_GRID)
+    grey, w, h = _grey_levels(image)
+    c = _lucent.find_circles_grid_flat(grey, w, h, cols, rows, kind == CALIB_CB_ASYMMETRIC_GRID)
     if c is None:
         return False, None
     return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
