@@ -1,14 +1,16 @@
 //! Levenberg–Marquardt refinement of a calibration over all reprojection errors (Zhang 2000,
 //! §3.2, extended to a stereo pair as OpenCV's `stereoCalibrate`): the intrinsics and distortion
 //! of each device, one board pose per view, and — for a pair — the rigid transform from the first
-//! device (the camera) to the second (the projector), X_p = R·X_c + T. The minimiser is the
-//! `levenberg-marquardt` crate (MINPACK's trust-region LM); the Jacobian is by central differences.
+//! device (the camera) to the second (the projector), X_p = R·X_c + T. The minimiser is
+//! [`super::schur_lm`]: each view's residuals depend on the lenses, the stereo pose and that
+//! view's board pose only, so the board poses are eliminated per view (Schur complement) and an
+//! iteration costs time linear in the number of views; the Jacobian is by central differences.
 
 use super::homography::Point2;
 use super::model::{Lens, Pose};
+use super::schur_lm::{self, Blocks, Layout, Stop};
 use anyhow::{bail, Result};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
-use nalgebra::{DMatrix, DVector, Dyn, Owned, Vector3};
+use nalgebra::{DVector, Vector3};
 
 /// Observations of one board view: the corners in each device (pixels), in object-point order.
 #[derive(Clone, Debug)]
@@ -76,8 +78,6 @@ struct Problem<'a> {
     obj: &'a [Vector3<f64>],
     views: &'a [ViewObs],
     stereo: bool,
-    x: DVector<f64>,
-    free: Vec<usize>,
     /// Image-corner radius per device for the rational model's barrier (0: none).
     barrier: [f64; 2],
 }
@@ -87,98 +87,76 @@ impl Problem<'_> {
         if self.stereo { 2 * LENS + 6 + 6 * v } else { LENS + 6 * v }
     }
 
-    fn pose_at(x: &DVector<f64>, at: usize) -> Pose {
+    fn pose_at(x: &[f64], at: usize) -> Pose {
         Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) }
     }
 
-    /// Residuals (predicted − observed, pixels): per view, camera corners (u, v)… then projector corners.
-    fn residuals_of(&self, x: &DVector<f64>) -> DVector<f64> {
-        let cam = Lens::from_slice(&x.as_slice()[0..LENS]);
+    fn barrier_rows(&self) -> usize {
+        if self.barrier.iter().any(|&b| b > 0.0) { 2 * BARRIER_SAMPLES } else { 0 }
+    }
+}
+
+impl Blocks for Problem<'_> {
+    fn n_blocks(&self) -> usize {
+        self.views.len()
+    }
+
+    fn block_rows(&self) -> usize {
+        if self.stereo { 4 * self.obj.len() } else { 2 * self.obj.len() }
+    }
+
+    fn global_rows(&self) -> usize {
+        self.barrier_rows()
+    }
+
+    /// Residuals (predicted − observed, pixels) of view `v`: camera corners (u, v)…, then
+    /// projector corners; 0 where a corner is not observed.
+    fn block(&self, x: &[f64], v: usize, r: &mut [f64]) {
+        let cam = Lens::from_slice(&x[0..LENS]);
         let (proj, stereo) = if self.stereo {
-            let p = Lens::from_slice(&x.as_slice()[LENS..2 * LENS]);
             let s = Self::pose_at(x, 2 * LENS);
-            (Some(p), Some((s.r(), s.t)))
+            (Some(Lens::from_slice(&x[LENS..2 * LENS])), Some((s.r(), s.t)))
         } else {
             (None, None)
         };
         let n = self.obj.len();
-        let per_view = if self.stereo { 4 * n } else { 2 * n };
-        let corners = per_view * self.views.len();
-        let barrier_rows = if self.barrier.iter().any(|&b| b > 0.0) { 2 * BARRIER_SAMPLES } else { 0 };
-        let mut r = DVector::zeros(corners + barrier_rows);
-        // The barrier: max(0, floor − denominator) at radii out to 1.1 × the image corners.
-        for (d, lens) in [Some(&cam), proj.as_ref()].into_iter().enumerate() {
-            let (Some(l), rmax) = (lens, self.barrier[d]) else { continue };
-            if rmax > 0.0 {
-                let [k4, k5, k6] = l.rational;
-                for i in 0..BARRIER_SAMPLES {
-                    let r2 = (1.1 * rmax * (i + 1) as f64 / BARRIER_SAMPLES as f64).powi(2);
-                    let m = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
-                    r[corners + d * BARRIER_SAMPLES + i] = BARRIER_WEIGHT * (RATIONAL_FLOOR - m).max(0.0);
+        let obs = &self.views[v];
+        let pose = Self::pose_at(x, self.layout_view(v));
+        let rot = pose.r();
+        r.fill(0.0);
+        for (k, xo) in self.obj.iter().enumerate() {
+            let xc = rot * xo + pose.t;
+            if observed(obs.cam[k]) {
+                let p = cam.project(&xc);
+                r[2 * k] = p[0] - obs.cam[k][0];
+                r[2 * k + 1] = p[1] - obs.cam[k][1];
+            }
+            if let (Some(pl), Some((rs, ts))) = (&proj, &stereo) {
+                if observed(obs.proj[k]) {
+                    let q = pl.project(&(rs * xc + ts));
+                    r[2 * n + 2 * k] = q[0] - obs.proj[k][0];
+                    r[2 * n + 2 * k + 1] = q[1] - obs.proj[k][1];
                 }
             }
         }
-        for (v, obs) in self.views.iter().enumerate() {
-            let pose = Self::pose_at(x, self.layout_view(v));
-            let rot = pose.r();
-            let base = v * per_view;
-            for (k, xo) in self.obj.iter().enumerate() {
-                let xc = rot * xo + pose.t;
-                // A corner without an observation (NaN) contributes no residual.
-                if observed(obs.cam[k]) {
-                    let p = cam.project(&xc);
-                    r[base + 2 * k] = p[0] - obs.cam[k][0];
-                    r[base + 2 * k + 1] = p[1] - obs.cam[k][1];
-                }
-                if let (Some(pl), Some((rs, ts))) = (&proj, &stereo) {
-                    if observed(obs.proj[k]) {
-                        let xp = rs * xc + ts;
-                        let q = pl.project(&xp);
-                        r[base + 2 * n + 2 * k] = q[0] - obs.proj[k][0];
-                        r[base + 2 * n + 2 * k + 1] = q[1] - obs.proj[k][1];
-                    }
-                }
+    }
+
+    /// The barrier: max(0, floor − denominator) at radii out to 1.1 × the image corners.
+    fn global(&self, x: &[f64], r: &mut [f64]) {
+        r.fill(0.0);
+        for d in 0..2 {
+            let rmax = self.barrier[d];
+            if rmax <= 0.0 || (d == 1 && !self.stereo) {
+                continue;
+            }
+            let l = Lens::from_slice(&x[d * LENS..(d + 1) * LENS]);
+            let [k4, k5, k6] = l.rational;
+            for i in 0..BARRIER_SAMPLES {
+                let r2 = (1.1 * rmax * (i + 1) as f64 / BARRIER_SAMPLES as f64).powi(2);
+                let m = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+                r[d * BARRIER_SAMPLES + i] = BARRIER_WEIGHT * (RATIONAL_FLOOR - m).max(0.0);
             }
         }
-        r
-    }
-}
-
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, p: &DVector<f64>) {
-        for (j, &i) in self.free.iter().enumerate() {
-            self.x[i] = p[j];
-        }
-    }
-
-    fn params(&self) -> DVector<f64> {
-        DVector::from_iterator(self.free.len(), self.free.iter().map(|&i| self.x[i]))
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let r = self.residuals_of(&self.x);
-        r.iter().all(|v| v.is_finite()).then_some(r)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let m = self.residuals_of(&self.x).len();
-        let mut j = DMatrix::zeros(m, self.free.len());
-        let mut x = self.x.clone();
-        for (c, &i) in self.free.iter().enumerate() {
-            let x0 = x[i];
-            let h = 1e-6 * (x0.abs() + 1e-2);
-            x[i] = x0 + h;
-            let rp = self.residuals_of(&x);
-            x[i] = x0 - h;
-            let rm = self.residuals_of(&x);
-            x[i] = x0;
-            j.set_column(c, &((rp - rm) / (2.0 * h)));
-        }
-        j.iter().all(|v| v.is_finite()).then_some(j)
     }
 }
 
@@ -209,10 +187,10 @@ pub fn pack_state(s: &State) -> DVector<f64> {
     DVector::from_vec(x)
 }
 
-fn unpack(x: &DVector<f64>, stereo: bool, nviews: usize) -> State {
-    let cam = Lens::from_slice(&x.as_slice()[0..LENS]);
+fn unpack(x: &[f64], stereo: bool, nviews: usize) -> State {
+    let cam = Lens::from_slice(&x[0..LENS]);
     let (proj, st, base) = if stereo {
-        (Some(Lens::from_slice(&x.as_slice()[LENS..2 * LENS])), Problem::pose_at(x, 2 * LENS), 2 * LENS + 6)
+        (Some(Lens::from_slice(&x[LENS..2 * LENS])), Problem::pose_at(x, 2 * LENS), 2 * LENS + 6)
     } else {
         (None, Pose::identity(), LENS)
     };
@@ -230,16 +208,16 @@ pub fn observed(p: Point2) -> bool {
 pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let stereo = state.proj.is_some();
-    let pr = Problem { obj: &obj3, views, stereo, x: pack_state(state), free: vec![], barrier: [0.0; 2] };
-    let r = pr.residuals_of(&pr.x);
+    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2] };
+    let x = pack_state(state);
     let n = obj.len();
-    let per_view = if stereo { 4 * n } else { 2 * n };
+    let mut r = vec![0.0; pr.block_rows()];
     let (mut sc, mut sp, mut nc, mut np) = (0.0, 0.0, 0usize, 0usize);
     let mut pv = Vec::new();
     for (v, obs) in views.iter().enumerate() {
-        let b = v * per_view;
-        let c: f64 = r.rows(b, 2 * n).norm_squared();
-        let p: f64 = if stereo { r.rows(b + 2 * n, 2 * n).norm_squared() } else { 0.0 };
+        pr.block(x.as_slice(), v, &mut r);
+        let c: f64 = r[..2 * n].iter().map(|e| e * e).sum();
+        let p: f64 = r[2 * n..].iter().map(|e| e * e).sum();
         let vc = obs.cam.iter().filter(|q| observed(**q)).count();
         let vp = if stereo { obs.proj.iter().filter(|q| observed(**q)).count() } else { 0 };
         sc += c;
@@ -256,43 +234,48 @@ pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     }
 }
 
-/// Indices (in [`pack_state`] order) of the parameters a fit with `free` moves: the chosen lens
-/// terms of each device, then the stereo pose and the board poses.
-fn free_indices(free: Free, stereo: bool, len: usize) -> Vec<usize> {
-    let mut idx = Vec::new();
+/// The parameters a fit with `free` moves, in [`pack_state`] order: the chosen lens terms of each
+/// device and the stereo pose (global), then each view's board pose (one block per view).
+fn layout(free: Free, stereo: bool, nviews: usize) -> Layout {
+    let mut global = Vec::new();
     let ndev = if stereo { 2 } else { 1 };
     let (r, s, t) = (free.rational, free.thin_prism, free.tilted);
     for d in 0..ndev {
         for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r, s, s, s, s, t, t].iter().enumerate() {
             if free.lenses && *on {
-                idx.push(d * LENS + i);
+                global.push(d * LENS + i);
             }
         }
     }
-    idx.extend(ndev * LENS..len);
-    idx
+    let base = ndev * LENS;
+    if stereo {
+        global.extend(base..base + 6);
+    }
+    let first = if stereo { base + 6 } else { base };
+    Layout { global, local: (0..nviews).map(|v| std::array::from_fn(|k| first + 6 * v + k)).collect() }
 }
+
+/// Iterations [`refine`] allows. Every fit of the tests and of the real captures converges in far
+/// fewer; the rational model's valley of equivalent coefficients can use them all while the
+/// corners no longer move (OpenCV stops after 30).
+const MAX_ITERATIONS: usize = 300;
 
 /// Refine `init` by Levenberg–Marquardt over all reprojection errors. A single-device fit when
 /// `init.proj` is None. Errors when the minimiser fails or the result's RMS exceeds `max_rms_px`.
 pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_rms_px: f64) -> Result<State> {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let stereo = init.proj.is_some();
-    let x = pack_state(init);
-    let idx = free_indices(free, stereo, x.len());
+    let mut x = pack_state(init).as_slice().to_vec();
     let barrier = if free.rational { free.rational_radius } else { [0.0; 2] };
-    let problem = Problem { obj: &obj3, views, stereo, x, free: idx, barrier };
-    let (solved, report) = LevenbergMarquardt::new().with_ftol(1e-15).with_xtol(1e-15).with_gtol(1e-15).with_patience(200).minimize(problem);
-    // The rational model's valley of equivalent coefficients can exhaust the evaluations while
-    // the corners no longer move; that state is taken, as OpenCV stops after its iteration count
-    // (the caller checks that the model stays invertible over the image).
-    let ok = report.termination.was_successful()
-        || matches!(report.termination, TerminationReason::NoImprovementPossible(_))
-        || (free.rational && matches!(report.termination, TerminationReason::LostPatience));
-    if !ok {
-        bail!("the calibration did not converge (Levenberg–Marquardt: {:?})", report.termination);
+    let problem = Problem { obj: &obj3, views, stereo, barrier };
+    let report = schur_lm::minimize(&problem, &layout(free, stereo, views.len()), &mut x, MAX_ITERATIONS)?;
+    // In the rational model's valley the iterations can run out while the corners no longer
+    // move; that state is taken, as OpenCV's is after its iteration count (the caller checks
+    // that the model stays invertible over the image).
+    if report.stop == Stop::Iterations && !free.rational {
+        bail!("the calibration did not converge in {MAX_ITERATIONS} Levenberg–Marquardt iterations");
     }
-    let state = unpack(&solved.x, stereo, views.len());
+    let state = unpack(&x, stereo, views.len());
     let e = rms(obj, views, &state);
     if !(e.all <= max_rms_px) {
         bail!("the calibration did not converge: reprojection RMS {:.3} px exceeds {max_rms_px} px", e.all);
@@ -308,13 +291,13 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
 pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64) -> Vec<f64> {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let x = pack_state(state);
-    let n = x.len();
-    let free = free_indices(Free::default(), state.proj.is_some(), n);
-    let pr = Problem { obj: &obj3, views, stereo: state.proj.is_some(), x, free: free.clone(), barrier: [0.0; 2] };
-    let j = pr.jacobian().expect("finite Jacobian");
-    let cov = (j.transpose() * &j).try_inverse().expect("JᵀJ invertible");
-    let mut sd = vec![f64::NAN; n];
-    for (c, &i) in free.iter().enumerate() {
+    let stereo = state.proj.is_some();
+    let lay = layout(Free::default(), stereo, views.len());
+    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2] };
+    let cov = schur_lm::normal_equations(&pr, &lay, x.as_slice()).dense().try_inverse().expect("JᵀJ invertible");
+    let mut sd = vec![f64::NAN; x.len()];
+    let order = lay.global.iter().chain(lay.local.iter().flatten());
+    for (c, &i) in order.enumerate() {
         sd[i] = sigma_px * cov[(c, c)].sqrt();
     }
     sd
