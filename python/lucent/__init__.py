@@ -621,6 +621,28 @@ CALIB_RATIONAL_MODEL = 1 << 14
 CALIB_THIN_PRISM_MODEL = 1 << 15
 CALIB_TILTED_MODEL = 1 << 18
 _CALIB_FLAGS = CALIB_ZERO_TANGENT_DIST | CALIB_FIX_K3 | CALIB_RATIONAL_MODEL | CALIB_THIN_PRISM_MODEL | CALIB_TILTED_MODEL
+#: Flags that hold lens terms (the values of ``cv2.CALIB_*``): at the start's values, which are
+#: the guess's with CALIB_USE_INTRINSIC_GUESS, else the image centre for the principal point and
+#: 0 for distortion terms.
+CALIB_USE_INTRINSIC_GUESS = 1
+CALIB_FIX_ASPECT_RATIO = 2
+CALIB_FIX_PRINCIPAL_POINT = 4
+CALIB_FIX_FOCAL_LENGTH = 16
+CALIB_FIX_K1 = 32
+CALIB_FIX_K2 = 64
+CALIB_FIX_K4 = 2048
+CALIB_FIX_K5 = 4096
+CALIB_FIX_K6 = 8192
+CALIB_FIX_S1_S2_S3_S4 = 65536
+CALIB_FIX_TAUX_TAUY = 524288
+CALIB_FIX_TANGENT_DIST = 2097152
+# Each holding flag and its bits in scan::calib::bundle::Free::held (lens terms in the order
+# fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6, s1…s4, τx, τy).
+_HELD_BITS = ((CALIB_FIX_FOCAL_LENGTH, 0b11), (CALIB_FIX_PRINCIPAL_POINT, 0b1100), (CALIB_FIX_K1, 1 << 4),
+              (CALIB_FIX_K2, 1 << 5), (CALIB_FIX_TANGENT_DIST, 0b11 << 6), (CALIB_FIX_K4, 1 << 9),
+              (CALIB_FIX_K5, 1 << 10), (CALIB_FIX_K6, 1 << 11), (CALIB_FIX_S1_S2_S3_S4, 0b1111 << 12),
+              (CALIB_FIX_TAUX_TAUY, 0b11 << 16))
+_HOLD_FLAGS = CALIB_FIX_ASPECT_RATIO | sum(f for f, _ in _HELD_BITS)
 
 
 def _pair(v, name, least):
@@ -729,11 +751,17 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         Their pixel positions in each view (OpenCV convention); NaN for a point not seen.
     image_size : (width, height)
         Pixels.
-    camera_matrix, dist_coeffs : ignored
-        Accepted for OpenCV's signature (whose initial guess needs CALIB_USE_INTRINSIC_GUESS).
+    camera_matrix, dist_coeffs : None or arrays
+        The start of the fit with CALIB_USE_INTRINSIC_GUESS (dist_coeffs may be None: zeros);
+        with CALIB_FIX_ASPECT_RATIO, camera_matrix gives fx/fy; otherwise ignored, as by OpenCV.
     flags : int
-        A combination of CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL,
-        CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL (OpenCV's values); other flags are refused.
+        A combination of OpenCV's values: the model (CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL,
+        CALIB_TILTED_MODEL), CALIB_USE_INTRINSIC_GUESS, and terms held during the fit:
+        CALIB_ZERO_TANGENT_DIST (p1 = p2 = 0), CALIB_FIX_PRINCIPAL_POINT (at the image centre
+        ((w − 1)/2, (h − 1)/2), or the guess's), CALIB_FIX_ASPECT_RATIO (fx/fy of camera_matrix,
+        fy fitted), CALIB_FIX_FOCAL_LENGTH, CALIB_FIX_K1 … CALIB_FIX_K6,
+        CALIB_FIX_TANGENT_DIST, CALIB_FIX_S1_S2_S3_S4, CALIB_FIX_TAUX_TAUY (at the guess's values
+        with CALIB_USE_INTRINSIC_GUESS, else at 0 for distortion terms). Other flags are refused.
 
     Returns
     -------
@@ -744,20 +772,27 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         object points' unit) of the target → camera transform.
     """
     flags = int(flags)
-    if flags & ~_CALIB_FLAGS:
-        raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL are supported, got {flags}")
+    if flags & ~(_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS):
+        raise ValueError(f"flags: {flags & ~(_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS)} is not a flag lucent.calibrate_camera knows "
+                         "(the model, CALIB_USE_INTRINSIC_GUESS and the CALIB_FIX_* / CALIB_ZERO_TANGENT_DIST holds are)")
     obj, img = _planar_target(object_points, image_points, "image_points")
     w, h = _pair(image_size, "image_size", 1)
+    guess = None
+    if flags & CALIB_USE_INTRINSIC_GUESS:
+        if camera_matrix is None:
+            raise ValueError("camera_matrix: CALIB_USE_INTRINSIC_GUESS starts from it; got None")
+        guess = _camera_args(camera_matrix, dist_coeffs)
+    aspect = _aspect(camera_matrix, "camera_matrix") if flags & CALIB_FIX_ASPECT_RATIO else None
     rms, (fx, fy, cx, cy), dist, rvecs, tvecs = _lucent.calibrate_camera_flat(
-        [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img], w, h, *_lens_flags(flags))
+        [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img], w, h,
+        _lens_flags(flags, guess is not None), _held(flags, guess is not None), aspect, guess)
     k = _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
     return (rms, k, _np.asarray(dist, dtype=float).reshape(1, -1),
             tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
             tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
 
 
-#: Stereo flags of :func:`stereo_calibrate` (the values of ``cv2.CALIB_*``).
-CALIB_USE_INTRINSIC_GUESS = 1
+#: Stereo flag of :func:`stereo_calibrate` (the value of ``cv2.CALIB_FIX_INTRINSIC``).
 CALIB_FIX_INTRINSIC = 256
 
 
@@ -775,9 +810,28 @@ def _planar_target(object_points, image_points, name):
     return obj[0][:, :2], [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
 
 
-def _lens_flags(flags):
-    return (bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
+def _lens_flags(flags, guessed=False):
+    # CALIB_FIX_K3 holds k3 at 0 (left out of the model), or at the guess's value with a guess.
+    return (bool(flags & CALIB_FIX_K3) and not guessed, bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
             bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
+
+
+def _held(flags, guessed):
+    held = sum(bits for f, bits in _HELD_BITS if flags & f)
+    return held | (1 << 8 if guessed and flags & CALIB_FIX_K3 else 0)
+
+
+def _aspect(camera_matrix, name):
+    """fx/fy of a camera matrix, for CALIB_FIX_ASPECT_RATIO."""
+    if camera_matrix is None:
+        raise ValueError(f"{name}: CALIB_FIX_ASPECT_RATIO takes fx/fy from it; got None")
+    k = _np.asarray(camera_matrix, dtype=float)
+    if k.shape != (3, 3):
+        raise ValueError(f"{name}: expected a 3×3 matrix, got shape {k.shape}")
+    a = k[0, 0] / k[1, 1] if k[1, 1] != 0 else _np.nan
+    if not (_np.isfinite(a) and a > 0):
+        raise ValueError(f"{name}: CALIB_FIX_ASPECT_RATIO needs positive fx and fy, got {k[0, 0]} and {k[1, 1]}")
+    return float(a)
 
 
 def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1, dist_coeffs1,
@@ -797,9 +851,10 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     image_size : (width, height)
         Pixels, of both cameras.
     flags : int
-        0 (all free), CALIB_USE_INTRINSIC_GUESS or CALIB_FIX_INTRINSIC, combined with
-        CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL,
-        CALIB_TILTED_MODEL. Unlike cv2, whose default is CALIB_FIX_INTRINSIC, 0 fits everything.
+        0 (all free), CALIB_USE_INTRINSIC_GUESS or CALIB_FIX_INTRINSIC, combined with the model
+        and hold flags of :func:`calibrate_camera`, which apply to both cameras
+        (CALIB_FIX_ASPECT_RATIO takes each camera's fx/fy from its matrix). Unlike cv2, whose
+        default is CALIB_FIX_INTRINSIC, 0 fits everything.
 
     Returns
     -------
@@ -809,9 +864,10 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         the fundamental matrix F = K₂⁻ᵀ E K₁⁻¹.
     """
     flags = int(flags)
-    allowed = _CALIB_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC
+    allowed = _CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC
     if flags & ~allowed:
-        raise ValueError(f"flags: only CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC and the lens flags of calibrate_camera are supported, got {flags}")
+        raise ValueError(f"flags: {flags & ~allowed} is not a flag lucent.stereo_calibrate knows "
+                         "(CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC and the flags of calibrate_camera are)")
     if len(image_points1) != len(image_points2):
         raise ValueError(f"image_points1 and image_points2: {len(image_points1)} and {len(image_points2)} views")
     obj, img1 = _planar_target(object_points, image_points1, "image_points1")
@@ -824,7 +880,8 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         guess = (_camera_args(camera_matrix1, dist_coeffs1), _camera_args(camera_matrix2, dist_coeffs2))
     rms, c1, d1, c2, d2, r, t = _lucent.stereo_calibrate_flat(
         [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img1], [[float(v) for v in p.ravel()] for p in img2],
-        w, h, guess, bool(flags & CALIB_FIX_INTRINSIC), _lens_flags(flags))
+        w, h, guess, bool(flags & CALIB_FIX_INTRINSIC), _lens_flags(flags, guess is not None), _held(flags, guess is not None),
+        (_aspect(camera_matrix1, "camera_matrix1"), _aspect(camera_matrix2, "camera_matrix2")) if flags & CALIB_FIX_ASPECT_RATIO else (None, None))
     k = lambda c: _np.array([[c[0], 0.0, c[2]], [0.0, c[1], c[3]], [0.0, 0.0, 1.0]])
     k1, k2, r, t = k(c1), k(c2), _np.asarray(r, dtype=float), _np.asarray(t, dtype=float).reshape(3, 1)
     tx = _np.array([[0.0, -t[2, 0], t[1, 0]], [t[2, 0], 0.0, -t[0, 0]], [-t[1, 0], t[0, 0], 0.0]])

@@ -5,7 +5,7 @@
 use crate::errors::{value, OrPy};
 use pyo3::prelude::*;
 use scan::calib::bundle::Free;
-use scan::calib::camera::calibrate_camera_planar;
+use scan::calib::camera::calibrate_camera_guided;
 use scan::calib::chessboard::{find_chessboard, GrayImage};
 
 /// The `cols` × `rows` inner corners (flat u, v, row-major from the corner nearest the image's
@@ -43,7 +43,9 @@ pub fn find_circles_grid_flat(py: Python<'_>, grey: Vec<f32>, width: usize, heig
 
 /// Calibrate a camera from one planar target (flat x, y of its points, z = 0) seen in several
 /// views (flat u, v per view, NaN for a point not seen): (RMS in pixels, [fx, fy, cx, cy],
-/// distortion coefficients, per-view Rodrigues vectors, per-view translations).
+/// distortion coefficients, per-view Rodrigues vectors, per-view translations). `held` is
+/// [`Free::held`], `aspect_ratio` the held fx/fy, `guess` the start (row-major 3×3 matrix and
+/// OpenCV distortion coefficients; OpenCV's `CALIB_USE_INTRINSIC_GUESS`).
 #[pyfunction]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn calibrate_camera_flat(
@@ -51,11 +53,10 @@ pub fn calibrate_camera_flat(
     image_points: Vec<Vec<f64>>,
     width: u32,
     height: u32,
-    fix_k3: bool,
-    zero_tangent: bool,
-    rational: bool,
-    thin_prism: bool,
-    tilted: bool,
+    flags: (bool, bool, bool, bool, bool),
+    held: u32,
+    aspect_ratio: Option<f64>,
+    guess: Option<Guess>,
 ) -> PyResult<(f64, [f64; 4], Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>)> {
     if object_xy.iter().any(|x| !x.is_finite()) {
         return Err(value("object_points: must be finite"));
@@ -63,9 +64,18 @@ pub fn calibrate_camera_flat(
     let obj: Vec<[f64; 2]> = object_xy.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
     let views: Vec<(String, Vec<[f64; 2]>)> =
         image_points.iter().enumerate().map(|(i, v)| (format!("image_points[{i}]"), v.chunks_exact(2).map(|p| [p[0], p[1]]).collect())).collect();
-    let free = Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() };
-    let c = calibrate_camera_planar(&obj, &views, width, height, free).or_py()?;
+    let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
+    let free = Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, held, aspect_ratio: [aspect_ratio, None], ..Default::default() };
+    let start = guess.as_ref().map(|(k, d)| lens_of(k, d, "camera_matrix", "dist_coeffs")).transpose()?;
+    let c = calibrate_camera_guided(&obj, &views, width, height, free, start.as_ref()).or_py()?;
     Ok((c.rms_px, [c.fx, c.fy, c.cx, c.cy], c.dist, c.views.iter().map(|v| v.rvec).collect(), c.views.iter().map(|v| v.tvec).collect()))
+}
+
+/// A lens from a row-major 3×3 camera matrix and OpenCV distortion coefficients.
+fn lens_of(k: &[f64], d: &[f64], k_name: &str, d_name: &str) -> PyResult<scan::calib::model::Lens> {
+    let intr = render::camera::Intrinsics::from_camera_matrix(k).map_err(|e| value(format!("{k_name}: {e}")))?;
+    render::camera::Distortion::from_opencv(d).map_err(|e| value(format!("{d_name}: {e}")))?;
+    Ok(scan::calib::model::Lens::from_opencv(intr.fx, intr.fy, intr.cx, intr.cy, d))
 }
 
 /// One camera's start or held values for [`stereo_calibrate_flat`]: row-major 3×3 matrix and
@@ -89,6 +99,8 @@ pub fn stereo_calibrate_flat(
     guess: Option<(Guess, Guess)>,
     fix_intrinsic: bool,
     flags: (bool, bool, bool, bool, bool),
+    held: u32,
+    aspect_ratio: (Option<f64>, Option<f64>),
 ) -> PyResult<(f64, [f64; 4], Vec<f64>, [f64; 4], Vec<f64>, [[f64; 3]; 3], [f64; 3])> {
     use scan::calib::{calibrate_planar, CaptureCorners, DeviceCalibration, Rig};
     if object_xy.iter().any(|x| !x.is_finite()) {
@@ -101,7 +113,7 @@ pub fn stereo_calibrate_flat(
     let pts = |v: &[f64]| v.chunks_exact(2).map(|p| [p[0], p[1]]).collect::<Vec<_>>();
     let captures: Vec<CaptureCorners> = points1.iter().zip(&points2).enumerate().map(|(i, (a, b))| CaptureCorners { name: format!("view {i}"), cam: pts(a), proj: pts(b) }).collect();
     let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
-    let free = Free { lenses: !fix_intrinsic, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() };
+    let free = Free { lenses: !fix_intrinsic, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, held, aspect_ratio: [aspect_ratio.0, aspect_ratio.1], ..Default::default() };
     let rig = Rig { cols: obj.len(), rows: 1, square: 1.0, camera: (width, height), projector: (width, height) };
     let devices = ["image_points1", "image_points2"];
     let c = py

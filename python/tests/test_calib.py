@@ -43,10 +43,64 @@ def test_calibrate_camera_recovers_a_known_camera():
     assert np.abs(d.ravel() - tilted).max() < 1e-8 and np.abs(k - K).max() < 1e-6 * K[0, 0]
 
 
+def test_calibrate_camera_holds_what_opencv_holds():
+    # A camera whose principal point is the image centre ((w − 1)/2, (h − 1)/2, where OpenCV puts
+    # a held one) and whose fx/fy is known: held, they stay exact and the rest is the truth.
+    kc = K.copy()
+    kc[0, 2], kc[1, 2] = 319.5, 239.5
+    pts = [lucent.project_points(OBJ, r, t, kc, DIST) for r, t in POSES]
+    ratio = np.diag([kc[0, 0] / kc[1, 1], 1.0, 1.0])
+    rms, k, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), ratio, None,
+                                              flags=lucent.CALIB_FIX_PRINCIPAL_POINT | lucent.CALIB_FIX_ASPECT_RATIO)
+    assert k[0, 2] == 319.5 and k[1, 2] == 239.5 and abs(k[0, 0] / k[1, 1] - ratio[0, 0]) < 1e-15
+    assert rms < 1e-8 and np.abs(k - kc).max() < 1e-6 * kc[0, 0] and np.abs(d.ravel() - DIST).max() < 1e-8
+    # From a guess, CALIB_FIX_K1 and CALIB_FIX_K3 keep the guess's values exactly and the fit
+    # cannot then reach the truth; with the true k1 and k3 held it does.
+    guess_k, guess_d = kc + np.array([[9.0, 0, 4.0], [0, -6.0, -3.0], [0, 0, 0]]), DIST + [0.01, -0.03, 0.0, 0.0, 0.02]
+    flags = lucent.CALIB_USE_INTRINSIC_GUESS | lucent.CALIB_FIX_K1 | lucent.CALIB_FIX_K3
+    rms, k, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), guess_k, guess_d, flags=flags)
+    assert d[0, 0] == guess_d[0] and d[0, 4] == guess_d[4] and rms > 1e-3
+    right = guess_d.copy()
+    right[[0, 4]] = DIST[[0, 4]]
+    rms, k, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), guess_k, right, flags=flags)
+    assert rms < 1e-8 and np.abs(k - kc).max() < 1e-6 * kc[0, 0] and np.abs(d.ravel() - DIST).max() < 1e-8
+    # Without a guess CALIB_FIX_K1 holds k1 at 0.
+    _, _, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), flags=lucent.CALIB_FIX_K1 | lucent.CALIB_FIX_TANGENT_DIST)
+    assert d[0, 0] == 0.0 and d[0, 2] == 0.0 and d[0, 3] == 0.0
+
+
+def test_calibrate_camera_hold_flags_agree_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(3)
+    pts = [p + rng.normal(0, 0.2, p.shape) for p in views()]
+    guess_k, guess_d = np.array([[880.0, 0, 330.0], [0, 890.0, 230.0], [0, 0, 1]]), np.array([-0.1, 0.05, 0.0, 0.0, 0.0])
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 300, 1e-15)
+    for flags, k0, d0 in [(cv2.CALIB_FIX_PRINCIPAL_POINT | cv2.CALIB_FIX_ASPECT_RATIO, np.eye(3), None),
+                          (cv2.CALIB_FIX_K1 | cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_FIX_K3, None, None),
+                          (cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_K1 | cv2.CALIB_FIX_FOCAL_LENGTH, guess_k, guess_d),
+                          (cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_PRINCIPAL_POINT | cv2.CALIB_FIX_K3, guess_k, guess_d),
+                          (cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_ASPECT_RATIO, guess_k, guess_d),
+                          (cv2.CALIB_FIX_TANGENT_DIST | cv2.CALIB_FIX_K2, None, None)]:
+        copy = lambda a: None if a is None else a.copy()
+        ours = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), copy(k0), copy(d0), flags=flags)
+        theirs = cv2.calibrateCamera([OBJ.astype(np.float32)] * len(pts), [p.astype(np.float32).reshape(-1, 1, 2) for p in pts],
+                                     (640, 480), copy(k0), copy(d0), flags=flags, criteria=crit)
+        # The same constrained least-squares problem (float32 pixels in OpenCV): the same minimum.
+        assert abs(ours[0] - theirs[0]) < 1e-4 * theirs[0], flags
+        assert np.abs(ours[1] - theirs[1]).max() < 1e-6 * K[0, 0], flags
+        assert np.abs(ours[2] - theirs[2]).max() < 1e-3, flags
+
+
 def test_calibrate_camera_refuses_what_it_does_not_do():
     pts = views()
     with pytest.raises(ValueError, match="flags"):
-        lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=1)  # CALIB_USE_INTRINSIC_GUESS
+        lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=512)  # CALIB_SAME_FOCAL_LENGTH, a stereo flag
+    with pytest.raises(ValueError, match="camera_matrix"):
+        lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=lucent.CALIB_USE_INTRINSIC_GUESS)
+    with pytest.raises(ValueError, match="camera_matrix.*fx/fy"):
+        lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=lucent.CALIB_FIX_ASPECT_RATIO)
+    with pytest.raises(ValueError, match="positive fx and fy"):
+        lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), np.zeros((3, 3)), None, flags=lucent.CALIB_FIX_ASPECT_RATIO)
     bent = OBJ.copy()
     bent[3, 2] = 1.0
     with pytest.raises(ValueError, match="z = 0"):
@@ -284,6 +338,28 @@ def test_stereo_calibrate_agrees_with_live_opencv():
     assert abs(ours[0] - theirs[0]) < 1e-3 * theirs[0]
     assert np.abs(ours[5] - theirs[5]).max() < 1e-4 and np.abs(ours[6] - theirs[6]).max() < 1e-3 * np.linalg.norm(T12)
     assert np.abs(ours[1] - theirs[1]).max() < 1e-3 * K[0, 0] and np.abs(ours[3] - theirs[3]).max() < 1e-3 * K2[0, 0]
+
+
+def test_stereo_calibrate_hold_flags_agree_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(6)
+    p1, p2 = stereo_views()
+    p1 = [p + rng.normal(0, 0.2, p.shape) for p in p1]
+    p2 = [p + rng.normal(0, 0.2, p.shape) for p in p2]
+    obj = [OBJ.astype(np.float32)] * len(p1)
+    f32 = lambda ps: [p.astype(np.float32).reshape(-1, 1, 2) for p in ps]
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 300, 1e-15)
+    _, k1, d1, _, _ = cv2.calibrateCamera(obj, f32(p1), (640, 480), None, None, criteria=crit)
+    _, k2, d2, _, _ = cv2.calibrateCamera(obj, f32(p2), (640, 480), None, None, criteria=crit)
+    # OpenCV's stereo sample's holds (without CALIB_SAME_FOCAL_LENGTH, which lucent does not do).
+    flags = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_ASPECT_RATIO | cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_FIX_PRINCIPAL_POINT | cv2.CALIB_FIX_K3
+    ours = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, k1.copy(), d1.copy(), k2.copy(), d2.copy(), (640, 480), flags=flags)
+    theirs = cv2.stereoCalibrate(obj, f32(p1), f32(p2), k1.copy(), d1.copy(), k2.copy(), d2.copy(), (640, 480), flags=flags, criteria=crit)
+    assert abs(ours[0] - theirs[0]) < 1e-4 * theirs[0]
+    for i in (1, 3):
+        assert np.abs(ours[i] - theirs[i]).max() < 1e-3, i
+        assert ours[i][0, 2] == (k1 if i == 1 else k2)[0, 2]
+    assert np.abs(ours[5] - theirs[5]).max() < 1e-5 and np.abs(ours[6] - theirs[6]).max() < 1e-4 * np.linalg.norm(T12)
 
 
 def test_undistort_identity_colour_and_bad_input():

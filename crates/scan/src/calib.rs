@@ -300,7 +300,8 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
             let (o, q): (Vec<_>, Vec<_>) = obj.iter().zip(pts(c)).filter(|(_, q)| bundle::observed(**q)).map(|(o, q)| (*o, *q)).unzip();
             hs.push(homography::fit_homography(&o, &q).with_context(|| format!("{what}, capture {}: the corners do not determine a homography", c.name))?);
         }
-        let lens = zhang::intrinsics(&hs, size.0, size.1).with_context(|| what.to_string())?;
+        let free = free.for_device(usize::from(what == devices[1]));
+        let lens = zhang::start(&hs, size.0, size.1, &free).with_context(|| what.to_string())?;
         let mut poses = Vec::new();
         for (h, c) in hs.iter().zip(captures) {
             poses.push(zhang::pose_from_homography(h, &lens.k()).with_context(|| format!("{what}, capture {}: no board pose", c.name))?);
@@ -312,34 +313,16 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
     let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
     let start = match init {
         Some(c) => {
-            // Held terms start (and stay) at 0.
-            let lens = |d: &DeviceCalibration| {
-                let mut l = model::Lens::from_opencv(d.fx, d.fy, d.cx, d.cy, &d.distortion);
-                if !free.tangential {
-                    (l.dist[2], l.dist[3]) = (0.0, 0.0);
-                }
-                if !free.k3 {
-                    l.dist[4] = 0.0;
-                }
-                if !free.rational {
-                    l.rational = [0.0; 3];
-                }
-                if !free.thin_prism {
-                    l.prism = [0.0; 4];
-                }
-                if !free.tilted {
-                    l.tilt = [0.0; 2];
-                }
-                l
-            };
-            let cam = lens(&c.camera);
+            // Terms the model leaves out start (and stay) at 0.
+            let lens = |d: &DeviceCalibration, i: usize| free.without_unmodelled(model::Lens::from_opencv(d.fx, d.fy, d.cx, d.cy, &d.distortion), i);
+            let cam = lens(&c.camera, 0);
             let mut poses = Vec::new();
             for cap in captures {
                 let h = homography::fit_homography(obj, &cap.cam).with_context(|| format!("{}, capture {}: the corners do not determine a homography", devices[0], cap.name))?;
                 poses.push(zhang::pose_from_homography(&h, &cam.k()).with_context(|| format!("capture {}: no board pose", cap.name))?);
             }
             let r = nalgebra::Matrix3::from_fn(|i, j| c.rotation[i][j]);
-            State { cam, proj: Some(lens(&c.projector)), stereo: model::Pose::from_rt(&r, nalgebra::Vector3::from(c.translation)), poses }
+            State { cam, proj: Some(lens(&c.projector, 1)), stereo: model::Pose::from_rt(&r, nalgebra::Vector3::from(c.translation)), poses }
         }
         None => stereo_start(captures, rig, &mono, devices)?,
     };

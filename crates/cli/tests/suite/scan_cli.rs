@@ -262,7 +262,7 @@ fn reconstruct_a_rendered_plane_through_the_command() {
 /// captures finds (two independent estimates: fx within 0.5 %, principal point within 10 px);
 /// the JSON and the FileStorage copy read back as the same camera through the renderer's
 /// calibration reader; images of two sizes, a photograph without the board and fewer than 3
-/// views are one-line errors with no output.
+/// views are one-line errors with no output; held principal point and aspect ratio stay exact.
 #[test]
 fn calibrate_camera_agrees_with_the_procam_calibration_and_feeds_the_renderer() {
     use render::load::calibration::{read_calibration, CalibrationNodes};
@@ -313,6 +313,17 @@ fn calibrate_camera_agrees_with_the_procam_calibration_and_feeds_the_renderer() 
     let skipped: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(skipped["views"].as_array().unwrap().len(), 3);
     assert_eq!(skipped["fx"], v["fx"]);
+    // --fix-principal-point and --aspect-ratio hold what they say; the constrained fit cannot
+    // fit better than the free one. A ratio that is not positive is a one-line error.
+    let mut held_args = args.clone();
+    held_args.retain(|a| !["--out", "--opencv-out", json.as_str(), yml.as_str()].contains(a));
+    held_args.extend(["--fix-principal-point", "--aspect-ratio", "1"]);
+    let h = ok_json(&held_args);
+    assert_eq!((f(&h["cx"]), f(&h["cy"])), (639.5, 511.5));
+    assert_eq!(f(&h["fx"]), f(&h["fy"]));
+    assert!(f(&h["rms_px"]) >= f(&v["rms_px"]), "{} < {}", h["rms_px"], v["rms_px"]);
+    let e = fails_on_one_line(&["scan", "calibrate-camera", &whites[0], &whites[1], &whites[2], "--corners", "9x7", "--square", "75", "--aspect-ratio", "0"]);
+    assert!(e.contains("aspect-ratio"), "{e}");
 }
 
 /// An 8-bit PNG of OpenCV's asymmetric 4 × 11 circle grid (spacing 10) seen by the pinhole camera

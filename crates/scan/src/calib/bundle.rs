@@ -57,11 +57,74 @@ pub struct Free {
     pub thin_prism: bool,
     /// The sensor tilt τx, τy (OpenCV's `CALIB_TILTED_MODEL`); off by default.
     pub tilted: bool,
+    /// Lens terms held at their start values, one bit per term in [`Lens::to_array`]'s order
+    /// (bit 0 fx … bit 17 τy; the `HOLD_*` constants), for every device: OpenCV's
+    /// `CALIB_FIX_PRINCIPAL_POINT`, `CALIB_FIX_FOCAL_LENGTH`, `CALIB_FIX_K1` … `CALIB_FIX_K6`,
+    /// `CALIB_FIX_TANGENT_DIST`, `CALIB_FIX_S1_S2_S3_S4`, `CALIB_FIX_TAUX_TAUY`.
+    pub held: u32,
+    /// Per device (camera, projector or second camera): fx/fy held at this ratio, fy fitted
+    /// (OpenCV's `CALIB_FIX_ASPECT_RATIO`, whose ratio is that of the input camera matrix).
+    pub aspect_ratio: [Option<f64>; 2],
 }
+
+impl Free {
+    /// Device `d`'s `lens` with the terms this fit does not model set to 0 (p1, p2 without
+    /// `tangential`, k3 without `k3`, and so on) and fx tied to fy where the aspect ratio is
+    /// held, as a start value must have them.
+    pub fn without_unmodelled(&self, mut l: Lens, d: usize) -> Lens {
+        if !self.tangential {
+            (l.dist[2], l.dist[3]) = (0.0, 0.0);
+        }
+        if !self.k3 {
+            l.dist[4] = 0.0;
+        }
+        if !self.rational {
+            l.rational = [0.0; 3];
+        }
+        if !self.thin_prism {
+            l.prism = [0.0; 4];
+        }
+        if !self.tilted {
+            l.tilt = [0.0; 2];
+        }
+        if let Some(a) = self.aspect_ratio[d] {
+            l.fx = a * l.fy;
+        }
+        l
+    }
+
+    /// This fit for device `d` alone (its aspect ratio in the first place).
+    pub fn for_device(&self, d: usize) -> Free {
+        Free { aspect_ratio: [self.aspect_ratio[d], None], ..*self }
+    }
+}
+
+/// [`Free::held`] bits: fx and fy.
+pub const HOLD_FOCAL: u32 = 0b11;
+/// [`Free::held`] bits: cx and cy.
+pub const HOLD_PRINCIPAL_POINT: u32 = 0b1100;
+/// [`Free::held`] bit of radial term k_i (i = 1…6).
+pub const fn hold_k(i: usize) -> u32 {
+    match i {
+        1 => 1 << 4,
+        2 => 1 << 5,
+        3 => 1 << 8,
+        4 => 1 << 9,
+        5 => 1 << 10,
+        6 => 1 << 11,
+        _ => 0,
+    }
+}
+/// [`Free::held`] bits: p1 and p2.
+pub const HOLD_TANGENTIAL: u32 = 0b11 << 6;
+/// [`Free::held`] bits: s1…s4.
+pub const HOLD_PRISM: u32 = 0b1111 << 12;
+/// [`Free::held`] bits: τx and τy.
+pub const HOLD_TILT: u32 = 0b11 << 16;
 
 impl Default for Free {
     fn default() -> Self {
-        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2], thin_prism: false, tilted: false }
+        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2], thin_prism: false, tilted: false, held: 0, aspect_ratio: [None; 2] }
     }
 }
 
@@ -80,9 +143,20 @@ struct Problem<'a> {
     stereo: bool,
     /// Image-corner radius per device for the rational model's barrier (0: none).
     barrier: [f64; 2],
+    /// fx / fy per device where the aspect ratio is held (fx then follows fy).
+    aspect: [Option<f64>; 2],
 }
 
 impl Problem<'_> {
+    /// Device `d`'s lens in `x`, with fx tied to fy where the aspect ratio is held.
+    fn lens(&self, x: &[f64], d: usize) -> Lens {
+        let mut l = Lens::from_slice(&x[d * LENS..(d + 1) * LENS]);
+        if let Some(a) = self.aspect[d] {
+            l.fx = a * l.fy;
+        }
+        l
+    }
+
     fn layout_view(&self, v: usize) -> usize {
         if self.stereo { 2 * LENS + 6 + 6 * v } else { LENS + 6 * v }
     }
@@ -112,10 +186,10 @@ impl Blocks for Problem<'_> {
     /// Residuals (predicted − observed, pixels) of view `v`: camera corners (u, v)…, then
     /// projector corners; 0 where a corner is not observed.
     fn block(&self, x: &[f64], v: usize, r: &mut [f64]) {
-        let cam = Lens::from_slice(&x[0..LENS]);
+        let cam = self.lens(x, 0);
         let (proj, stereo) = if self.stereo {
             let s = Self::pose_at(x, 2 * LENS);
-            (Some(Lens::from_slice(&x[LENS..2 * LENS])), Some((s.r(), s.t)))
+            (Some(self.lens(x, 1)), Some((s.r(), s.t)))
         } else {
             (None, None)
         };
@@ -149,8 +223,7 @@ impl Blocks for Problem<'_> {
             if rmax <= 0.0 || (d == 1 && !self.stereo) {
                 continue;
             }
-            let l = Lens::from_slice(&x[d * LENS..(d + 1) * LENS]);
-            let [k4, k5, k6] = l.rational;
+            let [k4, k5, k6] = self.lens(x, d).rational;
             for i in 0..BARRIER_SAMPLES {
                 let r2 = (1.1 * rmax * (i + 1) as f64 / BARRIER_SAMPLES as f64).powi(2);
                 let m = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
@@ -208,7 +281,7 @@ pub fn observed(p: Point2) -> bool {
 pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let stereo = state.proj.is_some();
-    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2] };
+    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2], aspect: [None; 2] };
     let x = pack_state(state);
     let n = obj.len();
     let mut r = vec![0.0; pr.block_rows()];
@@ -242,7 +315,8 @@ fn layout(free: Free, stereo: bool, nviews: usize) -> Layout {
     let (r, s, t) = (free.rational, free.thin_prism, free.tilted);
     for d in 0..ndev {
         for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r, s, s, s, s, t, t].iter().enumerate() {
-            if free.lenses && *on {
+            let held = free.held & (1 << i) != 0 || (free.aspect_ratio[d].is_some() && i == 0);
+            if free.lenses && *on && !held {
                 global.push(d * LENS + i);
             }
         }
@@ -267,8 +341,14 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
     let stereo = init.proj.is_some();
     let mut x = pack_state(init).as_slice().to_vec();
     let barrier = if free.rational { free.rational_radius } else { [0.0; 2] };
-    let problem = Problem { obj: &obj3, views, stereo, barrier };
+    let aspect = [free.aspect_ratio[0].filter(|_| free.lenses), free.aspect_ratio[1].filter(|_| free.lenses && stereo)];
+    let problem = Problem { obj: &obj3, views, stereo, barrier, aspect };
     let report = schur_lm::minimize(&problem, &layout(free, stereo, views.len()), &mut x, MAX_ITERATIONS)?;
+    for (d, a) in aspect.iter().enumerate() {
+        if let Some(a) = a {
+            x[d * LENS] = a * x[d * LENS + 1];
+        }
+    }
     // In the rational model's valley the iterations can run out while the corners no longer
     // move; that state is taken, as OpenCV's is after its iteration count (the caller checks
     // that the model stays invertible over the image).
@@ -293,7 +373,7 @@ pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64)
     let x = pack_state(state);
     let stereo = state.proj.is_some();
     let lay = layout(Free::default(), stereo, views.len());
-    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2] };
+    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2], aspect: [None; 2] };
     let cov = schur_lm::normal_equations(&pr, &lay, x.as_slice()).dense().try_inverse().expect("JᵀJ invertible");
     let mut sd = vec![f64::NAN; x.len()];
     let order = lay.global.iter().chain(lay.local.iter().flatten());

@@ -82,6 +82,14 @@ pub fn calibrate_camera(views: &[(String, Vec<Point2>)], width: u32, height: u32
 /// at least 4 not collinear), and each view gives their pixels in the same order (NaN for a point
 /// not seen), as OpenCV's `calibrateCamera` takes one object-point set per view.
 pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], width: u32, height: u32, free: Free) -> Result<CameraCalibration> {
+    calibrate_camera_guided(obj, views, width, height, free, None)
+}
+
+/// [`calibrate_camera_planar`] from a start: with `guess` (OpenCV's `CALIB_USE_INTRINSIC_GUESS`)
+/// the fit starts from that lens, and the terms `free.held` holds keep its values; without it,
+/// from [`zhang::start`] (the held principal point at the image centre, held distortion terms
+/// at 0), as OpenCV's `calibrateCamera` does.
+pub fn calibrate_camera_guided(obj: &[Point2], views: &[(String, Vec<Point2>)], width: u32, height: u32, free: Free, guess: Option<&model::Lens>) -> Result<CameraCalibration> {
     if views.len() < 3 {
         bail!("degenerate pose set: camera calibration needs at least 3 views of the board, got {}", views.len());
     }
@@ -95,13 +103,13 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
     }
     let obs: Vec<ViewObs> = views.iter().map(|(_, c)| ViewObs { cam: c.clone(), proj: vec![] }).collect();
     let fit = if free.rational {
-        let five = calibrate_camera_planar(obj, views, width, height, Free { rational: false, ..free })?;
+        let five = calibrate_camera_guided(obj, views, width, height, Free { rational: false, ..free }, guess)?;
         let corner_radius = [(-0.5, -0.5), (width as f64 - 0.5, -0.5), (-0.5, height as f64 - 0.5), (width as f64 - 0.5, height as f64 - 0.5)]
             .iter()
             .map(|&(u, v)| ((u - five.cx) / five.fx).hypot((v - five.cy) / five.fy))
             .fold(0.0f64, f64::max);
         let mut lens = model::Lens::from_opencv(five.fx, five.fy, five.cx, five.cy, &five.dist);
-        lens.rational = [0.0; 3];
+        lens.rational = guess.map_or([0.0; 3], |g| g.rational);
         let poses = five.views.iter().map(|v| model::Pose { rvec: v.rvec.into(), t: v.tvec.into() }).collect();
         let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
         refine(obj, &obs, &init, Free { rational_radius: [corner_radius, 0.0], ..free }, MAX_RMS_PX).context("camera")?
@@ -111,7 +119,10 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
             let (o, q): (Vec<Point2>, Vec<Point2>) = obj.iter().zip(c).filter(|(_, q)| bundle::observed(**q)).map(|(o, q)| (*o, *q)).unzip();
             hs.push(homography::fit_homography(&o, &q).with_context(|| format!("{name}: the corners do not determine a homography"))?);
         }
-        let lens = zhang::intrinsics(&hs, width, height).context("camera")?;
+        let lens = match guess {
+            Some(g) => free.without_unmodelled(*g, 0),
+            None => zhang::start(&hs, width, height, &free).context("camera")?,
+        };
         let mut poses = Vec::new();
         for (h, (name, _)) in hs.iter().zip(views) {
             poses.push(zhang::pose_from_homography(h, &lens.k()).with_context(|| format!("{name}: no board pose"))?);

@@ -416,3 +416,56 @@ fn camera_only_calibration_recovers_its_truth() {
     let e = calibrate_camera(&short, w, h, RIG.cols, RIG.rows, RIG.square, Free::default()).unwrap_err().to_string();
     assert!(e.contains("view1") && !e.contains('\n'), "{e}");
 }
+
+/// OpenCV's `CALIB_FIX_PRINCIPAL_POINT`, `CALIB_FIX_ASPECT_RATIO`, `CALIB_FIX_K*` and
+/// `CALIB_USE_INTRINSIC_GUESS` (`Free::held`, `Free::aspect_ratio`, `calibrate_camera_guided`):
+/// a camera whose principal point is the image centre and whose fx/fy is known gives back its
+/// truth to 1e-9 with those held, and the held values exactly; from a guess, held terms keep the
+/// guess's values while the rest converge; on noisy corners the constrained fit cannot fit better
+/// than the free one, and holds its constraints exactly.
+#[test]
+fn held_lens_terms_stay_where_opencv_holds_them() {
+    use scan::calib::bundle::{hold_k, Free, HOLD_FOCAL, HOLD_PRINCIPAL_POINT};
+    use scan::calib::camera::calibrate_camera_guided;
+    let (w, h) = RIG.camera;
+    let mut truth = rig(true);
+    (truth.cam.cx, truth.cam.cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let ratio = truth.cam.fx / truth.cam.fy;
+    let obj = board();
+    let views = |s: &State, noise: f64| -> Vec<(String, Vec<[f64; 2]>)> {
+        let mut rng = Pcg::new(17);
+        observe(s, &obj).into_iter().enumerate().map(|(i, v)| (format!("view{i}"), v.cam.iter().map(|p| [p[0] + noise * rng.normal(), p[1] + noise * rng.normal()]).collect())).collect()
+    };
+    let exact = views(&truth, 0.0);
+    let held = Free { held: HOLD_PRINCIPAL_POINT, aspect_ratio: [Some(ratio), None], ..Free::default() };
+    let c = calibrate_camera_guided(&obj, &exact, w, h, held, None).unwrap();
+    assert_eq!((c.cx, c.cy), (truth.cam.cx, truth.cam.cy));
+    assert!((c.fx / c.fy - ratio).abs() < 1e-15 * ratio);
+    let got = Lens::from_opencv(c.fx, c.fy, c.cx, c.cy, &c.dist).to_array();
+    let want = truth.cam.to_array();
+    let worst = (0..2).map(|i| rel(got[i], want[i], want[0])).chain((4..9).map(|i| (got[i] - want[i]).abs())).fold(0.0, f64::max);
+    assert!(worst < 1e-9 && c.rms_px < 1e-9, "deviation {worst:e}, RMS {}", c.rms_px);
+
+    // From a guess: k1 and the focal lengths held at the guess's values, everything else fitted.
+    let mut guess = truth.cam;
+    guess.dist[0] += 0.01;
+    (guess.cx, guess.cy) = (guess.cx + 6.0, guess.cy - 4.0);
+    guess.dist[1] -= 0.05;
+    let from_guess = Free { held: hold_k(1) | HOLD_FOCAL, ..Free::default() };
+    let g = calibrate_camera_guided(&obj, &exact, w, h, from_guess, Some(&guess)).unwrap();
+    assert_eq!((g.dist[0], g.fx, g.fy), (guess.dist[0], guess.fx, guess.fy));
+    assert!(g.rms_px > 1e-3, "a wrong held k1 must leave a residual, RMS {}", g.rms_px);
+    // The same with the true k1: the free terms go back to the truth.
+    let mut right_k1 = guess;
+    right_k1.dist[0] = truth.cam.dist[0];
+    let g = calibrate_camera_guided(&obj, &exact, w, h, from_guess, Some(&right_k1)).unwrap();
+    assert!((g.cx - truth.cam.cx).abs() < 1e-6 && (g.dist[1] - truth.cam.dist[1]).abs() < 1e-9 && g.rms_px < 1e-9, "{g:?}");
+
+    // Noisy corners: the constrained fit's minimum lies above the free fit's.
+    let noisy = views(&truth, 0.3);
+    let free = calibrate_camera_guided(&obj, &noisy, w, h, Free::default(), None).unwrap();
+    let c = calibrate_camera_guided(&obj, &noisy, w, h, held, None).unwrap();
+    assert!(c.rms_px >= free.rms_px && c.rms_px < 1.01 * free.rms_px, "{} vs {}", c.rms_px, free.rms_px);
+    assert_eq!((c.cx, c.cy), (truth.cam.cx, truth.cam.cy));
+    assert!((c.fx / c.fy - ratio).abs() < 1e-15 * ratio);
+}

@@ -85,12 +85,28 @@ pub struct LensFlags {
     /// fourteen coefficients.
     #[arg(long)]
     pub tilted: bool,
+    /// Hold the principal point at the image centre, ((width − 1)/2, (height − 1)/2) (OpenCV's
+    /// CALIB_FIX_PRINCIPAL_POINT), for views that do not determine it.
+    #[arg(long)]
+    pub fix_principal_point: bool,
+    /// Hold fx/fy at this ratio and fit fy (OpenCV's CALIB_FIX_ASPECT_RATIO; its calibration
+    /// sample's `-a`); 1 for square pixels.
+    #[arg(long, value_name = "FX/FY", value_parser = positive_f64)]
+    pub aspect_ratio: Option<f64>,
+}
+
+/// clap value parser: a finite positive number.
+fn positive_f64(s: &str) -> std::result::Result<f64, String> {
+    let v = crate::cmd::mie::finite_f64(s)?;
+    if v > 0.0 { Ok(v) } else { Err(format!("{s:?} is not positive")) }
 }
 
 impl LensFlags {
     /// The parameters the fit may move.
     pub fn free(&self) -> scan::calib::bundle::Free {
-        scan::calib::bundle::Free { lenses: true, k3: !self.fix_k3, tangential: !self.zero_tangent, rational: self.rational, thin_prism: self.thin_prism, tilted: self.tilted, ..Default::default() }
+        use scan::calib::bundle::{Free, HOLD_PRINCIPAL_POINT};
+        let held = if self.fix_principal_point { HOLD_PRINCIPAL_POINT } else { 0 };
+        Free { lenses: true, k3: !self.fix_k3, tangential: !self.zero_tangent, rational: self.rational, thin_prism: self.thin_prism, tilted: self.tilted, held, aspect_ratio: [self.aspect_ratio; 2], ..Default::default() }
     }
 }
 
