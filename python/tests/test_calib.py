@@ -321,18 +321,25 @@ def test_stereo_calibrate_recovers_a_known_rig():
         lucent.stereo_calibrate([OBJ] * len(p1), p1, p2[:-1], None, None, None, None, (640, 480))
 
 
-def test_stereo_calibrate_agrees_with_live_opencv():
-    cv2 = pytest.importorskip("cv2")
-    rng = np.random.default_rng(5)
+def noisy_stereo_for_cv2(cv2, seed):
+    """The rig's views with 0.2 px of noise, OpenCV's float32 forms of them, and each camera as
+    cv2.calibrateCamera finds it: (p1, p2, obj, f32, crit, (k1, d1), (k2, d2))."""
+    rng = np.random.default_rng(seed)
     p1, p2 = stereo_views()
     p1 = [p + rng.normal(0, 0.2, p.shape) for p in p1]
     p2 = [p + rng.normal(0, 0.2, p.shape) for p in p2]
-    ours = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480))
     obj = [OBJ.astype(np.float32)] * len(p1)
     f32 = lambda ps: [p.astype(np.float32).reshape(-1, 1, 2) for p in ps]
-    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 200, 1e-14)
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 300, 1e-15)
     _, k1, d1, _, _ = cv2.calibrateCamera(obj, f32(p1), (640, 480), None, None, criteria=crit)
     _, k2, d2, _, _ = cv2.calibrateCamera(obj, f32(p2), (640, 480), None, None, criteria=crit)
+    return p1, p2, obj, f32, crit, (k1, d1), (k2, d2)
+
+
+def test_stereo_calibrate_agrees_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    p1, p2, obj, f32, crit, (k1, d1), (k2, d2) = noisy_stereo_for_cv2(cv2, 5)
+    ours = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480))
     theirs = cv2.stereoCalibrate(obj, f32(p1), f32(p2), k1, d1, k2, d2, (640, 480), flags=cv2.CALIB_USE_INTRINSIC_GUESS, criteria=crit)
     # One least-squares problem (float32 pixels in OpenCV): the same minimum.
     assert abs(ours[0] - theirs[0]) < 1e-3 * theirs[0]
@@ -342,15 +349,7 @@ def test_stereo_calibrate_agrees_with_live_opencv():
 
 def test_stereo_calibrate_hold_flags_agree_with_live_opencv():
     cv2 = pytest.importorskip("cv2")
-    rng = np.random.default_rng(6)
-    p1, p2 = stereo_views()
-    p1 = [p + rng.normal(0, 0.2, p.shape) for p in p1]
-    p2 = [p + rng.normal(0, 0.2, p.shape) for p in p2]
-    obj = [OBJ.astype(np.float32)] * len(p1)
-    f32 = lambda ps: [p.astype(np.float32).reshape(-1, 1, 2) for p in ps]
-    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 300, 1e-15)
-    _, k1, d1, _, _ = cv2.calibrateCamera(obj, f32(p1), (640, 480), None, None, criteria=crit)
-    _, k2, d2, _, _ = cv2.calibrateCamera(obj, f32(p2), (640, 480), None, None, criteria=crit)
+    p1, p2, obj, f32, crit, (k1, d1), (k2, d2) = noisy_stereo_for_cv2(cv2, 6)
     # OpenCV's stereo sample's holds (without CALIB_SAME_FOCAL_LENGTH, which lucent does not do).
     flags = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_ASPECT_RATIO | cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_FIX_PRINCIPAL_POINT | cv2.CALIB_FIX_K3
     ours = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, k1.copy(), d1.copy(), k2.copy(), d2.copy(), (640, 480), flags=flags)
