@@ -792,8 +792,9 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
             tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
 
 
-#: Stereo flag of :func:`stereo_calibrate` (the value of ``cv2.CALIB_FIX_INTRINSIC``).
+#: Stereo flags of :func:`stereo_calibrate` (the values of ``cv2.CALIB_*``).
 CALIB_FIX_INTRINSIC = 256
+CALIB_SAME_FOCAL_LENGTH = 512
 
 
 def _planar_target(object_points, image_points, name):
@@ -834,6 +835,18 @@ def _aspect(camera_matrix, name):
     return float(a)
 
 
+def _stereo_aspect(flags, camera_matrix1, camera_matrix2):
+    """Each camera's held fx/fy: its matrix's, or with CALIB_SAME_FOCAL_LENGTH that of the two
+    matrices' mean, as cv2.stereoCalibrate averages them first."""
+    if not flags & CALIB_FIX_ASPECT_RATIO:
+        return None, None
+    a1, a2 = _aspect(camera_matrix1, "camera_matrix1"), _aspect(camera_matrix2, "camera_matrix2")
+    if flags & CALIB_SAME_FOCAL_LENGTH:
+        k1, k2 = _np.asarray(camera_matrix1, dtype=float), _np.asarray(camera_matrix2, dtype=float)
+        a1 = a2 = float((k1[0, 0] + k2[0, 0]) / (k1[1, 1] + k2[1, 1]))
+    return a1, a2
+
+
 def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1, dist_coeffs1,
                      camera_matrix2, dist_coeffs2, image_size, flags=0):
     """Calibrate two cameras and their relative pose from views of one planar target seen by both,
@@ -853,7 +866,8 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     flags : int
         0 (all free), CALIB_USE_INTRINSIC_GUESS or CALIB_FIX_INTRINSIC, combined with the model
         and hold flags of :func:`calibrate_camera`, which apply to both cameras
-        (CALIB_FIX_ASPECT_RATIO takes each camera's fx/fy from its matrix). Unlike cv2, whose
+        (CALIB_FIX_ASPECT_RATIO takes each camera's fx/fy from its matrix), and
+        CALIB_SAME_FOCAL_LENGTH (the second camera's fx, fy are the first's). Unlike cv2, whose
         default is CALIB_FIX_INTRINSIC, 0 fits everything.
 
     Returns
@@ -864,10 +878,10 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         the fundamental matrix F = K₂⁻ᵀ E K₁⁻¹.
     """
     flags = int(flags)
-    allowed = _CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC
+    allowed = _CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC | CALIB_SAME_FOCAL_LENGTH
     if flags & ~allowed:
         raise ValueError(f"flags: {flags & ~allowed} is not a flag lucent.stereo_calibrate knows "
-                         "(CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC and the flags of calibrate_camera are)")
+                         "(CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC, CALIB_SAME_FOCAL_LENGTH and the flags of calibrate_camera are)")
     if len(image_points1) != len(image_points2):
         raise ValueError(f"image_points1 and image_points2: {len(image_points1)} and {len(image_points2)} views")
     obj, img1 = _planar_target(object_points, image_points1, "image_points1")
@@ -881,7 +895,7 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     rms, c1, d1, c2, d2, r, t = _lucent.stereo_calibrate_flat(
         [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img1], [[float(v) for v in p.ravel()] for p in img2],
         w, h, guess, bool(flags & CALIB_FIX_INTRINSIC), _lens_flags(flags, guess is not None), _held(flags, guess is not None),
-        (_aspect(camera_matrix1, "camera_matrix1"), _aspect(camera_matrix2, "camera_matrix2")) if flags & CALIB_FIX_ASPECT_RATIO else (None, None))
+        _stereo_aspect(flags, camera_matrix1, camera_matrix2), bool(flags & CALIB_SAME_FOCAL_LENGTH))
     k = lambda c: _np.array([[c[0], 0.0, c[2]], [0.0, c[1], c[3]], [0.0, 0.0, 1.0]])
     k1, k2, r, t = k(c1), k(c2), _np.asarray(r, dtype=float), _np.asarray(t, dtype=float).reshape(3, 1)
     tx = _np.array([[0.0, -t[2, 0], t[1, 0]], [t[2, 0], 0.0, -t[0, 0]], [-t[1, 0], t[0, 0], 0.0]])

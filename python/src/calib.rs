@@ -101,6 +101,7 @@ pub fn stereo_calibrate_flat(
     flags: (bool, bool, bool, bool, bool),
     held: u32,
     aspect_ratio: (Option<f64>, Option<f64>),
+    same_focal: bool,
 ) -> PyResult<(f64, [f64; 4], Vec<f64>, [f64; 4], Vec<f64>, [[f64; 3]; 3], [f64; 3])> {
     use scan::calib::{calibrate_planar, CaptureCorners, DeviceCalibration, Rig};
     if object_xy.iter().any(|x| !x.is_finite()) {
@@ -113,7 +114,7 @@ pub fn stereo_calibrate_flat(
     let pts = |v: &[f64]| v.chunks_exact(2).map(|p| [p[0], p[1]]).collect::<Vec<_>>();
     let captures: Vec<CaptureCorners> = points1.iter().zip(&points2).enumerate().map(|(i, (a, b))| CaptureCorners { name: format!("view {i}"), cam: pts(a), proj: pts(b) }).collect();
     let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
-    let free = Free { lenses: !fix_intrinsic, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, held, aspect_ratio: [aspect_ratio.0, aspect_ratio.1], ..Default::default() };
+    let free = Free { lenses: !fix_intrinsic, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, held, aspect_ratio: [aspect_ratio.0, aspect_ratio.1], same_focal, ..Default::default() };
     let rig = Rig { cols: obj.len(), rows: 1, square: 1.0, camera: (width, height), projector: (width, height) };
     let devices = ["image_points1", "image_points2"];
     let c = py

@@ -326,6 +326,15 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
         }
         None => stereo_start(captures, rig, &mono, devices)?,
     };
+    let mut start = start;
+    if let (true, true, Some(p)) = (free.same_focal, free.lenses, start.proj.as_mut()) {
+        // One focal length starts, as in OpenCV's stereoCalibrate, from the mean of the two
+        // devices' (and so do the principal points, which stay free).
+        let c = &mut start.cam;
+        for (a, b) in [(&mut c.fx, &mut p.fx), (&mut c.fy, &mut p.fy), (&mut c.cx, &mut p.cx), (&mut c.cy, &mut p.cy)] {
+            (*a, *b) = ((*a + *b) / 2.0, (*a + *b) / 2.0);
+        }
+    }
     let fit = refine(obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
     let c = finish(rig, captures, obj, &views, &fit, coefficient_count(free))?;
     // A rational denominator that reaches 0, or a tilt that turns part of the image beyond the

@@ -8,7 +8,7 @@
 
 use super::homography::Point2;
 use super::model::{Lens, Pose};
-use super::schur_lm::{self, Blocks, Layout, Stop};
+use super::schur_lm::{self, Blocks, Layout};
 use anyhow::{bail, Result};
 use nalgebra::{DVector, Vector3};
 
@@ -65,6 +65,9 @@ pub struct Free {
     /// Per device (camera, projector or second camera): fx/fy held at this ratio, fy fitted
     /// (OpenCV's `CALIB_FIX_ASPECT_RATIO`, whose ratio is that of the input camera matrix).
     pub aspect_ratio: [Option<f64>; 2],
+    /// For a pair: the second device's fx and fy are the first's (OpenCV's
+    /// `CALIB_SAME_FOCAL_LENGTH`).
+    pub same_focal: bool,
 }
 
 impl Free {
@@ -124,7 +127,7 @@ pub const HOLD_TILT: u32 = 0b11 << 16;
 
 impl Default for Free {
     fn default() -> Self {
-        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2], thin_prism: false, tilted: false, held: 0, aspect_ratio: [None; 2] }
+        Free { lenses: true, k3: true, tangential: true, rational: false, rational_radius: [0.0; 2], thin_prism: false, tilted: false, held: 0, aspect_ratio: [None; 2], same_focal: false }
     }
 }
 
@@ -145,6 +148,8 @@ struct Problem<'a> {
     barrier: [f64; 2],
     /// fx / fy per device where the aspect ratio is held (fx then follows fy).
     aspect: [Option<f64>; 2],
+    /// The second device takes the first's fx and fy.
+    same_focal: bool,
 }
 
 impl Problem<'_> {
@@ -153,6 +158,10 @@ impl Problem<'_> {
         let mut l = Lens::from_slice(&x[d * LENS..(d + 1) * LENS]);
         if let Some(a) = self.aspect[d] {
             l.fx = a * l.fy;
+        }
+        if d == 1 && self.same_focal {
+            let first = self.lens(x, 0);
+            (l.fx, l.fy) = (first.fx, first.fy);
         }
         l
     }
@@ -281,7 +290,7 @@ pub fn observed(p: Point2) -> bool {
 pub fn rms(obj: &[Point2], views: &[ViewObs], state: &State) -> Rms {
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let stereo = state.proj.is_some();
-    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2], aspect: [None; 2] };
+    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2], aspect: [None; 2], same_focal: false };
     let x = pack_state(state);
     let n = obj.len();
     let mut r = vec![0.0; pr.block_rows()];
@@ -315,7 +324,7 @@ fn layout(free: Free, stereo: bool, nviews: usize) -> Layout {
     let (r, s, t) = (free.rational, free.thin_prism, free.tilted);
     for d in 0..ndev {
         for (i, on) in [true, true, true, true, true, true, free.tangential, free.tangential, free.k3, r, r, r, s, s, s, s, t, t].iter().enumerate() {
-            let held = free.held & (1 << i) != 0 || (free.aspect_ratio[d].is_some() && i == 0);
+            let held = free.held & (1 << i) != 0 || (free.aspect_ratio[d].is_some() && i == 0) || (free.same_focal && d == 1 && i < 2);
             if free.lenses && *on && !held {
                 global.push(d * LENS + i);
             }
@@ -329,9 +338,9 @@ fn layout(free: Free, stereo: bool, nviews: usize) -> Layout {
     Layout { global, local: (0..nviews).map(|v| std::array::from_fn(|k| first + 6 * v + k)).collect() }
 }
 
-/// Iterations [`refine`] allows. Every fit of the tests and of the real captures converges in far
-/// fewer; the rational model's valley of equivalent coefficients can use them all while the
-/// corners no longer move (OpenCV stops after 30).
+/// Iterations [`refine`] allows. Every fit of the tests and of the real photographs converges in
+/// fewer than 70; the rational model's valley of equivalent coefficients can use them all while
+/// the corners no longer move (OpenCV stops after 30).
 const MAX_ITERATIONS: usize = 300;
 
 /// Refine `init` by Levenberg–Marquardt over all reprojection errors. A single-device fit when
@@ -342,19 +351,16 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
     let mut x = pack_state(init).as_slice().to_vec();
     let barrier = if free.rational { free.rational_radius } else { [0.0; 2] };
     let aspect = [free.aspect_ratio[0].filter(|_| free.lenses), free.aspect_ratio[1].filter(|_| free.lenses && stereo)];
-    let problem = Problem { obj: &obj3, views, stereo, barrier, aspect };
-    let report = schur_lm::minimize(&problem, &layout(free, stereo, views.len()), &mut x, MAX_ITERATIONS)?;
-    for (d, a) in aspect.iter().enumerate() {
-        if let Some(a) = a {
-            x[d * LENS] = a * x[d * LENS + 1];
-        }
+    let problem = Problem { obj: &obj3, views, stereo, barrier, aspect, same_focal: free.same_focal && free.lenses && stereo };
+    schur_lm::minimize(&problem, &layout(free, stereo, views.len()), &mut x, MAX_ITERATIONS)?;
+    // The tied terms, as the residuals saw them.
+    for d in 0..if stereo { 2 } else { 1 } {
+        let l = problem.lens(&x, d);
+        (x[d * LENS], x[d * LENS + 1]) = (l.fx, l.fy);
     }
-    // In the rational model's valley the iterations can run out while the corners no longer
-    // move; that state is taken, as OpenCV's is after its iteration count (the caller checks
-    // that the model stays invertible over the image).
-    if report.stop == Stop::Iterations && !free.rational {
-        bail!("the calibration did not converge in {MAX_ITERATIONS} Levenberg–Marquardt iterations");
-    }
+    // The iterations can run out in the rational model's valley of equivalent coefficients while
+    // the corners no longer move; that state is taken, as OpenCV's is after its iteration count
+    // (the RMS is checked below, and the caller checks that the model stays invertible).
     let state = unpack(&x, stereo, views.len());
     let e = rms(obj, views, &state);
     if !(e.all <= max_rms_px) {
@@ -373,7 +379,7 @@ pub fn std_devs(obj: &[Point2], views: &[ViewObs], state: &State, sigma_px: f64)
     let x = pack_state(state);
     let stereo = state.proj.is_some();
     let lay = layout(Free::default(), stereo, views.len());
-    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2], aspect: [None; 2] };
+    let pr = Problem { obj: &obj3, views, stereo, barrier: [0.0; 2], aspect: [None; 2], same_focal: false };
     let cov = schur_lm::normal_equations(&pr, &lay, x.as_slice()).dense().try_inverse().expect("JᵀJ invertible");
     let mut sd = vec![f64::NAN; x.len()];
     let order = lay.global.iter().chain(lay.local.iter().flatten());

@@ -1,6 +1,6 @@
 //! `lucent scan calibrate-stereo --left IMAGE… --right IMAGE… --corners CxR --square S
 //! [--pattern KIND] [--fix-k3] [--zero-tangent] [--rational] [--thin-prism] [--tilted]
-//! [--skip-missing] [--out CALIB.json] [--opencv-out CALIB.xml] [--json]`: two cameras and their
+//! [--fix-principal-point] [--aspect-ratio R] [--same-focal-length] [--skip-missing] [--out CALIB.json] [--opencv-out CALIB.xml] [--json]`: two cameras and their
 //! relative pose from simultaneous photographs of one target, as OpenCV's `calibrateCamera` per
 //! camera followed by `stereoCalibrate` with free intrinsics (scan::calib::calibrate_planar;
 //! docs/scanning.md, "Stereo cameras").
@@ -26,6 +26,10 @@ pub struct Args {
     pub target: TargetArgs,
     #[command(flatten)]
     pub lens: LensFlags,
+    /// One focal length for both cameras: the right camera's fx and fy are the left's (OpenCV's
+    /// CALIB_SAME_FOCAL_LENGTH).
+    #[arg(long)]
+    pub same_focal_length: bool,
     /// Leave out the pairs in which either camera does not see the whole target, instead of failing.
     #[arg(long)]
     pub skip_missing: bool,
@@ -79,7 +83,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let (Some((lw, lh, _)), Some((rw, rh, _))) = (&sizes[0], &sizes[1]) else { bail!("no photographs") };
     let rig = Rig { cols: target.cols, rows: target.rows, square: args.target.square, camera: (*lw, *lh), projector: (*rw, *rh) };
-    let calib = calibrate_planar(&rig, &target.object_points(args.target.square), &captures, None, args.lens.free(), ["left camera", "right camera"])
+    let calib = calibrate_planar(&rig, &target.object_points(args.target.square), &captures, None, scan::calib::bundle::Free { same_focal: args.same_focal_length, ..args.lens.free() }, ["left camera", "right camera"])
         .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace("at least 3 captures", "at least 3 pairs of photographs")))?;
     // Two cameras at one centre (the same photographs twice, or a rotating camera) calibrate,
     // but nothing can be triangulated from them.
