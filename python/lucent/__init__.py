@@ -60,6 +60,23 @@ __all__ = [
     "CALIB_RATIONAL_MODEL",
     "CALIB_THIN_PRISM_MODEL",
     "CALIB_TILTED_MODEL",
+    "CALIB_FIX_ASPECT_RATIO",
+    "CALIB_FIX_PRINCIPAL_POINT",
+    "CALIB_FIX_FOCAL_LENGTH",
+    "CALIB_FIX_K1",
+    "CALIB_FIX_K2",
+    "CALIB_FIX_K4",
+    "CALIB_FIX_K5",
+    "CALIB_FIX_K6",
+    "CALIB_FIX_S1_S2_S3_S4",
+    "CALIB_FIX_TAUX_TAUY",
+    "CALIB_FIX_TANGENT_DIST",
+    "CALIB_SAME_FOCAL_LENGTH",
+    "CALIB_ZERO_DISPARITY",
+    "get_optimal_new_camera_matrix",
+    "stereo_rectify",
+    "init_undistort_rectify_map",
+    "CV_32FC1",
     "Scene",
 ]
 
@@ -930,6 +947,96 @@ def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs):
     k, d = _camera_args(camera_matrix, dist_coeffs)
     r, t, _ = _lucent.solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d)
     return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
+
+
+CALIB_ZERO_DISPARITY = 1024
+
+
+def get_optimal_new_camera_matrix(camera_matrix, dist_coeffs, image_size, alpha, new_image_size=None):
+    """The pinhole camera an undistorted image is best shown through, as
+    ``cv2.getOptimalNewCameraMatrix`` (principal point not forced to the centre).
+
+    ``alpha`` 0 keeps only valid pixels, 1 keeps every source pixel (black borders), values in
+    between interpolate. Returns (new_camera_matrix, roi): the 3×3 matrix and the (x, y, width,
+    height) rectangle of valid pixels in the new image (``new_image_size``, default
+    ``image_size``). The undistortion is exact (lucent's Newton inverse), where OpenCV stops
+    after five iterations; with strong distortion the two differ at the image corners.
+    """
+    k, d = _camera_args(camera_matrix, dist_coeffs)
+    size = _pair(image_size, "image_size", 1)
+    new = size if new_image_size is None or tuple(new_image_size) == (0, 0) else _pair(new_image_size, "new_image_size", 1)
+    (fx, fy, cx, cy), roi = _lucent.optimal_new_camera_matrix_flat(k, d, size, float(alpha), new)
+    return _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]]), tuple(roi)
+
+
+def stereo_rectify(camera_matrix1, dist_coeffs1, camera_matrix2, dist_coeffs2, image_size, R, T,
+                   flags=CALIB_ZERO_DISPARITY, alpha=-1.0, new_image_size=(0, 0)):
+    """Rectifying rotations and projections of a calibrated stereo pair, as ``cv2.stereoRectify``
+    (Bouguet's algorithm as OpenCV implements it; ``scan::calib::rectify``).
+
+    ``R``, ``T``: the pair's pose, X₂ = R X₁ + T (3×3 or a Rodrigues vector; as
+    :func:`stereo_calibrate` returns it). ``flags``: CALIB_ZERO_DISPARITY (the default, as in
+    OpenCV) or 0. ``alpha``: −1 for the default scale, or 0…1 as in
+    :func:`get_optimal_new_camera_matrix`. Returns (R1, R2, P1, P2, Q, roi1, roi2) as OpenCV:
+    each camera's rotation into the rectified frame, their 3×4 projections (P2 carries the
+    baseline), the 4×4 disparity-to-depth matrix and each image's rectangle of valid pixels.
+    """
+    flags = int(flags)
+    if flags & ~CALIB_ZERO_DISPARITY:
+        raise ValueError(f"flags: only CALIB_ZERO_DISPARITY ({CALIB_ZERO_DISPARITY}) or 0, got {flags}")
+    k1, d1 = _camera_args(camera_matrix1, dist_coeffs1)
+    k2, d2 = _camera_args(camera_matrix2, dist_coeffs2)
+    r = _np.asarray(R, dtype=float)
+    if r.size == 3:
+        r = _rodrigues(r.ravel())
+    if r.shape != (3, 3):
+        raise ValueError(f"R: expected a 3×3 matrix or a Rodrigues vector, got shape {r.shape}")
+    t = _np.asarray(T, dtype=float).ravel()
+    if t.size != 3:
+        raise ValueError(f"T: expected 3 values, got {t.size}")
+    size = _pair(image_size, "image_size", 1)
+    new = tuple(int(v) for v in new_image_size) if new_image_size is not None else (0, 0)
+    r1, r2, p1, p2, q, roi1, roi2 = _lucent.stereo_rectify_flat(
+        k1, d1, k2, d2, size, [float(v) for v in r.ravel()], [float(v) for v in t], bool(flags & CALIB_ZERO_DISPARITY),
+        float(alpha), new)
+    m = lambda v, rows: _np.asarray(v, dtype=float).reshape(rows, -1)
+    return m(r1, 3), m(r2, 3), m(p1, 3), m(p2, 3), m(q, 4), tuple(roi1), tuple(roi2)
+
+
+def _rodrigues(v):
+    th = float(_np.linalg.norm(v))
+    if th == 0.0:
+        return _np.eye(3)
+    k = v / th
+    kx = _np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return _np.eye(3) + _np.sin(th) * kx + (1.0 - _np.cos(th)) * kx @ kx
+
+
+#: ``cv2.CV_32FC1``, the map type :func:`init_undistort_rectify_map` returns.
+CV_32FC1 = 5
+
+
+def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix, size, m1type=CV_32FC1):
+    """The remapping of ``cv2.initUndistortRectifyMap`` with float maps (``m1type`` CV_32FC1):
+    (map_x, map_y), each a (height, width) float32 array giving, for each pixel of the new image
+    (the pinhole camera ``new_camera_matrix``, or the left 3×3 of a projection P from
+    :func:`stereo_rectify`, turned by ``R``, None for the identity), the source pixel whose ray it
+    shows; ``cv2.remap`` takes them as they are.
+    """
+    if int(m1type) != CV_32FC1:
+        raise ValueError(f"m1type: only CV_32FC1 ({CV_32FC1}) float maps, got {m1type}")
+    k, d = _camera_args(camera_matrix, dist_coeffs)
+    r = _np.eye(3) if R is None or _np.asarray(R).size == 0 else _np.asarray(R, dtype=float)
+    if r.shape != (3, 3):
+        raise ValueError(f"R: expected a 3×3 matrix, got shape {r.shape}")
+    p = _np.asarray(camera_matrix if new_camera_matrix is None else new_camera_matrix, dtype=float)
+    if p.shape == (3, 4):
+        p = p[:, :3]
+    if p.shape != (3, 3):
+        raise ValueError(f"new_camera_matrix: expected 3×3 or 3×4, got shape {p.shape}")
+    w, h = _pair(size, "size", 1)
+    mx, my = _lucent.undistort_rectify_map_flat(k, d, [float(v) for v in r.ravel()], [float(v) for v in p.ravel()], w, h)
+    return _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy(), _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
 
 
 def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):

@@ -202,3 +202,70 @@ pub fn calibrate_procam_json(
     let (calib, _) = py.allow_threads(|| scan::calib::calibrate_dirs(&captures, &rig, &opts, &|| {})).or_py()?;
     serde_json::to_string(&calib).map_err(|e| value(e.to_string()))
 }
+
+/// A lens from a row-major 3×3 matrix and OpenCV coefficients, for the rectification functions.
+fn intrinsics_and_distortion(k: &[f64], d: &[f64], k_name: &str, d_name: &str) -> PyResult<(render::camera::Intrinsics, render::camera::Distortion)> {
+    let intr = render::camera::Intrinsics::from_camera_matrix(k).map_err(|e| value(format!("{k_name}: {e}")))?;
+    let dist = render::camera::Distortion::from_opencv(d).map_err(|e| value(format!("{d_name}: {e}")))?;
+    Ok((intr, dist))
+}
+
+/// OpenCV's `getOptimalNewCameraMatrix` (`scan::calib::rectify`): ([fx, fy, cx, cy], roi).
+#[pyfunction]
+pub fn optimal_new_camera_matrix_flat(k: Vec<f64>, d: Vec<f64>, size: (u32, u32), alpha: f64, new_size: (u32, u32)) -> PyResult<([f64; 4], [i32; 4])> {
+    let (intr, dist) = intrinsics_and_distortion(&k, &d, "camera_matrix", "dist_coeffs")?;
+    if !alpha.is_finite() {
+        return Err(value(format!("alpha: must be finite, got {alpha}")));
+    }
+    let (m, roi) = scan::calib::rectify::optimal_new_camera_matrix(&intr, &dist, size, alpha, new_size).map_err(|e| value(format!("{e:#}")))?;
+    Ok(([m.fx, m.fy, m.cx, m.cy], roi))
+}
+
+/// OpenCV's `stereoRectify` (`scan::calib::rectify`): (R1, R2 row-major 3×3, P1, P2 row-major
+/// 3×4, Q row-major 4×4, roi1, roi2).
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn stereo_rectify_flat(
+    k1: Vec<f64>,
+    d1: Vec<f64>,
+    k2: Vec<f64>,
+    d2: Vec<f64>,
+    size: (u32, u32),
+    r: Vec<f64>,
+    t: Vec<f64>,
+    zero_disparity: bool,
+    alpha: f64,
+    new_size: (u32, u32),
+) -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, [i32; 4], [i32; 4])> {
+    let (a, da) = intrinsics_and_distortion(&k1, &d1, "camera_matrix1", "dist_coeffs1")?;
+    let (b, db) = intrinsics_and_distortion(&k2, &d2, "camera_matrix2", "dist_coeffs2")?;
+    if r.len() != 9 || t.len() != 3 || !r.iter().chain(&t).all(|v| v.is_finite()) {
+        return Err(value("R, T: expected a finite 3×3 rotation and 3-vector"));
+    }
+    let rm = nalgebra::Matrix3::from_row_slice(&r);
+    if (rm * rm.transpose() - nalgebra::Matrix3::identity()).norm() > 1e-6 || rm.determinant() < 0.0 {
+        return Err(value("R: not a rotation matrix"));
+    }
+    let rect = scan::calib::rectify::stereo_rectify([&a, &b], [&da, &db], size, &rm, &nalgebra::Vector3::from_column_slice(&t), zero_disparity, alpha, new_size)
+        .map_err(|e| value(format!("{e:#}")))?;
+    let rows3 = |m: &nalgebra::Matrix3<f64>| m.transpose().iter().copied().collect::<Vec<_>>();
+    let rows34 = |m: &nalgebra::Matrix3x4<f64>| m.transpose().iter().copied().collect::<Vec<_>>();
+    Ok((rows3(&rect.r[0]), rows3(&rect.r[1]), rows34(&rect.p[0]), rows34(&rect.p[1]), rect.q.transpose().iter().copied().collect(), rect.roi[0], rect.roi[1]))
+}
+
+/// OpenCV's `initUndistortRectifyMap` with float maps: the source x and y of each output pixel
+/// (row-major), as float32 bytes.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn undistort_rectify_map_flat(py: Python<'_>, k: Vec<f64>, d: Vec<f64>, r: Vec<f64>, p: Vec<f64>, width: usize, height: usize) -> PyResult<(Py<pyo3::types::PyBytes>, Py<pyo3::types::PyBytes>)> {
+    let (intr, dist) = intrinsics_and_distortion(&k, &d, "camera_matrix", "dist_coeffs")?;
+    if r.len() != 9 || p.len() != 9 || !r.iter().chain(&p).all(|v| v.is_finite()) {
+        return Err(value("R, newCameraMatrix: expected finite 3×3 matrices"));
+    }
+    let map = py
+        .allow_threads(|| scan::calib::rectify::undistort_rectify_map(&intr, &dist, &nalgebra::Matrix3::from_row_slice(&r), &nalgebra::Matrix3::from_row_slice(&p), width, height))
+        .map_err(|e| value(format!("{e:#}")))?;
+    let xs: Vec<u8> = map.iter().flat_map(|m| (m[0] as f32).to_ne_bytes()).collect();
+    let ys: Vec<u8> = map.iter().flat_map(|m| (m[1] as f32).to_ne_bytes()).collect();
+    Ok((pyo3::types::PyBytes::new(py, &xs).unbind(), pyo3::types::PyBytes::new(py, &ys).unbind()))
+}

@@ -430,3 +430,62 @@ def test_solve_pnp_agrees_with_live_opencv():
         ok, rc, tc = cv2.solvePnP(obj, px, K, DIST, flags=cv2.SOLVEPNP_ITERATIVE)
         # The same least-squares minimum.
         assert ok and np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-4 * np.linalg.norm(t)
+
+
+RECT_K1 = np.array([[905.0, 0, 322.5], [0, 899.0, 241.0], [0, 0, 1]])
+RECT_D1 = np.array([-0.12, 0.05, 0.001, -0.0007, 0.0])
+RECT_K2 = np.array([[870.0, 0, 330.0], [0, 866.0, 236.0], [0, 0, 1]])
+RECT_D2 = np.array([-0.08, 0.02, 0.0, 0.0005, 0.0])
+RECT_RVEC = np.array([0.02, -0.05, 0.01])
+RECT_T = np.array([-120.0, 3.0, 5.0])
+
+
+def test_stereo_rectify_puts_matches_on_one_row():
+    # Points seen by both cameras (lucent's own projection through the lenses), undistorted and
+    # rectified through the maps' inverse, land on one row, and Q turns (u, v, disparity) back
+    # into the point in the first rectified camera's frame.
+    r1, r2, p1, p2, q, roi1, roi2 = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), RECT_RVEC, RECT_T)
+    for r in (r1, r2):
+        assert np.abs(r @ r.T - np.eye(3)).max() < 1e-12 and abs(np.linalg.det(r) - 1) < 1e-12
+    assert p1[0, 2] == p2[0, 2] and p1[1, 2] == p2[1, 2] and p1[0, 0] == p2[1, 1]  # CALIB_ZERO_DISPARITY
+    rot = lucent._rodrigues(RECT_RVEC)
+    x = np.array([[30.0, -20.0, 900.0], [-80.0, 60.0, 1400.0], [5.0, 5.0, 600.0]])
+    a = lucent.project_points(x, np.zeros(3), np.zeros(3), RECT_K1, RECT_D1)
+    b = lucent.project_points(x @ rot.T + RECT_T, np.zeros(3), np.zeros(3), RECT_K2, RECT_D2)
+    ua = lucent.undistort_points(a, RECT_K1, RECT_D1)
+    ub = lucent.undistort_points(b, RECT_K2, RECT_D2)
+    rect = lambda u, r, p: (lambda h: h[:, :2] / h[:, 2:])(np.c_[u, np.ones(len(u))] @ r.T @ p[:, :3].T)
+    ra, rb = rect(ua.reshape(-1, 2), r1, p1), rect(ub.reshape(-1, 2), r2, p2)
+    assert np.abs(ra[:, 1] - rb[:, 1]).max() < 1e-7, (ra, rb)
+    h = np.c_[ra, ra[:, 0] - rb[:, 0], np.ones(len(ra))] @ q.T
+    back = h[:, :3] / h[:, 3:]
+    assert np.abs(back - x @ r1.T).max() < 1e-6 * 1400
+    assert all(0 <= v for v in roi1 + roi2) and roi1[2] > 500 and roi2[3] > 400
+    with pytest.raises(ValueError, match="flags"):
+        lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), RECT_RVEC, RECT_T, flags=1)
+    with pytest.raises(ValueError, match="share a centre"):
+        lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), RECT_RVEC, np.zeros(3))
+
+
+def test_rectification_agrees_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rot = cv2.Rodrigues(RECT_RVEC)[0]
+    t = RECT_T.reshape(3, 1)
+    for flags, alpha in [(cv2.CALIB_ZERO_DISPARITY, -1), (0, -1), (cv2.CALIB_ZERO_DISPARITY, 0), (cv2.CALIB_ZERO_DISPARITY, 1), (0, 0.5)]:
+        ours = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t, flags=flags, alpha=alpha)
+        theirs = cv2.stereoRectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t, flags=flags, alpha=alpha)
+        # The rotations are closed forms; P and Q depend on undistorted image corners, which
+        # OpenCV finds by five fixed-point iterations in float32.
+        assert np.abs(ours[0] - theirs[0]).max() < 1e-12 and np.abs(ours[1] - theirs[1]).max() < 1e-12
+        for o, c in zip(ours[2:5], theirs[2:5]):
+            assert np.abs(o - c).max() < 1e-7 * np.abs(c).max(), (flags, alpha)
+        assert tuple(ours[5]) == tuple(theirs[5]) and tuple(ours[6]) == tuple(theirs[6]), (flags, alpha)
+    for alpha in (0.0, 0.5, 1.0):
+        ours = lucent.get_optimal_new_camera_matrix(RECT_K1, RECT_D1, (640, 480), alpha)
+        theirs = cv2.getOptimalNewCameraMatrix(RECT_K1, RECT_D1, (640, 480), alpha)
+        assert np.abs(ours[0] - theirs[0]).max() < 1e-5 and tuple(ours[1]) == tuple(theirs[1]), alpha
+    r1, _, p1, _, _, _, _ = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t)
+    mx, my = lucent.init_undistort_rectify_map(RECT_K1, RECT_D1, r1, p1, (640, 480))
+    cx, cy = cv2.initUndistortRectifyMap(RECT_K1, RECT_D1, r1, p1, (640, 480), cv2.CV_32FC1)
+    assert mx.dtype == np.float32 and mx.shape == (480, 640)
+    assert np.abs(mx - cx).max() < 1e-3 and np.abs(my - cy).max() < 1e-3

@@ -7,6 +7,7 @@ pub mod homography;
 pub mod model;
 pub mod pnp;
 pub mod procam;
+pub mod rectify;
 pub mod schur_lm;
 pub mod undistort;
 pub mod zhang;
