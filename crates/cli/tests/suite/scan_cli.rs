@@ -622,3 +622,110 @@ fn calibrate_reports_a_fit_that_does_not_converge() {
     assert!(e.contains("did not converge"), "{e}");
     assert!(!s.path("calib.json").exists());
 }
+
+/// `scan rectify`: a pair of photographs of three bright dots, drawn through two distorted cameras
+/// of a known calibration, rectified: each dot's centroid lands on the same row in both images
+/// (within 0.05 px; the dots are blurred discs of 1.5 px, 8-bit), and the --json projections are
+/// those of the library's `rectify_calibration`. Two device sizes, a photograph of another size
+/// and a non-PNG output are one-line errors with no output.
+#[test]
+fn rectify_puts_a_pair_on_common_rows() {
+    use nalgebra::{Rotation3, Vector3};
+    use render::camera::{Distortion, Intrinsics};
+    let s = Scratch::new("scan-rectify");
+    let (w, h) = (320u32, 240u32);
+    let k = [Intrinsics { fx: 400.0, fy: 398.0, cx: 161.0, cy: 118.0 }, Intrinsics { fx: 390.0, fy: 391.0, cx: 157.0, cy: 122.0 }];
+    let d = [[-0.1, 0.03, 0.0005, -0.0003, 0.0], [-0.06, 0.01, 0.0, 0.0004, 0.0]];
+    let rot = *Rotation3::new(Vector3::new(0.01, -0.04, 0.02)).matrix();
+    let t = Vector3::new(-60.0, 1.5, 2.0);
+    let calib = s.arg("pair.json");
+    let dev = |i: usize| serde_json::json!({"width": w, "height": h, "fx": k[i].fx, "fy": k[i].fy, "cx": k[i].cx, "cy": k[i].cy, "distortion": d[i], "rms_px": 0.0});
+    let rows: Vec<Vec<f64>> = (0..3).map(|i| (0..3).map(|j| rot[(i, j)]).collect()).collect();
+    let json = serde_json::json!({"camera": dev(0), "projector": dev(1), "rotation": rows, "translation": [t.x, t.y, t.z], "rms_px": 0.0, "captures": []});
+    std::fs::write(&calib, serde_json::to_string(&json).unwrap()).unwrap();
+    let points = [Vector3::new(-40.0, -25.0, 500.0), Vector3::new(35.0, 10.0, 650.0), Vector3::new(0.0, 40.0, 420.0)];
+    // Each dot: a disc of radius 1.5 px around the projected point, 8 × 8 samples per pixel.
+    for (i, name) in ["l.png", "r.png"].into_iter().enumerate() {
+        let dist = Distortion::from_opencv(&d[i]).unwrap();
+        let centres: Vec<[f64; 2]> = points
+            .iter()
+            .map(|x| {
+                let x = if i == 0 { *x } else { rot * x + t };
+                let (xd, yd) = dist.distort(x.x / x.z, x.y / x.z);
+                [k[i].fx * xd + k[i].cx, k[i].fy * yd + k[i].cy]
+            })
+            .collect();
+        let img = image::GrayImage::from_fn(w, h, |u, v| {
+            let mut acc = 0.0f64;
+            for sy in 0..8 {
+                for sx in 0..8 {
+                    let (x, y) = (u as f64 - 0.5 + (sx as f64 + 0.5) / 8.0, v as f64 - 0.5 + (sy as f64 + 0.5) / 8.0);
+                    if centres.iter().any(|c| (x - c[0]).hypot(y - c[1]) < 1.5) {
+                        acc += 1.0;
+                    }
+                }
+            }
+            image::Luma([(acc / 64.0 * 250.0).round() as u8])
+        });
+        img.save(s.path(name)).unwrap();
+    }
+    let (ol, or) = (s.arg("lr.png"), s.arg("rr.png"));
+    let v = ok_json(&["scan", "rectify", &s.arg("l.png"), &s.arg("r.png"), "--calibration", &calib, "--out-left", &ol, "--out-right", &or, "--json"]);
+    let c = scan::calib::ProcamCalibration::read(Path::new(&calib), None).unwrap();
+    let (rect, _) = scan::calib::rectify::rectify_calibration(&c, true, -1.0).unwrap();
+    for (key, m) in [("P1", rect.p[0]), ("P2", rect.p[1])] {
+        for i in 0..3 {
+            for j in 0..4 {
+                assert_eq!(v[key][i][j].as_f64().unwrap(), m[(i, j)], "{key}");
+            }
+        }
+    }
+    // The dots' centroids: one per connected bright region, ordered by x.
+    let centroids = |p: &str| {
+        let img = image::open(p).unwrap().into_luma8();
+        let mut seen = vec![false; (w * h) as usize];
+        let mut out = Vec::new();
+        for start in 0..(w * h) as usize {
+            if seen[start] || img.as_raw()[start] < 5 {
+                continue;
+            }
+            let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
+            let mut stack = vec![start];
+            seen[start] = true;
+            while let Some(q) = stack.pop() {
+                let (x, y) = ((q % w as usize) as f64, (q / w as usize) as f64);
+                let val = img.as_raw()[q] as f64;
+                (sw, sx, sy) = (sw + val, sx + val * x, sy + val * y);
+                for n in [q.wrapping_sub(1), q + 1, q.wrapping_sub(w as usize), q + w as usize] {
+                    if n < seen.len() && !seen[n] && img.as_raw()[n] >= 5 {
+                        seen[n] = true;
+                        stack.push(n);
+                    }
+                }
+            }
+            out.push([sx / sw, sy / sw]);
+        }
+        out.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        out
+    };
+    let (a, b) = (centroids(&ol), centroids(&or));
+    assert_eq!((a.len(), b.len()), (3, 3), "{a:?} {b:?}");
+    for (p, q) in a.iter().zip(&b) {
+        assert!((p[1] - q[1]).abs() < 0.05, "rows {} and {}", p[1], q[1]);
+    }
+    // Bad input.
+    let bad = s.arg("bad.png");
+    let e = fails_on_one_line(&["scan", "rectify", &s.arg("l.png"), &s.arg("r.png"), "--calibration", &calib, "--out-left", &s.arg("x.jpg"), "--out-right", &bad]);
+    assert!(e.contains("PNG"), "{e}");
+    let small = s.arg("small.png");
+    image::GrayImage::new(160, 120).save(&small).unwrap();
+    let e = fails_on_one_line(&["scan", "rectify", &small, &s.arg("r.png"), "--calibration", &calib, "--out-left", &bad, "--out-right", &s.arg("bad2.png")]);
+    assert!(e.contains("small.png") && e.contains("320x240"), "{e}");
+    let mixed = s.arg("mixed.json");
+    let mut j2 = json.clone();
+    j2["projector"]["width"] = serde_json::json!(640);
+    std::fs::write(&mixed, serde_json::to_string(&j2).unwrap()).unwrap();
+    let e = fails_on_one_line(&["scan", "rectify", &s.arg("l.png"), &s.arg("r.png"), "--calibration", &mixed, "--out-left", &bad, "--out-right", &s.arg("bad2.png")]);
+    assert!(e.contains("one size"), "{e}");
+    assert!(!s.path("bad.png").exists() && !s.path("bad2.png").exists() && !s.path("x.jpg").exists());
+}

@@ -227,6 +227,24 @@ pub fn stereo_rectify(k: [&Intrinsics; 2], d: [&Distortion; 2], size: (u32, u32)
     Ok(Rectification { r: [r1, r2], p: [p1, p2], q, roi: [roi(&inner1, 0), roi(&inner2, 1)] })
 }
 
+/// [`stereo_rectify`] of a two-camera calibration (`scan calibrate-stereo`'s: the first camera in
+/// `camera`, the second in `projector`, X₂ = R·X₁ + T), at the cameras' common size; and each
+/// camera's lens.
+pub fn rectify_calibration(c: &super::ProcamCalibration, zero_disparity: bool, alpha: f64) -> Result<(Rectification, [(Intrinsics, Distortion); 2])> {
+    let (a, b) = (&c.camera, &c.projector);
+    if (a.width, a.height) != (b.width, b.height) {
+        bail!("the two devices are {}x{} and {}x{}; rectification takes two images of one size", a.width, a.height, b.width, b.height);
+    }
+    let lens = |d: &super::DeviceCalibration| -> Result<(Intrinsics, Distortion)> {
+        Ok((Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, Distortion::from_opencv(&d.distortion)?))
+    };
+    let lenses = [lens(a)?, lens(b)?];
+    let r = Matrix3::from_fn(|i, j| c.rotation[i][j]);
+    let size = (a.width, a.height);
+    let rect = stereo_rectify([&lenses[0].0, &lenses[1].0], [&lenses[0].1, &lenses[1].1], size, &r, &Vector3::from(c.translation), zero_disparity, alpha, size)?;
+    Ok((rect, lenses))
+}
+
 /// For each pixel of a `width` × `height` output (row-major), the source pixel its ray comes from
 /// (OpenCV's `initUndistortRectifyMap`): the output is the pinhole camera `p` (the left 3 × 3 of
 /// a projection matrix) turned by `r` from the source camera `k`, `d`.

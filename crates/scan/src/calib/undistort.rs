@@ -61,6 +61,14 @@ pub fn remap_bilinear(src: &[u8], channels: usize, width: usize, height: usize, 
 /// renamed). `size`, when the calibration gives it, must be the photograph's (pixels). Errors are
 /// one line naming the file.
 pub fn undistort_photo(photo: &std::path::Path, k: &Intrinsics, d: &Distortion, size: Option<(u32, u32)>, out_png: &std::path::Path) -> anyhow::Result<()> {
+    remap_photo(photo, size, out_png, |w, h| Ok(undistort_map(k, d, k, w, h)))
+}
+
+/// `photo` (PNG, JPEG, …; 8-bit grey or colour) remapped through `map(width, height)` (one
+/// source pixel per output pixel, row-major; [`remap_bilinear`]) and written to `out_png` as PNG
+/// of the same kind and size (temporary name, then renamed). `size`, when the calibration gives
+/// it, must be the photograph's (pixels). Errors are one line naming the file.
+pub fn remap_photo(photo: &std::path::Path, size: Option<(u32, u32)>, out_png: &std::path::Path, map: impl FnOnce(usize, usize) -> anyhow::Result<Vec<[f64; 2]>>) -> anyhow::Result<()> {
     use anyhow::{anyhow, bail, Context};
     let img = image::open(photo).map_err(|e| anyhow!("{}: cannot read the image ({e})", photo.display()))?;
     let (w, h) = (img.width(), img.height());
@@ -71,7 +79,7 @@ pub fn undistort_photo(photo: &std::path::Path, k: &Intrinsics, d: &Distortion, 
     }
     let grey = matches!(img.color(), image::ColorType::L8 | image::ColorType::L16 | image::ColorType::La8 | image::ColorType::La16);
     let (data, channels, kind) = if grey { (img.into_luma8().into_raw(), 1, image::ExtendedColorType::L8) } else { (img.into_rgb8().into_raw(), 3, image::ExtendedColorType::Rgb8) };
-    let map = undistort_map(k, d, k, w as usize, h as usize);
+    let map = map(w as usize, h as usize).with_context(|| photo.display().to_string())?;
     let out = remap_bilinear(&data, channels, w as usize, h as usize, &map);
     render::image_io::write_atomic(out_png, |tmp| image::save_buffer_with_format(tmp, &out, w, h, kind, image::ImageFormat::Png).with_context(|| format!("writing {}", out_png.display())))
 }

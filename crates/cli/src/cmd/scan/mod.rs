@@ -14,6 +14,7 @@ pub mod calibrate;
 pub mod calibrate_camera;
 pub mod calibrate_stereo;
 pub mod undistort;
+pub mod rectify;
 pub mod reconstruct;
 pub mod markers;
 pub mod label;
@@ -40,6 +41,8 @@ pub enum Command {
     CalibrateStereo(calibrate_stereo::Args),
     /// Remove a photograph's lens distortion with a camera calibration (OpenCV's undistort).
     Undistort(undistort::Args),
+    /// Rectify a stereo pair of photographs: matching points on one row (OpenCV's stereoRectify).
+    Rectify(rectify::Args),
     /// Triangulate a capture with a calibration into a point cloud (and a range-image mesh).
     Reconstruct(reconstruct::Args),
     /// Find circular markers; match and triangulate them in two calibrated views; register a model.
@@ -57,6 +60,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::CalibrateCamera(a) => calibrate_camera::run(a),
         Command::CalibrateStereo(a) => calibrate_stereo::run(a),
         Command::Undistort(a) => undistort::run(a),
+        Command::Rectify(a) => rectify::run(a),
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Markers(a) => markers::run(a),
         Command::Label(a) => label::run(a),

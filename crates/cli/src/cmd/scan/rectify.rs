@@ -1,0 +1,73 @@
+//! `lucent scan rectify LEFT RIGHT --calibration CALIB.json --out-left L.png --out-right R.png
+//! [--alpha A] [--keep-disparity] [--json]`: a stereo pair of photographs rectified, so that a
+//! point seen by both cameras lies on the same row of the two images, as OpenCV's
+//! `stereoRectify` + `initUndistortRectifyMap` + `remap` (scan::calib::rectify; docs/scanning.md).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use scan::calib::rectify::{rectify_calibration, undistort_rectify_map};
+use scan::calib::ProcamCalibration;
+
+/// Arguments of `lucent scan rectify`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The first camera's photograph (PNG or JPEG; the calibration's `camera`).
+    pub left: PathBuf,
+    /// The second camera's photograph, taken at the same moment (the calibration's `projector` entry).
+    pub right: PathBuf,
+    /// The pair's calibration: the JSON of `scan calibrate-stereo` (X_right = R·X_left + T).
+    #[arg(long, value_name = "CALIB.json")]
+    pub calibration: PathBuf,
+    /// The rectified first photograph (PNG; temporary name, then renamed).
+    #[arg(long, value_name = "L.png")]
+    pub out_left: PathBuf,
+    /// The rectified second photograph (PNG).
+    #[arg(long, value_name = "R.png")]
+    pub out_right: PathBuf,
+    /// Free scaling, as OpenCV's: 0 shows only valid pixels, 1 keeps every source pixel; by
+    /// default OpenCV's −1 (no scaling).
+    #[arg(long, default_value_t = -1.0, allow_hyphen_values = true, value_parser = crate::cmd::mie::finite_f64)]
+    pub alpha: f64,
+    /// Give each image its own principal point along the baseline instead of a shared one
+    /// (OpenCV's stereoRectify without CALIB_ZERO_DISPARITY).
+    #[arg(long)]
+    pub keep_disparity: bool,
+    /// Print R1, R2, P1, P2, Q and the valid rectangles as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    for out in [&args.out_left, &args.out_right] {
+        if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+            bail!("{}: the rectified images are written as PNG (.png)", out.display());
+        }
+    }
+    let c = ProcamCalibration::read(&args.calibration, None)?;
+    let size = (c.camera.width, c.camera.height);
+    let (rect, lenses) = rectify_calibration(&c, !args.keep_disparity, args.alpha).with_context(|| args.calibration.display().to_string())?;
+    for (i, (photo, out)) in [(&args.left, &args.out_left), (&args.right, &args.out_right)].into_iter().enumerate() {
+        let (k, d) = &lenses[i];
+        let p = rect.p[i].fixed_view::<3, 3>(0, 0).into_owned();
+        scan::calib::undistort::remap_photo(photo, Some(size), out, |w, h| undistort_rectify_map(k, d, &rect.r[i], &p, w, h))?;
+    }
+    if args.json {
+        let rows = |m: &[f64], n: usize| m.chunks(n).map(|r| r.to_vec()).collect::<Vec<_>>();
+        let v = serde_json::json!({
+            "R1": rows(rect.r[0].transpose().as_slice(), 3),
+            "R2": rows(rect.r[1].transpose().as_slice(), 3),
+            "P1": rows(rect.p[0].transpose().as_slice(), 4),
+            "P2": rows(rect.p[1].transpose().as_slice(), 4),
+            "Q": rows(rect.q.transpose().as_slice(), 4),
+            "roi1": rect.roi[0],
+            "roi2": rect.roi[1],
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        let p = &rect.p[0];
+        println!("rectified: f {:.2} px, principal points ({:.2}, {:.2}) and ({:.2}, {:.2}); valid {:?} and {:?}", p[(0, 0)], p[(0, 2)], p[(1, 2)], rect.p[1][(0, 2)], rect.p[1][(1, 2)], rect.roi[0], rect.roi[1]);
+        println!("wrote {} and {}", args.out_left.display(), args.out_right.display());
+    }
+    Ok(())
+}
