@@ -471,9 +471,12 @@ def test_rectification_agrees_with_live_opencv():
     cv2 = pytest.importorskip("cv2")
     rot = cv2.Rodrigues(RECT_RVEC)[0]
     t = RECT_T.reshape(3, 1)
-    for flags, alpha in [(cv2.CALIB_ZERO_DISPARITY, -1), (0, -1), (cv2.CALIB_ZERO_DISPARITY, 0), (cv2.CALIB_ZERO_DISPARITY, 1), (0, 0.5)]:
-        ours = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t, flags=flags, alpha=alpha)
-        theirs = cv2.stereoRectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t, flags=flags, alpha=alpha)
+    # A horizontal pair either way round, and a vertical one.
+    cases = [(tt, flags, alpha) for tt in (t, -t, np.array([[4.0], [-110.0], [-6.0]]))
+             for flags, alpha in [(cv2.CALIB_ZERO_DISPARITY, -1), (0, -1), (cv2.CALIB_ZERO_DISPARITY, 0), (cv2.CALIB_ZERO_DISPARITY, 1), (0, 0.5)]]
+    for tt, flags, alpha in cases:
+        ours = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, tt, flags=flags, alpha=alpha)
+        theirs = cv2.stereoRectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, tt, flags=flags, alpha=alpha)
         # The rotations are closed forms; P and Q depend on undistorted image corners, which
         # OpenCV finds by five fixed-point iterations in float32.
         assert np.abs(ours[0] - theirs[0]).max() < 1e-12 and np.abs(ours[1] - theirs[1]).max() < 1e-12
@@ -484,6 +487,9 @@ def test_rectification_agrees_with_live_opencv():
         ours = lucent.get_optimal_new_camera_matrix(RECT_K1, RECT_D1, (640, 480), alpha)
         theirs = cv2.getOptimalNewCameraMatrix(RECT_K1, RECT_D1, (640, 480), alpha)
         assert np.abs(ours[0] - theirs[0]).max() < 1e-5 and tuple(ours[1]) == tuple(theirs[1]), alpha
+    ours = lucent.get_optimal_new_camera_matrix(RECT_K1, RECT_D1, (640, 480), 0.3, (800, 600))
+    theirs = cv2.getOptimalNewCameraMatrix(RECT_K1, RECT_D1, (640, 480), 0.3, (800, 600))
+    assert np.abs(ours[0] - theirs[0]).max() < 1e-5 and tuple(ours[1]) == tuple(theirs[1])
     r1, _, p1, _, _, _, _ = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t)
     mx, my = lucent.init_undistort_rectify_map(RECT_K1, RECT_D1, r1, p1, (640, 480))
     cx, cy = cv2.initUndistortRectifyMap(RECT_K1, RECT_D1, r1, p1, (640, 480), cv2.CV_32FC1)
