@@ -73,6 +73,10 @@ __all__ = [
     "CALIB_FIX_TANGENT_DIST",
     "CALIB_SAME_FOCAL_LENGTH",
     "CALIB_ZERO_DISPARITY",
+    "CALIB_FIX_SKEW",
+    "CALIB_USE_LU",
+    "CALIB_USE_QR",
+    "CALIB_DISABLE_SCHUR_COMPLEMENT",
     "get_optimal_new_camera_matrix",
     "stereo_rectify",
     "init_undistort_rectify_map",
@@ -660,6 +664,13 @@ _HELD_BITS = ((CALIB_FIX_FOCAL_LENGTH, 0b11), (CALIB_FIX_PRINCIPAL_POINT, 0b1100
               (CALIB_FIX_K5, 1 << 10), (CALIB_FIX_K6, 1 << 11), (CALIB_FIX_S1_S2_S3_S4, 0b1111 << 12),
               (CALIB_FIX_TAUX_TAUY, 0b11 << 16))
 _HOLD_FLAGS = CALIB_FIX_ASPECT_RATIO | sum(f for f, _ in _HELD_BITS)
+#: Flags accepted and without effect: lucent's model has no skew (CALIB_FIX_SKEW), and its
+#: solver is its own (CALIB_USE_LU, CALIB_USE_QR, CALIB_DISABLE_SCHUR_COMPLEMENT choose OpenCV's).
+CALIB_USE_LU = 1 << 17
+CALIB_USE_QR = 1 << 20
+CALIB_FIX_SKEW = 1 << 25
+CALIB_DISABLE_SCHUR_COMPLEMENT = 1 << 27
+_NO_EFFECT_FLAGS = CALIB_USE_LU | CALIB_USE_QR | CALIB_FIX_SKEW | CALIB_DISABLE_SCHUR_COMPLEMENT
 
 
 def _pair(v, name, least):
@@ -778,7 +789,9 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         ((w − 1)/2, (h − 1)/2), or the guess's), CALIB_FIX_ASPECT_RATIO (fx/fy of camera_matrix,
         fy fitted), CALIB_FIX_FOCAL_LENGTH, CALIB_FIX_K1 … CALIB_FIX_K6,
         CALIB_FIX_TANGENT_DIST, CALIB_FIX_S1_S2_S3_S4, CALIB_FIX_TAUX_TAUY (at the guess's values
-        with CALIB_USE_INTRINSIC_GUESS, else at 0 for distortion terms). Other flags are refused.
+        with CALIB_USE_INTRINSIC_GUESS, else at 0 for distortion terms). CALIB_FIX_SKEW,
+        CALIB_USE_LU, CALIB_USE_QR and CALIB_DISABLE_SCHUR_COMPLEMENT are accepted and change
+        nothing (no skew in the model; lucent's own solver). Other flags are refused.
 
     Returns
     -------
@@ -788,7 +801,7 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         CALIB_THIN_PRISM_MODEL, 14 with CALIB_TILTED_MODEL), and per view the (3, 1) Rodrigues vector and translation (in the
         object points' unit) of the target → camera transform.
     """
-    flags = int(flags)
+    flags = int(flags) & ~_NO_EFFECT_FLAGS
     if flags & ~(_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS):
         raise ValueError(f"flags: {flags & ~(_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS)} is not a flag lucent.calibrate_camera knows "
                          "(the model, CALIB_USE_INTRINSIC_GUESS and the CALIB_FIX_* / CALIB_ZERO_TANGENT_DIST holds are)")
@@ -894,7 +907,7 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         rotation and (3, 1) translation with X₂ = R X₁ + T, the essential matrix E = [T]ₓ R and
         the fundamental matrix F = K₂⁻ᵀ E K₁⁻¹.
     """
-    flags = int(flags)
+    flags = int(flags) & ~_NO_EFFECT_FLAGS
     allowed = _CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC | CALIB_SAME_FOCAL_LENGTH
     if flags & ~allowed:
         raise ValueError(f"flags: {flags & ~allowed} is not a flag lucent.stereo_calibrate knows "

@@ -67,6 +67,10 @@ def test_calibrate_camera_holds_what_opencv_holds():
     # Without a guess CALIB_FIX_K1 holds k1 at 0.
     _, _, d, _, _ = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), flags=lucent.CALIB_FIX_K1 | lucent.CALIB_FIX_TANGENT_DIST)
     assert d[0, 0] == 0.0 and d[0, 2] == 0.0 and d[0, 3] == 0.0
+    # The solver's and skew flags change nothing: the model has no skew, the solver is lucent's.
+    plain = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480))
+    same = lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), flags=lucent.CALIB_FIX_SKEW | lucent.CALIB_USE_LU | lucent.CALIB_USE_QR)
+    assert same[0] == plain[0] and np.array_equal(same[1], plain[1]) and np.array_equal(same[2], plain[2])
 
 
 def test_calibrate_camera_hold_flags_agree_with_live_opencv():
