@@ -80,6 +80,7 @@ __all__ = [
     "get_optimal_new_camera_matrix",
     "stereo_rectify",
     "init_undistort_rectify_map",
+    "triangulate_points",
     "CV_32FC1",
     "Scene",
 ]
@@ -1050,6 +1051,35 @@ def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix,
     w, h = _pair(size, "size", 1)
     mx, my = _lucent.undistort_rectify_map_flat(k, d, [float(v) for v in r.ravel()], [float(v) for v in p.ravel()], w, h)
     return _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy(), _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
+
+
+def triangulate_points(proj_matr1, proj_matr2, proj_points1, proj_points2):
+    """Points from their pixels in two views, as ``cv2.triangulatePoints`` (the linear DLT
+    method; ``scan::triangulate::triangulate_dlt``).
+
+    ``proj_matr1``, ``proj_matr2``: 3×4 projection matrices (e.g. P1, P2 of
+    :func:`stereo_rectify`, or K[R|t]); ``proj_points1``, ``proj_points2``: the pixels, 2×N as
+    OpenCV takes them (or N×2 and N×1×2 for N ≠ 2). Returns a 4×N array of homogeneous coordinates, each column
+    of unit length with w ≥ 0 (OpenCV leaves the sign as its SVD gives it); X = column[:3] / column[3].
+    """
+    p1, p2 = _np.asarray(proj_matr1, dtype=float), _np.asarray(proj_matr2, dtype=float)
+    if p1.shape != (3, 4) or p2.shape != (3, 4):
+        raise ValueError(f"proj_matr1, proj_matr2: expected 3×4 matrices, got shapes {p1.shape} and {p2.shape}")
+
+    def pts(v, name):
+        a = _np.asarray(v, dtype=float)
+        if a.ndim == 2 and a.shape[0] == 2:  # OpenCV's 2×N (a 2×2 array too)
+            a = a.T
+        a = a.reshape(-1, 2) if a.size % 2 == 0 else None
+        if a is None:
+            raise ValueError(f"{name}: expected 2×N pixels")
+        return a
+    a, b = pts(proj_points1, "proj_points1"), pts(proj_points2, "proj_points2")
+    if len(a) != len(b):
+        raise ValueError(f"proj_points1, proj_points2: {len(a)} and {len(b)} points")
+    h = _lucent.triangulate_points_flat([float(v) for v in p1.ravel()], [float(v) for v in p2.ravel()],
+                                        [float(v) for v in a.ravel()], [float(v) for v in b.ravel()])
+    return _np.asarray(h, dtype=float).reshape(-1, 4).T
 
 
 def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):

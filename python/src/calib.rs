@@ -269,3 +269,18 @@ pub fn undistort_rectify_map_flat(py: Python<'_>, k: Vec<f64>, d: Vec<f64>, r: V
     let ys: Vec<u8> = map.iter().flat_map(|m| (m[1] as f32).to_ne_bytes()).collect();
     Ok((pyo3::types::PyBytes::new(py, &xs).unbind(), pyo3::types::PyBytes::new(py, &ys).unbind()))
 }
+
+/// OpenCV's `triangulatePoints` (`scan::triangulate::triangulate_dlt`): for row-major 3×4
+/// projection matrices and the points' pixels in the two views (flat u, v), each point's
+/// homogeneous coordinates (flat x, y, z, w; unit length, w ≥ 0).
+#[pyfunction]
+pub fn triangulate_points_flat(p1: Vec<f64>, p2: Vec<f64>, a: Vec<f64>, b: Vec<f64>) -> PyResult<Vec<f64>> {
+    if p1.len() != 12 || p2.len() != 12 || !p1.iter().chain(&p2).all(|v| v.is_finite()) {
+        return Err(value("projMatr1, projMatr2: expected finite 3×4 matrices"));
+    }
+    if a.len() != b.len() || a.len() % 2 != 0 {
+        return Err(value(format!("projPoints1, projPoints2: {} and {} points", a.len() / 2, b.len() / 2)));
+    }
+    let (m1, m2) = (nalgebra::Matrix3x4::from_row_slice(&p1), nalgebra::Matrix3x4::from_row_slice(&p2));
+    Ok(a.chunks_exact(2).zip(b.chunks_exact(2)).flat_map(|(x, y)| scan::triangulate::triangulate_dlt(&m1, &m2, [x[0], x[1]], [y[0], y[1]])).collect())
+}

@@ -42,6 +42,7 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calib::optimal_new_camera_matrix_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::stereo_rectify_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::undistort_rectify_map_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(calib::triangulate_points_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::solve_pnp_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_camera_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_procam_json, m)?)?;

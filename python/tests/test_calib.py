@@ -465,6 +465,10 @@ def test_stereo_rectify_puts_matches_on_one_row():
     back = h[:, :3] / h[:, 3:]
     assert np.abs(back - x @ r1.T).max() < 1e-6 * 1400
     assert all(0 <= v for v in roi1 + roi2) and roi1[2] > 500 and roi2[3] > 400
+    # The rectified cameras triangulate the points back (linear DLT, as cv2.triangulatePoints).
+    h = lucent.triangulate_points(p1, p2, ra.T, rb.T)
+    assert h.shape == (4, 3) and np.all(h[3] > 0) and np.allclose(np.linalg.norm(h, axis=0), 1.0)
+    assert np.abs(h[:3] / h[3] - (x @ r1.T).T).max() < 1e-6 * 1400
     with pytest.raises(ValueError, match="flags"):
         lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), RECT_RVEC, RECT_T, flags=1)
     with pytest.raises(ValueError, match="share a centre"):
@@ -499,3 +503,9 @@ def test_rectification_agrees_with_live_opencv():
     cx, cy = cv2.initUndistortRectifyMap(RECT_K1, RECT_D1, r1, p1, (640, 480), cv2.CV_32FC1)
     assert mx.dtype == np.float32 and mx.shape == (480, 640)
     assert np.abs(mx - cx).max() < 1e-3 and np.abs(my - cy).max() < 1e-3
+    # triangulatePoints on noisy pixels: the same points.
+    rng = np.random.default_rng(9)
+    pts1, pts2 = rng.uniform(100, 500, (2, 20)), rng.uniform(100, 500, (2, 20))
+    _, _, p1, p2, _, _, _ = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t)
+    ours, theirs = lucent.triangulate_points(p1, p2, pts1, pts2), cv2.triangulatePoints(p1, p2, pts1, pts2)
+    assert np.abs(ours[:3] / ours[3] - theirs[:3] / theirs[3]).max() < 1e-8 * np.abs(theirs[:3] / theirs[3]).max()

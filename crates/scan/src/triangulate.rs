@@ -301,3 +301,59 @@ pub fn triangulate_map(map: &DecodeMap, rig: &Rig, progress: &(dyn Fn() + Sync))
     });
     Ok(RangeImage { width: w, height: map.height, points, focal_px: rig.camera_focal_px() })
 }
+
+/// The point seen at pixel `a` through the projection matrix `p1` and at `b` through `p2`, by
+/// the linear (DLT) method OpenCV's `triangulatePoints` uses (Hartley & Zisserman, *Multiple
+/// View Geometry*, 2nd ed., §12.2): the right singular vector of the smallest singular value of
+/// the 4 × 4 system (u·p₃ − p₁, v·p₃ − p₂ for each view), in homogeneous coordinates of unit
+/// length with w ≥ 0 (OpenCV leaves the sign as its SVD gives it).
+pub fn triangulate_dlt(p1: &nalgebra::Matrix3x4<f64>, p2: &nalgebra::Matrix3x4<f64>, a: [f64; 2], b: [f64; 2]) -> [f64; 4] {
+    let mut m = nalgebra::Matrix4::zeros();
+    for (j, (p, x)) in [(p1, a), (p2, b)].into_iter().enumerate() {
+        for k in 0..4 {
+            m[(2 * j, k)] = x[0] * p[(2, k)] - p[(0, k)];
+            m[(2 * j + 1, k)] = x[1] * p[(2, k)] - p[(1, k)];
+        }
+    }
+    // The null vector of M is the eigenvector of MᵀM with the least eigenvalue.
+    let eig = nalgebra::SymmetricEigen::new(m.transpose() * m);
+    let i = eig.eigenvalues.imin();
+    let mut v = eig.eigenvectors.column(i).into_owned();
+    if v[3] < 0.0 {
+        v = -v;
+    }
+    [v[0], v[1], v[2], v[3]]
+}
+
+#[cfg(test)]
+mod dlt_tests {
+    use super::*;
+    use nalgebra::{Matrix3, Matrix3x4, Rotation3, Vector3, Vector4};
+
+    /// Exact projections through two cameras give back the point to rounding, in unit-length
+    /// homogeneous coordinates with w > 0; a point at infinity (parallel rays) gives w ≈ 0.
+    #[test]
+    fn dlt_recovers_exact_points() {
+        let k = Matrix3::new(800.0, 0.0, 320.0, 0.0, 790.0, 240.0, 0.0, 0.0, 1.0);
+        let r = *Rotation3::new(Vector3::new(0.03, -0.1, 0.02)).matrix();
+        let t = Vector3::new(-150.0, 5.0, 10.0);
+        let p1 = k * Matrix3x4::identity();
+        let mut rt = Matrix3x4::zeros();
+        rt.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
+        rt.set_column(3, &t);
+        let p2 = k * rt;
+        let pix = |p: &Matrix3x4<f64>, x: &Vector3<f64>| {
+            let h = p * Vector4::new(x.x, x.y, x.z, 1.0);
+            [h.x / h.z, h.y / h.z]
+        };
+        for x in [Vector3::new(10.0, -20.0, 700.0), Vector3::new(-200.0, 90.0, 2500.0), Vector3::new(0.5, 0.5, 300.0)] {
+            let h = triangulate_dlt(&p1, &p2, pix(&p1, &x), pix(&p2, &x));
+            assert!((h.iter().map(|v| v * v).sum::<f64>() - 1.0).abs() < 1e-12 && h[3] > 0.0);
+            let back = Vector3::new(h[0], h[1], h[2]) / h[3];
+            assert!((back - x).norm() < 1e-9 * x.norm(), "{back:?} vs {x:?}");
+        }
+        let far = Vector3::new(0.2, -0.1, 1.0);
+        let h = triangulate_dlt(&p1, &p2, pix(&p1, &(far * 1e12)), pix(&(k * Matrix3x4::identity()), &(r * far)));
+        assert!(h[3].abs() < 1e-6, "{h:?}");
+    }
+}
