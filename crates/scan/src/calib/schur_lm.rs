@@ -56,7 +56,7 @@ pub struct Normal {
 
 /// ½‖r‖² over all residuals.
 pub fn cost<P: Blocks>(p: &P, x: &[f64]) -> f64 {
-    let mut r = vec![0.0; p.block_rows().max(p.global_rows())];
+    let mut r = vec![0.0; p.global_rows()];
     let blocks: f64 = (0..p.n_blocks())
         .into_par_iter()
         .map_init(|| vec![0.0; p.block_rows()], |r, b| {
@@ -64,12 +64,23 @@ pub fn cost<P: Blocks>(p: &P, x: &[f64]) -> f64 {
             r.iter().map(|v| v * v).sum::<f64>()
         })
         .sum();
-    p.global(x, &mut r[..p.global_rows()]);
-    0.5 * (blocks + r[..p.global_rows()].iter().map(|v| v * v).sum::<f64>())
+    p.global(x, &mut r);
+    0.5 * (blocks + r.iter().map(|v| v * v).sum::<f64>())
 }
 
-fn step_of(x: f64) -> f64 {
-    1e-6 * (x.abs() + 1e-2)
+/// Column `i` of the Jacobian of `eval` at `xw` by central differences (step 10⁻⁶(|x| + 10⁻²)),
+/// handed to `out(row, value)`; `rp` and `rm` are scratch of the residuals' length.
+fn central_column(xw: &mut [f64], i: usize, rp: &mut [f64], rm: &mut [f64], eval: impl Fn(&[f64], &mut [f64]), mut out: impl FnMut(usize, f64)) {
+    let x0 = xw[i];
+    let h = 1e-6 * (x0.abs() + 1e-2);
+    xw[i] = x0 + h;
+    eval(xw, rp);
+    xw[i] = x0 - h;
+    eval(xw, rm);
+    xw[i] = x0;
+    for k in 0..rp.len() {
+        out(k, (rp[k] - rm[k]) / (2.0 * h));
+    }
 }
 
 /// The normal equations at `x` (Jacobian by central differences, block by block).
@@ -88,23 +99,12 @@ pub fn normal_equations<P: Blocks>(p: &P, layout: &Layout, x: &[f64]) -> Normal 
                 p.block(xw, b, &mut r0);
                 let mut jg = DMatrix::zeros(rows, ng);
                 let mut jl = DMatrix::zeros(rows, 6);
-                let mut column = |xw: &mut Vec<f64>, i: usize, out: &mut DMatrix<f64>, c: usize| {
-                    let x0 = xw[i];
-                    let h = step_of(x0);
-                    xw[i] = x0 + h;
-                    p.block(xw, b, rp);
-                    xw[i] = x0 - h;
-                    p.block(xw, b, rm);
-                    xw[i] = x0;
-                    for k in 0..rows {
-                        out[(k, c)] = (rp[k] - rm[k]) / (2.0 * h);
-                    }
-                };
+                let eval = |x: &[f64], r: &mut [f64]| p.block(x, b, r);
                 for (c, &i) in layout.global.iter().enumerate() {
-                    column(xw, i, &mut jg, c);
+                    central_column(xw, i, rp, rm, eval, |k, v| jg[(k, c)] = v);
                 }
                 for (c, &i) in loc.iter().enumerate() {
-                    column(xw, i, &mut jl, c);
+                    central_column(xw, i, rp, rm, eval, |k, v| jl[(k, c)] = v);
                 }
                 let r = DVector::from_vec(r0);
                 let u = jg.tr_mul(&jg);
@@ -134,16 +134,7 @@ pub fn normal_equations<P: Blocks>(p: &P, layout: &Layout, x: &[f64]) -> Normal 
         p.global(&xw, &mut r0);
         let mut jg = DMatrix::zeros(m, ng);
         for (c, &i) in layout.global.iter().enumerate() {
-            let x0 = xw[i];
-            let h = step_of(x0);
-            xw[i] = x0 + h;
-            p.global(&xw, &mut rp);
-            xw[i] = x0 - h;
-            p.global(&xw, &mut rm);
-            xw[i] = x0;
-            for k in 0..m {
-                jg[(k, c)] = (rp[k] - rm[k]) / (2.0 * h);
-            }
+            central_column(&mut xw, i, &mut rp, &mut rm, |x, r| p.global(x, r), |k, v| jg[(k, c)] = v);
         }
         u += jg.tr_mul(&jg);
         gg += jg.tr_mul(&DVector::from_vec(r0));
