@@ -73,8 +73,7 @@ pub fn calibrate_camera_flat(
 
 /// A lens from a row-major 3×3 camera matrix and OpenCV distortion coefficients.
 fn lens_of(k: &[f64], d: &[f64], k_name: &str, d_name: &str) -> PyResult<scan::calib::model::Lens> {
-    let intr = render::camera::Intrinsics::from_camera_matrix(k).map_err(|e| value(format!("{k_name}: {e}")))?;
-    render::camera::Distortion::from_opencv(d).map_err(|e| value(format!("{d_name}: {e}")))?;
+    let (intr, _) = intrinsics_and_distortion(k, d, k_name, d_name)?;
     Ok(scan::calib::model::Lens::from_opencv(intr.fx, intr.fy, intr.cx, intr.cy, d))
 }
 
@@ -159,9 +158,7 @@ pub fn undistort_flat(py: Python<'_>, image: &[u8], width: usize, height: usize,
 /// (Rodrigues vector, translation, RMS reprojection error in pixels).
 #[pyfunction]
 pub fn solve_pnp_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec<f64>) -> PyResult<([f64; 3], [f64; 3], f64)> {
-    let intr = render::camera::Intrinsics::from_camera_matrix(&k).map_err(|e| value(format!("camera_matrix: {e}")))?;
-    render::camera::Distortion::from_opencv(&dist).map_err(|e| value(format!("dist_coeffs: {e}")))?;
-    let lens = scan::calib::model::Lens::from_opencv(intr.fx, intr.fy, intr.cx, intr.cy, &dist);
+    let lens = lens_of(&k, &dist, "camera_matrix", "dist_coeffs")?;
     let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
     let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
     let (pose, rms) = scan::calib::pnp::solve_pnp(&obj, &px, &lens).map_err(|e| value(format!("{e:#}")))?;

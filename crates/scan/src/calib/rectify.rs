@@ -113,7 +113,8 @@ pub fn optimal_new_camera_matrix(k: &Intrinsics, d: &Distortion, size: (u32, u32
     }
     let p = Matrix3::new(m.fx, 0.0, m.cx, 0.0, m.fy, m.cy, 0.0, 0.0, 1.0);
     let (inner, _) = undistort_rectangles(k, d, &Matrix3::identity(), Some(&p), size.0, size.1)?;
-    let roi = [inner.x.round() as i32, inner.y.round() as i32, inner.width.round() as i32, inner.height.round() as i32];
+    // OpenCV rounds each of x, y, width and height to the nearest integer, ties to even.
+    let roi = [inner.x, inner.y, inner.width, inner.height].map(|v| v.round_ties_even() as i32);
     Ok((m, clip(roi, new_size.0, new_size.1)))
 }
 
