@@ -1009,7 +1009,7 @@ def stereo_rectify(camera_matrix1, dist_coeffs1, camera_matrix2, dist_coeffs2, i
     if t.size != 3:
         raise ValueError(f"T: expected 3 values, got {t.size}")
     size = _pair(image_size, "image_size", 1)
-    new = tuple(int(v) for v in new_image_size) if new_image_size is not None else (0, 0)
+    new = (0, 0) if new_image_size is None or tuple(new_image_size) == (0, 0) else _pair(new_image_size, "new_image_size", 1)
     r1, r2, p1, p2, q, roi1, roi2 = _lucent.stereo_rectify_flat(
         k1, d1, k2, d2, size, [float(v) for v in r.ravel()], [float(v) for v in t], bool(flags & CALIB_ZERO_DISPARITY),
         float(alpha), new)
