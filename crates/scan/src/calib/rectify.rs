@@ -13,6 +13,9 @@
 //! stops after five fixed-point iterations; with strong distortion the two differ at the image
 //! corners, and so do their scales.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
+
 use anyhow::{bail, Result};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Rotation3, Vector3};
 use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
@@ -34,7 +37,7 @@ pub struct Rect {
 pub type Roi = [i32; 4];
 
 fn camera(k: &Intrinsics, d: &Distortion) -> Result<OpenCv> {
-    OpenCv::unchecked(*k, d.clone(), Extrinsics::from_rvec([0.0; 3], [0.0; 3])?)
+    OpenCv::unchecked(*k, *d, Extrinsics::from_rvec([0.0; 3], [0.0; 3])?)
 }
 
 /// Pixel (u, v) of the camera `cam`, undistorted, turned by `r` and projected by `p` (the left
@@ -174,14 +177,9 @@ pub fn stereo_rectify(k: [&Intrinsics; 2], d: [&Distortion; 2], size: (u32, u32)
         }
         cc[i] = [(w - 1.0) / 2.0 - sx / 4.0, (h - 1.0) / 2.0 - sy / 4.0];
     }
-    if zero_disparity {
-        for a in 0..2 {
-            let m = (cc[0][a] + cc[1][a]) / 2.0;
-            (cc[0][a], cc[1][a]) = (m, m);
-        }
-    } else {
-        // The coordinate across the baseline is shared.
-        let a = 1 - idx;
+    // The coordinate across the baseline is shared, and with `zero_disparity` the other too.
+    let shared: &[usize] = if zero_disparity { &[0, 1] } else if idx == 0 { &[1] } else { &[0] };
+    for &a in shared {
         let m = (cc[0][a] + cc[1][a]) / 2.0;
         (cc[0][a], cc[1][a]) = (m, m);
     }

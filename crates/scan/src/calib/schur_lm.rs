@@ -83,11 +83,15 @@ fn central_column(xw: &mut [f64], i: usize, rp: &mut [f64], rm: &mut [f64], eval
     }
 }
 
+/// One block's share of the normal equations: U_b, W_b, V_b, its part of Jᵀr over the global
+/// parameters, and Jᵀr over its own.
+type BlockNormal = (DMatrix<f64>, DMatrix<f64>, Matrix6<f64>, DVector<f64>, Vector6<f64>);
+
 /// The normal equations at `x` (Jacobian by central differences, block by block).
 pub fn normal_equations<P: Blocks>(p: &P, layout: &Layout, x: &[f64]) -> Normal {
     let ng = layout.global.len();
     let rows = p.block_rows();
-    let per_block: Vec<(DMatrix<f64>, DMatrix<f64>, Matrix6<f64>, DVector<f64>, Vector6<f64>)> = layout
+    let per_block: Vec<BlockNormal> = layout
         .local
         .par_iter()
         .enumerate()
