@@ -58,7 +58,7 @@ pub struct Free {
     /// The sensor tilt τx, τy (OpenCV's `CALIB_TILTED_MODEL`); off by default.
     pub tilted: bool,
     /// Lens terms held at their start values, one bit per term in [`Lens::to_array`]'s order
-    /// (bit 0 fx … bit 17 τy; the `HOLD_*` constants), for every device: OpenCV's
+    /// (bit 0 fx … bit 17 τy; [`HOLD_FOCAL`], [`HOLD_PRINCIPAL_POINT`], [`hold_k`]), for every device: OpenCV's
     /// `CALIB_FIX_PRINCIPAL_POINT`, `CALIB_FIX_FOCAL_LENGTH`, `CALIB_FIX_K1` … `CALIB_FIX_K6`,
     /// `CALIB_FIX_TANGENT_DIST`, `CALIB_FIX_S1_S2_S3_S4`, `CALIB_FIX_TAUX_TAUY`.
     pub held: u32,
@@ -118,12 +118,6 @@ pub const fn hold_k(i: usize) -> u32 {
         _ => 0,
     }
 }
-/// [`Free::held`] bits: p1 and p2.
-pub const HOLD_TANGENTIAL: u32 = 0b11 << 6;
-/// [`Free::held`] bits: s1…s4.
-pub const HOLD_PRISM: u32 = 0b1111 << 12;
-/// [`Free::held`] bits: τx and τy.
-pub const HOLD_TILT: u32 = 0b11 << 16;
 
 impl Default for Free {
     fn default() -> Self {
