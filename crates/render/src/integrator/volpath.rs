@@ -528,8 +528,13 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
-                // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u).
-                if !collide(&mut beta, &mut r_u, &mut r_l, sigma_s, sigma_t, t_coll, wl) {
+                // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u). The
+                // vertex's light estimates take the throughput and density ratios after the
+                // collision (`bv`, `rv`); the path's own go on only after the phase sample, with
+                // one renormalisation for both (as the deep walk does, bit for bit).
+                let a = relative_transmittance(sigma_t, t_coll);
+                let (mut bv, mut rv, mut lv) = (beta * a * sigma_s, r_u * a * sigma_t, r_l);
+                if !renormalize(&mut bv, &mut rv, &mut lv, wl) {
                     break;
                 }
                 let p = ray.o + ray.d * t_coll;
@@ -538,13 +543,18 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 if depth >= settings.max_depth {
                     break;
                 }
+                let scheduled = next_event_rr;
                 if !event_roulette(events, &mut next_event_rr, &mut beta, rng) {
                     break;
+                }
+                if next_event_rr != scheduled {
+                    // The roulette was played, and the survivor's throughput doubled.
+                    bv *= 2.0;
                 }
                 let mi = medium.unwrap_or(0);
                 let can_nee = mi >= 64 || nee_ok & (1u64 << mi) != 0;
                 if can_nee {
-                    l += beta * medium_light_sample(scene, mm, p, ray.d, medium, r_u, wl, rng);
+                    l += bv * medium_light_sample(scene, mm, p, ray.d, medium, rv, wl, rng);
                 }
                 // The refracted branch (module documentation): played with probability α_j, which
                 // depends only on the vertex (not on the plane a probe ray finds), so the main
@@ -574,7 +584,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                             if let Some((w, q)) = rl.sample(&plane, p, uc, u2) {
                                 let f = mm.phase_eval(wl, ray.d.dot(w));
                                 let t = if rl.reaches(&plane, p, w).is_some() { 1.0 } else { 0.0 };
-                                l += beta * refracted_branch(scene, p, w, medium, f, r_u, alpha * q + f * (splits * t), 1.0, wl, rng);
+                                l += bv * refracted_branch(scene, p, w, medium, f, rv, alpha * q + f * (splits * t), 1.0, wl, rng);
                             }
                         }
                         let frame = Frame::from_normal(ray.d);
@@ -594,7 +604,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                                 continue;
                             }
                             let q = rl.pdf(&plane, p, w);
-                            l += beta * refracted_branch(scene, p, w, medium, f, r_u, alpha * q + f * splits, pre, wl, rng);
+                            l += bv * refracted_branch(scene, p, w, medium, f, rv, alpha * q + f * splits, pre, wl, rng);
                         }
                     }
                 }
@@ -603,11 +613,12 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // The phase functions differ between the carried wavelengths: p_j(μ)/p₀(μ) is
                 // both lane j's weight and the ratio of the direction densities had λ_j been the
                 // hero (so spectral MIS keeps every lane's estimate bounded, see the module docs).
-                r_l = if can_nee || guide.is_some() { r_u / ps.pdf } else { Vec4::ZERO };
+                r_l = if can_nee || guide.is_some() { r_u * a * sigma_t / ps.pdf } else { Vec4::ZERO };
                 guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, medium, plane: probed, w: ps.wi, alpha, splits, sigma_t });
                 guide_steps = 0;
-                beta *= ps.weight;
-                r_u *= ps.weight;
+                let aw = a * ps.weight;
+                beta *= aw * sigma_s;
+                r_u *= aw * sigma_t;
                 let (wi, pdf) = (ps.wi, ps.pdf);
                 if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
                     break;
@@ -631,25 +642,31 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     let s_min = sigma_t.min_element();
                     // Without refracted lights no vertex plays a branch: any depth will do.
                     let reach = if scene.refracted_lights.is_some() { GUIDE_REACH } else { 0.0 };
+                    guide_at = None;
+                    r_l = Vec4::ZERO;
+                    prev_no_mis = true;
+                    // Distance from the ball's centre to the flight's start (the ball does not move
+                    // during the deep walk).
+                    let mut o_dist = (ray.o - free.centre).length();
                     loop {
                         let t = free_flight(sigma_t.x, rng);
                         let q = ray.o + ray.d * t;
+                        let q_dist = (q - free.centre).length();
                         // The general loop's two tests, without their side effects: the flight
                         // crosses no surface (by the grid's bound at its start, or inside the
                         // ball, which the general loop would leave where it is), and its end
                         // lies beyond the guide's reach (`guide_probability`'s distance).
-                        let deep = if free.inside(ray.o) && free.bound(q) * s_min > reach {
+                        let o_inside = o_dist < free.radius;
+                        let q_bound = (free.radius - q_dist).max(0.0);
+                        let deep = if o_inside && q_bound * s_min > reach {
                             true
                         } else {
-                            let free_flight_ok = t < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || (free.inside(ray.o) && free.inside(q));
-                            free_flight_ok && g.free_distance(q).max(free.bound(q)).max(0.0) * s_min > reach
+                            let free_flight_ok = t < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || (o_inside && q_dist < free.radius);
+                            free_flight_ok && g.free_distance(q).max(q_bound).max(0.0) * s_min > reach
                         };
                         if !deep {
                             pending_flight = Some(t);
                             break;
-                        }
-                        if !collide(&mut beta, &mut r_u, &mut r_l, sigma_s, sigma_t, t, wl) {
-                            break 'path;
                         }
                         depth += 1;
                         events += 1;
@@ -661,17 +678,18 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                         }
                         let uc = rng.next_f32();
                         let Some(ps) = mm.phase_sample_lanes(&lanes.1, lane_table, ray.d, uc, rng.next_2d()) else { break 'path };
-                        r_l = Vec4::ZERO;
-                        guide_at = None;
-                        beta *= ps.weight;
-                        r_u *= ps.weight;
+                        // The collision's weights (σ_s and the relative transmittance) and the phase
+                        // sample's in one renormalisation: the MIS divisor is a common factor of both.
+                        let a = relative_transmittance(sigma_t, t) * ps.weight;
+                        beta *= a * sigma_s;
+                        r_u *= a * sigma_t;
                         if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
                             break 'path;
                         }
                         prev_pdf = ps.pdf;
-                        prev_no_mis = true;
                         prev_p = q;
                         ray = Ray { o: q, d: ps.wi, t_min: 0.0, t_max: f32::INFINITY };
+                        o_dist = q_dist;
                         if !roulette(&mut beta, eta_scale, depth, settings, wl, rng) {
                             break 'path;
                         }
@@ -817,17 +835,6 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         }
     }
     l
-}
-
-/// A real collision after a free flight of `t` (m): the lanes' weights take σ_s and their
-/// transmittance relative to the smallest, their density ratios σ_t and the same (spectral MIS,
-/// module documentation); false when the path can no longer contribute.
-#[inline(always)]
-fn collide(beta: &mut Vec4, r_u: &mut Vec4, r_l: &mut Vec4, sigma_s: Vec4, sigma_t: Vec4, t: f32, wl: &SampledWavelengths) -> bool {
-    let a = relative_transmittance(sigma_t, t);
-    *beta *= a * sigma_s;
-    *r_u *= a * sigma_t;
-    renormalize(beta, r_u, r_l, wl)
 }
 
 /// The event-count roulette (module documentation) after `events` real collisions: at the

@@ -528,8 +528,10 @@ pub fn from_bulk(name: &str, b: &optics::media::BulkProperties, use_table: bool)
 pub struct FreeFlightGrid {
     min: Vec3,
     max: Vec3,
-    cell_m: f32,
     n: [usize; 3],
+    /// 1 / the cells' side (m⁻¹) and the cell counts as floats, for the per-collision lookup.
+    inv_cell: f32,
+    n_f: Vec3,
     /// Per cell (x fastest), the bound in m (≤ 0: no guarantee).
     bound_m: Vec<f32>,
     /// The medium's boundary when it is one closed convex mesh with nothing inside: exact
@@ -549,7 +551,7 @@ impl FreeFlightGrid {
         let n = [0, 1, 2].map(|a| (((ext[a] + 4.0 * h) / h).ceil() as usize).clamp(1, cells.max(1) + 5));
         let max = min + Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * h;
         if !(min.is_finite() && max.is_finite() && h.is_finite()) {
-            return FreeFlightGrid { min: Vec3::ZERO, max: Vec3::ZERO, cell_m: 1.0, n: [1, 1, 1], bound_m: vec![0.0], convex: None };
+            return FreeFlightGrid { min: Vec3::ZERO, max: Vec3::ZERO, n: [1, 1, 1], inv_cell: 1.0, n_f: Vec3::ONE, bound_m: vec![0.0], convex: None };
         }
         let idx = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
         let mut marked = vec![false; n[0] * n[1] * n[2]];
@@ -626,7 +628,7 @@ impl FreeFlightGrid {
             }
         }
         let bound_m = d2.iter().map(|&q| if q >= big * 0.5 { f32::INFINITY } else { (q.sqrt() - 1.7321) * h }).collect();
-        FreeFlightGrid { min, max, cell_m: h, n, bound_m, convex: None }
+        FreeFlightGrid { min, max, n, inv_cell: 1.0 / h, n_f: Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32), bound_m, convex: None }
     }
 
     /// This grid with the medium's convex boundary (see [`Self::convex`]).
@@ -648,10 +650,11 @@ impl FreeFlightGrid {
         if !(to_faces > 0.0) {
             return 0.0;
         }
-        let c = (p - self.min) / self.cell_m;
-        let n = Vec3::new(self.n[0] as f32, self.n[1] as f32, self.n[2] as f32);
+        // A point within rounding of a cell face may land in the neighbouring cell; the bounds
+        // leave a margin of 5·10⁻⁵ cells for that (`build`).
+        let c = (p - self.min) * self.inv_cell;
         // Also false for NaN: past this, 0 ≤ c < n on every axis.
-        if !(c.cmpge(Vec3::ZERO).all() && c.cmplt(n).all()) {
+        if !(c.cmpge(Vec3::ZERO).all() && c.cmplt(self.n_f).all()) {
             return 0.0;
         }
         // SAFETY: x is finite and in [0, n) with n a cell count (far below usize::MAX), checked
