@@ -308,7 +308,7 @@ impl HomogeneousMedium {
     /// The scattering cosine μ that [`Self::phase_sample_lanes`] draws from the hero
     /// wavelength's phase function with the same `uc` and `ux`, and, for tables on a shared
     /// grid, the grid segment and the position in it (for [`Self::phase_lanes_at`]).
-    #[inline]
+    #[inline(always)]
     pub fn phase_sample_cos(&self, lanes: &MediumLanes, uc: f32, ux: f32) -> (f32, Option<(usize, f32)>) {
         match &self.phase {
             PhaseModel::HenyeyGreenstein { .. } => (hg_sample(lanes.phase_w.x, ux).clamp(-1.0, 1.0), None),
@@ -352,7 +352,7 @@ impl HomogeneousMedium {
     /// Phase function (sr⁻¹) at each carried wavelength for the cosine `mu` drawn by
     /// [`Self::phase_sample_cos`] (`seg` as it returned it); `table` is this path's
     /// [`Self::lane_table`], if it has one.
-    #[inline]
+    #[inline(always)]
     pub fn phase_lanes_at(&self, lanes: &MediumLanes, table: Option<&[Vec4]>, mu: f32, seg: Option<(usize, f32)>) -> SampledSpectrum {
         if let (Some(tab), Some((j, s))) = (table, seg) {
             let a = tab[j];
