@@ -279,15 +279,23 @@ impl HomogeneousMedium {
         out.clear();
         let PhaseModel::Tabulated { grid: Some(gr), .. } = &self.phase else { return };
         let n = gr.mu.len();
-        let v = &gr.values;
-        let row = lanes.row.map(|r| r as usize);
-        let t = lanes.phase_w.to_array();
-        out.extend((0..n).map(|j| {
-            Vec4::from_array(std::array::from_fn(|i| {
-                let a = v[row[i] + j];
-                if t[i] > 0.0 { a * (1.0 - t[i]) + t[i] * v[row[i] + n + j] } else { a }
-            }))
-        }));
+        out.resize(n, Vec4::ZERO);
+        // Lane by lane over the two bracketing tables' contiguous rows (a path entering a milk
+        // pays this once; 181 nodes).
+        for i in 0..N_LAMBDA {
+            let (r, t) = (lanes.row[i] as usize, lanes.phase_w[i]);
+            let lo = &gr.values[r..r + n];
+            if t > 0.0 {
+                let hi = &gr.values[r + n..r + 2 * n];
+                for ((o, &a), &b) in out.iter_mut().zip(lo).zip(hi) {
+                    o[i] = a * (1.0 - t) + t * b;
+                }
+            } else {
+                for (o, &a) in out.iter_mut().zip(lo) {
+                    o[i] = a;
+                }
+            }
+        }
     }
 
     /// [`Self::phase_sample`] with the medium's per-wavelength data already at hand. Tables on a
