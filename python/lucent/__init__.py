@@ -73,6 +73,7 @@ __all__ = [
     "CALIB_FIX_TANGENT_DIST",
     "CALIB_SAME_FOCAL_LENGTH",
     "CALIB_ZERO_DISPARITY",
+    "SOLVEPNP_ITERATIVE",
     "CALIB_FIX_SKEW",
     "CALIB_USE_LU",
     "CALIB_USE_QR",
@@ -935,11 +936,17 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     return (rms, k1, _np.asarray(d1, dtype=float).reshape(1, -1), k2, _np.asarray(d2, dtype=float).reshape(1, -1), r, t, e, f)
 
 
-def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs):
+SOLVEPNP_ITERATIVE = 0
+
+
+def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs, rvec=None, tvec=None,
+              useExtrinsicGuess=False, flags=SOLVEPNP_ITERATIVE):
     """The pose of a known object from its image, as ``cv2.solvePnP`` (``SOLVEPNP_ITERATIVE``):
     a closed-form start (the plane's homography for coplanar points, at least 4; the direct linear
-    transform otherwise, at least 6), then Levenberg–Marquardt on the reprojection error through
-    the full lens model (lucent's own implementation).
+    transform otherwise, at least 6), or ``rvec``, ``tvec`` with ``useExtrinsicGuess`` (at least
+    4 points), then Levenberg–Marquardt on the reprojection error through the full lens model
+    (lucent's own implementation). Other ``flags`` (OpenCV's P3P, EPnP, IPPE, …) raise
+    ``ValueError``.
 
     Parameters
     ----------
@@ -956,10 +963,20 @@ def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs):
         As OpenCV: True, and the (3, 1) Rodrigues vector and translation of the object → camera
         transform. Configurations that determine no pose raise ``ValueError``.
     """
+    if flags != SOLVEPNP_ITERATIVE:
+        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
     obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
     img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
     k, d = _camera_args(camera_matrix, dist_coeffs)
-    r, t, _ = _lucent.solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d)
+    guess = None
+    if useExtrinsicGuess:
+        if rvec is None or tvec is None:
+            raise ValueError("useExtrinsicGuess needs rvec and tvec")
+        rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
+        if rv.size != 3 or tv.size != 3:
+            raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
+        guess = (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
+    r, t, _ = _lucent.solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d, guess)
     return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
 
 

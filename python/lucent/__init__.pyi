@@ -82,9 +82,11 @@ def stereo_calibrate(object_points: Sequence[npt.ArrayLike], image_points1: Sequ
                      camera_matrix2: Optional[npt.ArrayLike], dist_coeffs2: Optional[npt.ArrayLike],
                      image_size: Tuple[int, int], flags: int = ...) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(rms, K1, D1, K2, D2, R, T, E, F) of two cameras from one planar target (cv2.stereoCalibrate; flags 0 fits everything)."""
+SOLVEPNP_ITERATIVE: int
 def solve_pnp(object_points: npt.ArrayLike, image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
-              dist_coeffs: Optional[npt.ArrayLike]) -> Tuple[bool, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """(True, rvec, tvec) of a known object seen by a calibrated camera (cv2.solvePnP, iterative)."""
+              dist_coeffs: Optional[npt.ArrayLike], rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,
+              useExtrinsicGuess: bool = False, flags: int = 0) -> Tuple[bool, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(True, rvec, tvec) of a known object seen by a calibrated camera (cv2.solvePnP, iterative; useExtrinsicGuess starts from rvec, tvec)."""
 def undistort(src: npt.ArrayLike, camera_matrix: npt.ArrayLike, dist_coeffs: Optional[npt.ArrayLike],
               new_camera_matrix: Optional[npt.ArrayLike] = ...) -> npt.NDArray[np.uint8]:
     """A uint8 photograph with its lens distortion removed (cv2.undistort)."""

@@ -154,14 +154,17 @@ pub fn undistort_flat(py: Python<'_>, image: &[u8], width: usize, height: usize,
 }
 
 /// The pose of object points (flat x, y, z) seen at pixels (flat u, v) by the camera `k`
-/// (row-major 3×3) with OpenCV's distortion `dist` (OpenCV's `solvePnP`, `scan::calib::pnp`):
-/// (Rodrigues vector, translation, RMS reprojection error in pixels).
+/// (row-major 3×3) with OpenCV's distortion `dist` (OpenCV's `solvePnP`, `scan::calib::pnp`),
+/// refined from `guess` (Rodrigues vector, translation) when given: (Rodrigues vector,
+/// translation, RMS reprojection error in pixels).
 #[pyfunction]
-pub fn solve_pnp_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec<f64>) -> PyResult<([f64; 3], [f64; 3], f64)> {
+#[pyo3(signature = (object, pixels, k, dist, guess=None))]
+pub fn solve_pnp_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec<f64>, guess: Option<([f64; 3], [f64; 3])>) -> PyResult<([f64; 3], [f64; 3], f64)> {
     let lens = lens_of(&k, &dist, "camera_matrix", "dist_coeffs")?;
     let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
     let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
-    let (pose, rms) = scan::calib::pnp::solve_pnp(&obj, &px, &lens).map_err(|e| value(format!("{e:#}")))?;
+    let guess = guess.map(|(r, t)| scan::calib::model::Pose { rvec: r.into(), t: t.into() });
+    let (pose, rms) = scan::calib::pnp::solve_pnp_from(&obj, &px, &lens, guess).map_err(|e| value(format!("{e:#}")))?;
     Ok(([pose.rvec[0], pose.rvec[1], pose.rvec[2]], [pose.t[0], pose.t[1], pose.t[2]], rms))
 }
 

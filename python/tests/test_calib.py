@@ -422,6 +422,17 @@ def test_solve_pnp_recovers_a_known_pose():
         assert np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
     with pytest.raises(ValueError, match="at least 4"):
         lucent.solve_pnp(OBJ[:3], lucent.project_points(OBJ[:3], r, t, K, DIST), K, DIST)
+    # From a guess (useExtrinsicGuess), five points off a plane, too few without one.
+    five = cloud[:5]
+    px = lucent.project_points(five, r, t, K, DIST)
+    with pytest.raises(ValueError, match="at least 6"):
+        lucent.solve_pnp(five, px, K, DIST)
+    ok, rv, tv = lucent.solve_pnp(five, px, K, DIST, r + 0.05, t + 20.0, True)
+    assert np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
+    with pytest.raises(ValueError, match="rvec and tvec"):
+        lucent.solve_pnp(five, px, K, DIST, useExtrinsicGuess=True)
+    with pytest.raises(ValueError, match="SOLVEPNP_ITERATIVE"):
+        lucent.solve_pnp(five, px, K, DIST, flags=1)
 
 
 def test_solve_pnp_agrees_with_live_opencv():
@@ -433,6 +444,11 @@ def test_solve_pnp_agrees_with_live_opencv():
         _, rv, tv = lucent.solve_pnp(obj, px, K, DIST)
         ok, rc, tc = cv2.solvePnP(obj, px, K, DIST, flags=cv2.SOLVEPNP_ITERATIVE)
         # The same least-squares minimum.
+        assert ok and np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-4 * np.linalg.norm(t)
+        # And from the same guess (useExtrinsicGuess), the same minimum again.
+        g_r, g_t = (r + 0.04).reshape(3, 1), (t + 15.0).reshape(3, 1)
+        _, rv, tv = lucent.solve_pnp(obj, px, K, DIST, g_r, g_t, True)
+        ok, rc, tc = cv2.solvePnP(obj, px, K, DIST, g_r.copy(), g_t.copy(), True, cv2.SOLVEPNP_ITERATIVE)
         assert ok and np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-4 * np.linalg.norm(t)
 
 

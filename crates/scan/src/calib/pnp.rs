@@ -8,7 +8,8 @@
 //!   gives the pose (Zhang's decomposition, `zhang::pose_from_homography`), at least 4 points.
 //!   Otherwise the direct linear transform (Hartley & Zisserman, Multiple View Geometry, §7.1) on
 //!   Hartley-normalised points gives the 3 × 4 projection, whose left 3 × 3 block is rescaled to
-//!   the nearest rotation, at least 6 points.
+//!   the nearest rotation, at least 6 points. Or a pose the caller gives (`solve_pnp_from`,
+//!   OpenCV's `useExtrinsicGuess`), from at least 4 points of any layout.
 //! - **Refinement.** Levenberg–Marquardt over the Rodrigues vector and the translation, with
 //!   central-difference derivatives, until the step or the relative decrease of the squared error
 //!   falls below 10⁻¹⁴, at most 200 iterations.
@@ -27,6 +28,13 @@ use super::zhang::pose_from_homography;
 /// reprojection error (pixels). Errors are one line: too few points, points and pixels of
 /// different counts, non-finite values, or a configuration that determines no pose.
 pub fn solve_pnp(obj: &[[f64; 3]], px: &[Point2], lens: &Lens) -> Result<(Pose, f64)> {
+    solve_pnp_from(obj, px, lens, None)
+}
+
+/// [`solve_pnp`], refined from `guess` instead of the closed-form start when one is given
+/// (OpenCV's `useExtrinsicGuess`): the minimum nearest the guess, from at least 4 points on a
+/// plane or off it.
+pub fn solve_pnp_from(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Option<Pose>) -> Result<(Pose, f64)> {
     if obj.len() != px.len() {
         bail!("{} object points but {} image points", obj.len(), px.len());
     }
@@ -37,22 +45,15 @@ pub fn solve_pnp(obj: &[[f64; 3]], px: &[Point2], lens: &Lens) -> Result<(Pose, 
         bail!("a pose needs at least 4 points, got {}", obj.len());
     }
     let x: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::from(*p)).collect();
+    if let Some(g) = &guess {
+        if g.rvec.iter().chain(g.t.iter()).any(|v| !v.is_finite()) {
+            bail!("the pose guess must be finite");
+        }
+    }
     let norm: Vec<Point2> = px.iter().map(|p| [(p[0] - lens.cx) / lens.fx, (p[1] - lens.cy) / lens.fy]).collect();
-    let start = match plane_frame(&x) {
-        Some((c, b)) => {
-            // Plane coordinates q = Bᵀ(X − c); pose of the plane frame from the homography.
-            let q: Vec<Point2> = x.iter().map(|p| b.transpose() * (p - c)).map(|v| [v[0], v[1]]).collect();
-            let Some(h) = fit_homography(&q, &norm) else { bail!("the points do not determine a homography (collinear?)") };
-            let Some(p) = pose_from_homography(&h, &Matrix3::identity()) else { bail!("no pose from the points' homography") };
-            let r = p.r() * b.transpose();
-            Pose::from_rt(&r, p.t - r * c)
-        }
-        None => {
-            if obj.len() < 6 {
-                bail!("points off one plane need at least 6 for a pose, got {}", obj.len());
-            }
-            dlt(&x, &norm).ok_or_else(|| anyhow::anyhow!("the points determine no projection (degenerate configuration)"))?
-        }
+    let start = match guess {
+        Some(g) => g,
+        None => closed_form_start(&x, &norm)?,
     };
     let pose = refine(&x, px, lens, start);
     let rms = (sq_error(&x, px, lens, &pose) / px.len() as f64).sqrt();
@@ -60,6 +61,26 @@ pub fn solve_pnp(obj: &[[f64; 3]], px: &[Point2], lens: &Lens) -> Result<(Pose, 
         bail!("the pose puts points behind the camera");
     }
     Ok((pose, rms))
+}
+
+/// The closed-form start (module documentation) from object points and normalised pixels.
+fn closed_form_start(x: &[Vector3<f64>], norm: &[Point2]) -> Result<Pose> {
+    Ok(match plane_frame(x) {
+        Some((c, b)) => {
+            // Plane coordinates q = Bᵀ(X − c); pose of the plane frame from the homography.
+            let q: Vec<Point2> = x.iter().map(|p| b.transpose() * (p - c)).map(|v| [v[0], v[1]]).collect();
+            let Some(h) = fit_homography(&q, norm) else { bail!("the points do not determine a homography (collinear?)") };
+            let Some(p) = pose_from_homography(&h, &Matrix3::identity()) else { bail!("no pose from the points' homography") };
+            let r = p.r() * b.transpose();
+            Pose::from_rt(&r, p.t - r * c)
+        }
+        None => {
+            if x.len() < 6 {
+                bail!("points off one plane need at least 6 for a pose, got {}", x.len());
+            }
+            dlt(x, norm).ok_or_else(|| anyhow::anyhow!("the points determine no projection (degenerate configuration)"))?
+        }
+    })
 }
 
 /// The centroid and an orthonormal frame (columns e₁, e₂, n) of coplanar points; None when they
