@@ -72,6 +72,7 @@ __all__ = [
     "CALIB_FIX_TAUX_TAUY",
     "CALIB_FIX_TANGENT_DIST",
     "CALIB_SAME_FOCAL_LENGTH",
+    "CALIB_USE_EXTRINSIC_GUESS",
     "CALIB_ZERO_DISPARITY",
     "SOLVEPNP_ITERATIVE",
     "CALIB_FIX_SKEW",
@@ -827,6 +828,7 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
 #: Stereo flags of :func:`stereo_calibrate` (the values of ``cv2.CALIB_*``).
 CALIB_FIX_INTRINSIC = 256
 CALIB_SAME_FOCAL_LENGTH = 512
+CALIB_USE_EXTRINSIC_GUESS = 1 << 22
 
 
 def _planar_target(object_points, image_points, name):
@@ -880,7 +882,7 @@ def _stereo_aspect(flags, camera_matrix1, camera_matrix2):
 
 
 def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1, dist_coeffs1,
-                     camera_matrix2, dist_coeffs2, image_size, flags=0):
+                     camera_matrix2, dist_coeffs2, image_size, flags=0, R=None, T=None):
     """Calibrate two cameras and their relative pose from views of one planar target seen by both,
     as ``cv2.stereoCalibrate`` (lucent's own fit, that of ``lucent scan calibrate-stereo``).
 
@@ -899,8 +901,13 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         0 (all free), CALIB_USE_INTRINSIC_GUESS or CALIB_FIX_INTRINSIC, combined with the model
         and hold flags of :func:`calibrate_camera`, which apply to both cameras
         (CALIB_FIX_ASPECT_RATIO takes each camera's fx/fy from its matrix), and
-        CALIB_SAME_FOCAL_LENGTH (the second camera's fx, fy are the first's). Unlike cv2, whose
-        default is CALIB_FIX_INTRINSIC, 0 fits everything.
+        CALIB_SAME_FOCAL_LENGTH (the second camera's fx, fy are the first's), and
+        CALIB_USE_EXTRINSIC_GUESS (the fit's relative pose starts from ``R``, ``T``, as in
+        OpenCV 4; OpenCV 5.1's stereoCalibrate rejects the flag). Unlike cv2, whose default is
+        CALIB_FIX_INTRINSIC, 0 fits everything.
+    R, T : (3, 3) and 3-vector, optional
+        The start of the relative pose, with CALIB_USE_EXTRINSIC_GUESS (keywords here; cv2 takes
+        them before ``flags``).
 
     Returns
     -------
@@ -910,10 +917,20 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         the fundamental matrix F = K₂⁻ᵀ E K₁⁻¹.
     """
     flags = int(flags) & ~_NO_EFFECT_FLAGS
-    allowed = _CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC | CALIB_SAME_FOCAL_LENGTH
+    allowed = (_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC | CALIB_SAME_FOCAL_LENGTH
+               | CALIB_USE_EXTRINSIC_GUESS)
     if flags & ~allowed:
         raise ValueError(f"flags: {flags & ~allowed} is not a flag lucent.stereo_calibrate knows "
-                         "(CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC, CALIB_SAME_FOCAL_LENGTH and the flags of calibrate_camera are)")
+                         "(CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_INTRINSIC, CALIB_SAME_FOCAL_LENGTH, "
+                         "CALIB_USE_EXTRINSIC_GUESS and the flags of calibrate_camera are)")
+    extrinsic = None
+    if flags & CALIB_USE_EXTRINSIC_GUESS:
+        if R is None or T is None:
+            raise ValueError("R, T: CALIB_USE_EXTRINSIC_GUESS needs both")
+        r, t = _np.asarray(R, dtype=float), _np.asarray(T, dtype=float).ravel()
+        if r.shape != (3, 3) or t.size != 3:
+            raise ValueError(f"R, T: need a 3×3 matrix and 3 values, got {r.shape} and {t.size}")
+        extrinsic = ([[float(v) for v in row] for row in r], [float(v) for v in t])
     if len(image_points1) != len(image_points2):
         raise ValueError(f"image_points1 and image_points2: {len(image_points1)} and {len(image_points2)} views")
     obj, img1 = _planar_target(object_points, image_points1, "image_points1")
@@ -927,7 +944,7 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     rms, c1, d1, c2, d2, r, t = _lucent.stereo_calibrate_flat(
         [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img1], [[float(v) for v in p.ravel()] for p in img2],
         w, h, guess, bool(flags & CALIB_FIX_INTRINSIC), _lens_flags(flags, guess is not None), _held(flags, guess is not None),
-        _stereo_aspect(flags, camera_matrix1, camera_matrix2), bool(flags & CALIB_SAME_FOCAL_LENGTH))
+        _stereo_aspect(flags, camera_matrix1, camera_matrix2), bool(flags & CALIB_SAME_FOCAL_LENGTH), extrinsic)
     k = lambda c: _np.array([[c[0], 0.0, c[2]], [0.0, c[1], c[3]], [0.0, 0.0, 1.0]])
     k1, k2, r, t = k(c1), k(c2), _np.asarray(r, dtype=float), _np.asarray(t, dtype=float).reshape(3, 1)
     tx = _np.array([[0.0, -t[2, 0], t[1, 0]], [t[2, 0], 0.0, -t[0, 0]], [-t[1, 0], t[0, 0], 0.0]])

@@ -20,6 +20,7 @@ CALIB_CB_SYMMETRIC_GRID: int
 CALIB_CB_ASYMMETRIC_GRID: int
 CALIB_USE_INTRINSIC_GUESS: int
 CALIB_FIX_INTRINSIC: int
+CALIB_USE_EXTRINSIC_GUESS: int
 
 _Real = Union[float, npt.ArrayLike]
 _Complex = Union[complex, float, npt.ArrayLike]
@@ -80,8 +81,9 @@ def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], flags
 def stereo_calibrate(object_points: Sequence[npt.ArrayLike], image_points1: Sequence[npt.ArrayLike], image_points2: Sequence[npt.ArrayLike],
                      camera_matrix1: Optional[npt.ArrayLike], dist_coeffs1: Optional[npt.ArrayLike],
                      camera_matrix2: Optional[npt.ArrayLike], dist_coeffs2: Optional[npt.ArrayLike],
-                     image_size: Tuple[int, int], flags: int = ...) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """(rms, K1, D1, K2, D2, R, T, E, F) of two cameras from one planar target (cv2.stereoCalibrate; flags 0 fits everything)."""
+                     image_size: Tuple[int, int], flags: int = ..., R: Optional[npt.ArrayLike] = None, T: Optional[npt.ArrayLike] = None
+                     ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(rms, K1, D1, K2, D2, R, T, E, F) of two cameras from one planar target (cv2.stereoCalibrate; flags 0 fits everything; CALIB_USE_EXTRINSIC_GUESS starts from R, T)."""
 SOLVEPNP_ITERATIVE: int
 def solve_pnp(object_points: npt.ArrayLike, image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
               dist_coeffs: Optional[npt.ArrayLike], rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,

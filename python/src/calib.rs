@@ -85,8 +85,10 @@ type Guess = (Vec<f64>, Vec<f64>);
 /// (RMS over both cameras in pixels, [fx, fy, cx, cy] and distortion of each camera, the
 /// row-major rotation and the translation with X₂ = R X₁ + T). Without `guess` each camera starts
 /// from its own calibration; with it (`use_guess`) the fit starts there, or (`fix_intrinsic`)
-/// holds the cameras there and fits only the poses.
+/// holds the cameras there and fits only the poses. `extrinsic` (OpenCV's
+/// `CALIB_USE_EXTRINSIC_GUESS`: row-major R and T) starts the last fit's relative pose there.
 #[pyfunction]
+#[pyo3(signature = (object_xy, points1, points2, width, height, guess, fix_intrinsic, flags, held, aspect_ratio, same_focal, extrinsic=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn stereo_calibrate_flat(
     py: Python<'_>,
@@ -101,10 +103,18 @@ pub fn stereo_calibrate_flat(
     held: u32,
     aspect_ratio: (Option<f64>, Option<f64>),
     same_focal: bool,
+    extrinsic: Option<([[f64; 3]; 3], [f64; 3])>,
 ) -> PyResult<(f64, [f64; 4], Vec<f64>, [f64; 4], Vec<f64>, [[f64; 3]; 3], [f64; 3])> {
     use scan::calib::{calibrate_planar, CaptureCorners, DeviceCalibration, Rig};
     if object_xy.iter().any(|x| !x.is_finite()) {
         return Err(value("object_points: must be finite"));
+    }
+    if let Some((r, t)) = &extrinsic {
+        let m = nalgebra::Matrix3::from_fn(|i, j| r[i][j]);
+        let orthonormal = (m.transpose() * m - nalgebra::Matrix3::identity()).abs().max() < 1e-6 && m.determinant() > 0.0;
+        if !(orthonormal && r.iter().flatten().chain(t).all(|v| v.is_finite())) {
+            return Err(value("R, T: CALIB_USE_EXTRINSIC_GUESS needs a rotation matrix R and a finite T"));
+        }
     }
     if points1.len() != points2.len() {
         return Err(value(format!("image_points1 and image_points2: {} and {} views", points1.len(), points2.len())));
@@ -119,11 +129,22 @@ pub fn stereo_calibrate_flat(
     let c = py
         .allow_threads(|| -> anyhow::Result<scan::calib::ProcamCalibration> {
             // The stereo pose always starts from a joint fit from each camera's own calibration;
-            // a guess then replaces the cameras for the last fit.
+            // a guess then replaces the cameras, an extrinsic guess the relative pose, for the
+            // last fit.
             let joint = calibrate_planar(&rig, &obj, &captures, None, Free { lenses: true, ..free }, devices)?;
-            let Some(((k1, d1), (k2, d2))) = &guess else { return Ok(joint) };
+            if guess.is_none() && extrinsic.is_none() {
+                return Ok(joint);
+            }
             let device = |k: &[f64], d: &[f64], like: &DeviceCalibration| DeviceCalibration { fx: k[0], fy: k[4], cx: k[2], cy: k[5], distortion: d.to_vec(), ..like.clone() };
-            let init = scan::calib::ProcamCalibration { camera: device(k1, d1, &joint.camera), projector: device(k2, d2, &joint.projector), ..joint };
+            let mut init = joint.clone();
+            if let Some(((k1, d1), (k2, d2))) = &guess {
+                init.camera = device(k1, d1, &joint.camera);
+                init.projector = device(k2, d2, &joint.projector);
+            }
+            if let Some((r, t)) = extrinsic {
+                init.rotation = r;
+                init.translation = t;
+            }
             calibrate_planar(&rig, &obj, &captures, Some(&init), free, devices)
         })
         .or_py()?;
