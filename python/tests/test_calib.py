@@ -338,6 +338,11 @@ def test_stereo_calibrate_recovers_a_known_rig():
                                       flags=lucent.CALIB_USE_EXTRINSIC_GUESS, **guess)
     assert abs(guessed[0] - plain[0]) < 1e-6 * plain[0] and np.abs(guessed[5] - plain[5]).max() < 1e-6
     assert np.abs(guessed[6] - plain[6]).max() < 1e-5 * np.linalg.norm(T12)
+    # The guess is the start: one 2 rad off and on the wrong side leads the fit away from the
+    # rig (it does not converge), where the same views without a guess give the rig exactly.
+    with pytest.raises(ValueError, match="converge"):
+        lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480),
+                                flags=lucent.CALIB_USE_EXTRINSIC_GUESS, R=R12 @ rodrigues([0.0, 2.0, 0.0]), T=-T12)
     with pytest.raises(ValueError, match="rotation"):
         lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480),
                                 flags=lucent.CALIB_USE_EXTRINSIC_GUESS, R=2 * R12, T=T12)
