@@ -343,6 +343,11 @@ def test_stereo_calibrate_recovers_a_known_rig():
     with pytest.raises(ValueError, match="converge"):
         lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480),
                                 flags=lucent.CALIB_USE_EXTRINSIC_GUESS, R=R12 @ rodrigues([0.0, 2.0, 0.0]), T=-T12)
+    # One about π off (2.5 rad) reaches a mirror image of the rig, which reprojects exactly with
+    # the board behind the second camera and fy < 0: refused, not returned.
+    with pytest.raises(ValueError, match="mirror image"):
+        lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480),
+                                flags=lucent.CALIB_USE_EXTRINSIC_GUESS, R=R12 @ rodrigues([0.0, 2.5, 0.0]), T=T12)
     with pytest.raises(ValueError, match="rotation"):
         lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480),
                                 flags=lucent.CALIB_USE_EXTRINSIC_GUESS, R=2 * R12, T=T12)

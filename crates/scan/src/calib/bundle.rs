@@ -360,7 +360,36 @@ pub fn refine(obj: &[Point2], views: &[ViewObs], init: &State, free: Free, max_r
     if !(e.all <= max_rms_px) {
         bail!("the calibration did not converge: reprojection RMS {:.3} px exceeds {max_rms_px} px", e.all);
     }
+    check_in_front(&obj3, views, &state)?;
     Ok(state)
+}
+
+/// Refuses a state that reprojects the corners with a device looking away from the board: x/z
+/// and y/z do not change when a point and its focal lengths change sign together, so a fit
+/// started on the wrong side (an extrinsic guess about π off) can reach a mirror image of the
+/// rig, with the board behind a device and a negative focal length, that reprojects exactly.
+fn check_in_front(obj: &[Vector3<f64>], views: &[ViewObs], s: &State) -> Result<()> {
+    let name = |d: usize| if d == 0 { "first device (camera)" } else { "second device (projector or second camera)" };
+    for (d, lens) in std::iter::once(&s.cam).chain(s.proj.as_ref()).enumerate() {
+        if !(lens.fx > 0.0 && lens.fy > 0.0) {
+            bail!("the fit reached a mirror image of the rig: the {} has focal lengths fx = {:.6}, fy = {:.6} px, and a device must have both > 0; start from a pose guess on the right side, or without one", name(d), lens.fx, lens.fy);
+        }
+    }
+    let (rs, ts) = (s.stereo.r(), s.stereo.t);
+    for (v, (pose, obs)) in s.poses.iter().zip(views).enumerate() {
+        let rot = pose.r();
+        for (k, xo) in obj.iter().enumerate() {
+            let xc = rot * xo + pose.t;
+            let behind = |z: f64| !(z > 0.0);
+            if observed(obs.cam[k]) && behind(xc[2]) {
+                bail!("the fit reached a mirror image of the rig: board corner {k} of view {v} lies behind the {}; start from a pose guess on the right side, or without one", name(0));
+            }
+            if s.proj.is_some() && observed(obs.proj[k]) && behind((rs * xc + ts)[2]) {
+                bail!("the fit reached a mirror image of the rig: board corner {k} of view {v} lies behind the {}; start from a pose guess on the right side, or without one", name(1));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Standard deviations of every parameter (in [`pack_state`] order) of a fit with the default
