@@ -85,6 +85,7 @@ __all__ = [
     "triangulate_points",
     "CV_32FC1",
     "Scene",
+    "fisheye",
 ]
 
 #: Default protein content of milk, weight percent (as ``lucent medium milk``).
@@ -1238,3 +1239,7 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
     k, d = _camera_args(camera_matrix, dist_coeffs)
     out = _lucent.undistort_points_flat([float(v) for v in q.ravel()], k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
+
+
+# OpenCV's fisheye model (``cv2.fisheye``), imported last: it uses the helpers above.
+from . import fisheye  # noqa: E402

@@ -7,6 +7,8 @@ from typing import Any, Callable, Optional, Sequence, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
+from . import fisheye as fisheye
+
 __version__: str
 MILK_PROTEIN_PERCENT: float
 MILK_PRESSURE_MPA: float

@@ -11,6 +11,7 @@ mod calib;
 mod camera;
 mod compare;
 mod errors;
+mod fisheye;
 mod fit;
 mod media;
 mod mie;
@@ -45,6 +46,10 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calib::triangulate_points_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::solve_pnp_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_camera_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_project_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_distort_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_undistort_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_calibrate_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_procam_json, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

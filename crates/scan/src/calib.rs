@@ -3,6 +3,7 @@
 pub mod bundle;
 pub mod camera;
 pub mod chessboard;
+pub mod fisheye;
 pub mod homography;
 pub mod model;
 pub mod pnp;

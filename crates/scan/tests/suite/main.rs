@@ -7,6 +7,7 @@ mod circles;
 mod common;
 mod decode;
 mod eval;
+mod fisheye;
 mod graycode;
 mod markers;
 mod pnp;

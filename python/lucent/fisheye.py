@@ -1,0 +1,249 @@
+"""OpenCV's fisheye camera model, as ``cv2.fisheye``: the Kannala–Brandt projection with OpenCV's
+four odd terms (Kannala & Brandt, IEEE PAMI 28(8), 2006), lucent's own implementation
+(``scan::calib::fisheye``; docs/scanning.md, "Fisheye lenses").
+
+A point (X, Y, Z) in camera coordinates (Z > 0) projects as a = X/Z, b = Y/Z, r = √(a² + b²),
+θ = atan r, θ_d = θ(1 + k1θ² + k2θ⁴ + k3θ⁶ + k4θ⁸), (x_d, y_d) = (θ_d/r)(a, b),
+u = fx(x_d + α y_d) + cx, v = fy y_d + cy, with K = [[fx, α fx, cx], [0, fy, cy], [0, 0, 1]] and
+D = (k1, k2, k3, k4).
+
+Where lucent differs from OpenCV 4/5, by choice:
+
+- the skew α is read from K (K₀₁ / K₀₀) everywhere, so that the K that :func:`calibrate` returns
+  means the same in :func:`project_points` and :func:`undistort_points`; OpenCV's
+  ``projectPoints`` takes it from its ``alpha`` argument instead (default 0), and its
+  ``undistortPoints`` ignores it. With α = 0 the results are the same;
+- :func:`undistort_points` solves θ_d(θ) = ‖(x_d, y_d)‖ within the range where θ_d increases and
+  returns NaN beyond it, where OpenCV returns (−10⁶, −10⁶) for rays it cannot invert;
+- points at or behind the camera's plane project to NaN (OpenCV mirrors them through the centre);
+- :func:`calibrate` always refines the poses together with the lens (the result OpenCV reaches
+  with ``CALIB_RECOMPUTE_EXTRINSIC``, which every OpenCV fisheye example passes).
+"""
+
+from __future__ import annotations
+
+import numpy as _np
+
+from . import _lucent
+
+__all__ = [
+    "project_points",
+    "distort_points",
+    "undistort_points",
+    "calibrate",
+    "init_undistort_rectify_map",
+    "CALIB_USE_INTRINSIC_GUESS",
+    "CALIB_RECOMPUTE_EXTRINSIC",
+    "CALIB_CHECK_COND",
+    "CALIB_FIX_SKEW",
+    "CALIB_FIX_K1",
+    "CALIB_FIX_K2",
+    "CALIB_FIX_K3",
+    "CALIB_FIX_K4",
+    "CALIB_FIX_INTRINSIC",
+    "CALIB_FIX_PRINCIPAL_POINT",
+    "CALIB_FIX_FOCAL_LENGTH",
+]
+
+#: Flags of :func:`calibrate`: OpenCV 5's values of ``cv2.fisheye.CALIB_*``, which are those of the
+#: pinhole ``cv2.CALIB_*`` (and of ``lucent.CALIB_*``). OpenCV 4 numbered the fisheye flags apart
+#: (1, 2, 4, …, 2048); such numbers are refused where they mean nothing here, as OpenCV 5 refuses
+#: them.
+CALIB_USE_INTRINSIC_GUESS = 1
+CALIB_FIX_PRINCIPAL_POINT = 4
+CALIB_FIX_FOCAL_LENGTH = 16
+CALIB_FIX_K1 = 32
+CALIB_FIX_K2 = 64
+CALIB_FIX_K3 = 128
+CALIB_FIX_INTRINSIC = 256
+CALIB_FIX_K4 = 2048
+CALIB_RECOMPUTE_EXTRINSIC = 1 << 23
+CALIB_CHECK_COND = 1 << 24
+CALIB_FIX_SKEW = 1 << 25
+
+_KNOWN = (CALIB_USE_INTRINSIC_GUESS | CALIB_RECOMPUTE_EXTRINSIC | CALIB_CHECK_COND | CALIB_FIX_SKEW | CALIB_FIX_K1
+          | CALIB_FIX_K2 | CALIB_FIX_K3 | CALIB_FIX_K4 | CALIB_FIX_INTRINSIC | CALIB_FIX_PRINCIPAL_POINT
+          | CALIB_FIX_FOCAL_LENGTH)
+
+
+def _lens(K, D, alpha=None):
+    """K (row-major, 9 floats, the skew set from ``alpha`` when given) and D (4 floats)."""
+    k = _np.asarray(K, dtype=float)
+    if k.shape != (3, 3):
+        raise ValueError(f"K: expected a 3×3 camera matrix, got shape {k.shape}")
+    d = _np.zeros(4) if D is None else _np.asarray(D, dtype=float).ravel()
+    if d.size != 4:
+        raise ValueError(f"D: expected the 4 coefficients k1, k2, k3, k4, got {d.size}")
+    k = k.copy()
+    if alpha is not None:
+        k[0, 1] = float(alpha) * k[0, 0]
+    return [float(v) for v in k.ravel()], [float(v) for v in d]
+
+
+def project_points(object_points, rvec, tvec, K, D, alpha=None) -> _np.ndarray:
+    """Pixels of 3-D points through a fisheye camera, as ``cv2.fisheye.projectPoints`` computes
+    them (without its Jacobian).
+
+    Parameters
+    ----------
+    object_points : (N, 3) or (N, 1, 3) array
+        Points in the world frame (the unit of ``tvec``).
+    rvec, tvec : 3 numbers each
+        World → camera rotation (Rodrigues vector, radians) and translation.
+    K : (3, 3) array
+        [[fx, α fx, cx], [0, fy, cy], [0, 0, 1]], pixels.
+    D : 4 numbers
+        k1, k2, k3, k4.
+    alpha : float, optional
+        The skew α, replacing K₀₁/K₀₀ when given.
+
+    Returns
+    -------
+    (N, 2) float array
+        OpenCV pixel coordinates; NaN at or behind the camera's plane.
+    """
+    p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    k, d = _lens(K, D, alpha)
+    r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]
+    t = [float(v) for v in _np.asarray(tvec, dtype=float).ravel()]
+    if len(r) != 3 or len(t) != 3:
+        raise ValueError("rvec, tvec: expected 3 numbers each")
+    out = _lucent.fisheye_project_flat([float(v) for v in p.ravel()], r, t, k, d)
+    return _np.asarray(out, dtype=float).reshape(-1, 2)
+
+
+def distort_points(undistorted, K, D, alpha=None) -> _np.ndarray:
+    """Pixels of undistorted normalised coordinates (x/z, y/z), as ``cv2.fisheye.distortPoints``.
+
+    Returns an (N, 2) float array.
+    """
+    q = _np.asarray(undistorted, dtype=float).reshape(-1, 2)
+    k, d = _lens(K, D, alpha)
+    return _np.asarray(_lucent.fisheye_distort_flat([float(v) for v in q.ravel()], k, d), dtype=float).reshape(-1, 2)
+
+
+def _rotation(R):
+    if R is None or _np.asarray(R).size == 0:
+        return _np.eye(3)
+    r = _np.asarray(R, dtype=float)
+    if r.size == 3:
+        v = r.ravel()
+        th = _np.linalg.norm(v)
+        if th == 0.0:
+            return _np.eye(3)
+        a = v / th
+        x = _np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+        return _np.eye(3) + _np.sin(th) * x + (1 - _np.cos(th)) * x @ x
+    if r.shape != (3, 3):
+        raise ValueError(f"R: expected a 3×3 matrix or a Rodrigues vector, got shape {r.shape}")
+    return r
+
+
+def undistort_points(distorted, K, D, R=None, P=None) -> _np.ndarray:
+    """Undistorted coordinates of pixels, as ``cv2.fisheye.undistortPoints``: normalised (x/z, y/z)
+    without ``R`` and ``P``; with them, the ray turned by ``R`` (3×3 or a Rodrigues vector) and
+    projected by the pinhole ``P`` (3×3 or 3×4).
+
+    Returns an (N, 2) float array, NaN where the ray would lie beyond the range where θ_d
+    increases (or at or behind the camera after ``R``).
+    """
+    q = _np.asarray(distorted, dtype=float).reshape(-1, 2)
+    k, d = _lens(K, D)
+    x = _np.asarray(_lucent.fisheye_undistort_flat([float(v) for v in q.ravel()], k, d), dtype=float).reshape(-1, 2)
+    if R is None and P is None:
+        return x
+    m = _rotation(R)
+    if P is not None:
+        p = _np.asarray(P, dtype=float)
+        if p.shape not in ((3, 3), (3, 4)):
+            raise ValueError(f"P: expected 3×3 or 3×4, got shape {p.shape}")
+        m = p[:, :3] @ m
+    h = _np.c_[x, _np.ones(len(x))] @ m.T
+    with _np.errstate(divide="ignore", invalid="ignore"):
+        out = h[:, :2] / h[:, 2:3]
+    out[~(h[:, 2] > 0)] = _np.nan
+    return out
+
+
+def init_undistort_rectify_map(K, D, R, P, size, m1type=5):
+    """The remapping of ``cv2.fisheye.initUndistortRectifyMap`` with float maps (``m1type``
+    CV_32FC1 = 5): (map_x, map_y), each a (height, width) float32 array giving, for each pixel of
+    the new pinhole image ``P`` (3×3 or 3×4) turned by ``R`` (None: the identity), the fisheye
+    pixel whose ray it shows; ``cv2.remap`` takes them as they are. Pixels whose ray lies at or
+    behind the camera's plane get NaN.
+    """
+    if int(m1type) != 5:
+        raise ValueError(f"m1type: only CV_32FC1 (5) float maps, got {m1type}")
+    w, h = (int(v) for v in size)
+    if w < 1 or h < 1:
+        raise ValueError(f"size: expected (width, height) of at least 1, got {size}")
+    p = _np.asarray(K if P is None else P, dtype=float)
+    if p.shape == (3, 4):
+        p = p[:, :3]
+    if p.shape != (3, 3):
+        raise ValueError(f"P: expected 3×3 or 3×4, got shape {p.shape}")
+    inv = _np.linalg.inv(p @ _rotation(R))
+    j, i = _np.meshgrid(_np.arange(w, dtype=float), _np.arange(h, dtype=float))
+    ray = _np.stack([j.ravel(), i.ravel(), _np.ones(w * h)], axis=1) @ inv.T
+    with _np.errstate(divide="ignore", invalid="ignore"):
+        xy = ray[:, :2] / ray[:, 2:3]
+    ahead = ray[:, 2] > 0
+    out = _np.full((w * h, 2), _np.nan)
+    out[ahead] = distort_points(xy[ahead], K, D)
+    return out[:, 0].reshape(h, w).astype(_np.float32), out[:, 1].reshape(h, w).astype(_np.float32)
+
+
+def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, criteria=None):
+    """Calibrate a fisheye camera from views of a planar target, as ``cv2.fisheye.calibrate``.
+
+    Parameters
+    ----------
+    object_points : list of (N, 3) or (N, 1, 3) arrays, one per view
+        The target's points; they must lie in the plane z = 0 and be the same in every view.
+    image_points : list of (N, 2) or (N, 1, 2) arrays, one per view
+        Their pixels (OpenCV convention); NaN for a point not seen.
+    image_size : (width, height)
+        Pixels.
+    K, D : arrays or None
+        The start with CALIB_USE_INTRINSIC_GUESS (as OpenCV: a held k_i starts at 0); otherwise
+        fx = fy = max(w, h)/2 and the principal point (w/2 − ½, h/2 − ½).
+    flags : int
+        ``cv2.fisheye`` values: CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_SKEW, CALIB_FIX_K1 … K4,
+        CALIB_FIX_PRINCIPAL_POINT, CALIB_FIX_FOCAL_LENGTH, CALIB_FIX_INTRINSIC (every lens term
+        held: the poses alone). CALIB_RECOMPUTE_EXTRINSIC and CALIB_CHECK_COND are accepted and
+        change nothing (the poses are always refined with the lens).
+    criteria : ignored
+        lucent's Levenberg–Marquardt stops where the step or the decrease of the squared error
+        falls below 10⁻¹⁵ relative.
+
+    Returns
+    -------
+    (rms, K, D, rvecs, tvecs)
+        The RMS reprojection error (pixels, √(Σ‖e‖²/N) over the N points, OpenCV's), the 3×3 K
+        (with K₀₁ = α fx), D as a (4, 1) array, and per view the (3, 1) Rodrigues vector and
+        translation of the target → camera transform.
+    """
+    from . import _planar_target, _pair
+
+    flags = int(flags)
+    if flags & ~_KNOWN:
+        raise ValueError(f"flags: {flags & ~_KNOWN} is not a flag lucent.fisheye.calibrate knows (it takes OpenCV 5's "
+                         "values, lucent.fisheye.CALIB_*; OpenCV 4's fisheye numbers differ)")
+    obj, img = _planar_target(object_points, image_points, "image_points")
+    w, h = _pair(image_size, "image_size", 1)
+    guess = None
+    if flags & CALIB_USE_INTRINSIC_GUESS or flags & CALIB_FIX_INTRINSIC:
+        if K is None:
+            raise ValueError("K: CALIB_USE_INTRINSIC_GUESS and CALIB_FIX_INTRINSIC start from it; got None")
+        k, d = _lens(K, D)
+        d = [0.0 if flags & f else v for f, v in zip((CALIB_FIX_K1, CALIB_FIX_K2, CALIB_FIX_K3, CALIB_FIX_K4), d)]
+        guess = (k, d)
+    every = bool(flags & CALIB_FIX_INTRINSIC)
+    hold = (every or bool(flags & CALIB_FIX_FOCAL_LENGTH), every or bool(flags & CALIB_FIX_PRINCIPAL_POINT),
+            every or bool(flags & CALIB_FIX_SKEW),
+            [every or bool(flags & f) for f in (CALIB_FIX_K1, CALIB_FIX_K2, CALIB_FIX_K3, CALIB_FIX_K4)])
+    rms, k, d, rvecs, tvecs = _lucent.fisheye_calibrate_flat(
+        [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img], w, h, hold, guess)
+    return (rms, _np.asarray(k, dtype=float).reshape(3, 3), _np.asarray(d, dtype=float).reshape(4, 1),
+            tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
+            tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))

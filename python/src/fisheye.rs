@@ -1,0 +1,76 @@
+//! OpenCV's fisheye camera model for Python (`cv2.fisheye`'s `projectPoints`, `distortPoints`,
+//! `undistortPoints` and `calibrate`) on flat arrays: `scan::calib::fisheye`.
+
+use crate::errors::{value, OrPy};
+use nalgebra::Vector3;
+use pyo3::prelude::*;
+use scan::calib::fisheye::{calibrate_fisheye, FisheyeHold, FisheyeLens};
+use scan::calib::model::Pose;
+
+fn lens(k: [f64; 9], d: [f64; 4]) -> PyResult<FisheyeLens> {
+    FisheyeLens::from_opencv(&k, &d).map_err(|e| value(format!("K, D: {e}")))
+}
+
+/// Pixels (flat u, v) of flat points (x, y, z) through the pose (Rodrigues vector, translation)
+/// and the lens `k` (row-major 3×3, K₀₁ = skew·fx), `d` (k1…k4); NaN at or behind the camera.
+#[pyfunction]
+pub fn fisheye_project_flat(points: Vec<f64>, rvec: [f64; 3], tvec: [f64; 3], k: [f64; 9], d: [f64; 4]) -> PyResult<Vec<f64>> {
+    let l = lens(k, d)?;
+    if points.iter().chain(rvec.iter()).chain(tvec.iter()).any(|x| !x.is_finite()) {
+        return Err(value("object_points, rvec, tvec: must be finite"));
+    }
+    let pose = Pose { rvec: Vector3::from(rvec), t: Vector3::from(tvec) };
+    Ok(points.chunks_exact(3).flat_map(|p| l.project(&pose.apply(&Vector3::new(p[0], p[1], p[2])))).collect())
+}
+
+/// Pixels (flat u, v) of flat undistorted normalised coordinates (x/z, y/z).
+#[pyfunction]
+pub fn fisheye_distort_flat(points: Vec<f64>, k: [f64; 9], d: [f64; 4]) -> PyResult<Vec<f64>> {
+    let l = lens(k, d)?;
+    Ok(points
+        .chunks_exact(2)
+        .flat_map(|p| {
+            let (xd, yd) = l.distort(p[0], p[1]);
+            l.to_pixel(xd, yd)
+        })
+        .collect())
+}
+
+/// Undistorted normalised coordinates (flat x/z, y/z) of flat pixels (u, v); NaN where the ray
+/// would lie beyond the range over which θ_d increases.
+#[pyfunction]
+pub fn fisheye_undistort_flat(pixels: Vec<f64>, k: [f64; 9], d: [f64; 4]) -> PyResult<Vec<f64>> {
+    let l = lens(k, d)?;
+    let tm = l.theta_max();
+    Ok(pixels
+        .chunks_exact(2)
+        .flat_map(|q| {
+            let (xd, yd) = l.normalise(q[0], q[1]);
+            l.undistort(xd, yd, tm).map_or([f64::NAN; 2], |(x, y)| [x, y])
+        })
+        .collect())
+}
+
+/// Calibrate a fisheye camera from one planar target (flat x, y, z = 0) in several views (flat
+/// u, v per view, NaN where not seen): (RMS in pixels, K row-major, D, Rodrigues vectors,
+/// translations). `hold`: focal lengths, principal point, skew, k1…k4; `guess`: the start.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn fisheye_calibrate_flat(
+    object_xy: Vec<f64>,
+    image_points: Vec<Vec<f64>>,
+    width: u32,
+    height: u32,
+    hold: (bool, bool, bool, [bool; 4]),
+    guess: Option<([f64; 9], [f64; 4])>,
+) -> PyResult<(f64, [f64; 9], [f64; 4], Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+    let obj: Vec<[f64; 2]> = object_xy.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let views: Vec<Vec<[f64; 2]>> = image_points.iter().map(|v| v.chunks_exact(2).map(|p| [p[0], p[1]]).collect()).collect();
+    let start = guess.map(|(k, d)| lens(k, d)).transpose()?;
+    let (focal, principal_point, skew, k) = hold;
+    let hold = FisheyeHold { focal, principal_point, skew, k };
+    let fit = calibrate_fisheye(&obj, &views, width, height, hold, start, 10.0).or_py()?;
+    let rv = fit.poses.iter().map(|p| [p.rvec[0], p.rvec[1], p.rvec[2]]).collect();
+    let tv = fit.poses.iter().map(|p| [p.t[0], p.t[1], p.t[2]]).collect();
+    Ok((fit.rms_px, fit.lens.camera_matrix(), fit.lens.k, rv, tv))
+}

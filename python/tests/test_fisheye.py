@@ -1,0 +1,114 @@
+"""lucent.fisheye (cv2.fisheye's projectPoints, distortPoints, undistortPoints,
+initUndistortRectifyMap and calibrate) on data with a known truth: the equidistant projection's
+closed form, round trips through the inverse, and calibration from the projections of a known
+lens; where cv2 is installed, also against OpenCV on the same points.
+"""
+import numpy as np
+import pytest
+
+import lucent
+from lucent import fisheye as fe
+
+K = np.array([[352.4, 0.0, 641.3], [0.0, 351.1, 478.9], [0.0, 0.0, 1.0]])
+D = np.array([0.052, -0.021, 0.0043, -0.0004])
+SIZE = (1280, 960)
+# A 9 × 6 board of 60-unit squares; each view puts the board's centre at `centre`, turned by `r`.
+OBJ = np.zeros((54, 3))
+OBJ[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 60.0
+VIEWS = [([0.05, -0.03, 0.02], [0, 0, 300]), ([0.5, 0.1, -0.05], [-150, -100, 260]), ([-0.5, 0.2, 0.1], [150, 120, 250]),
+         ([0.1, 0.6, 0.05], [-250, 50, 230]), ([0.2, -0.5, -0.1], [220, -40, 270]), ([-0.3, -0.4, 0.3], [120, -180, 260]),
+         ([0.4, 0.4, -0.2], [-200, 180, 250]), ([-0.2, 0.1, 0.9], [0, 0, 200])]
+
+
+def rodrigues(v):
+    v = np.asarray(v, dtype=float)
+    th = np.linalg.norm(v)
+    a = v / th
+    x = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(th) * x + (1 - np.cos(th)) * x @ x
+
+
+def poses():
+    centre = np.array([240.0, 150.0, 0.0])
+    return [(np.array(r, dtype=float), np.array(c, dtype=float) - rodrigues(r) @ centre) for r, c in VIEWS]
+
+
+def views(k=K, d=D, noise=0.0, seed=3):
+    rng = np.random.default_rng(seed)
+    return [fe.project_points(OBJ, r, t, k, d) + rng.normal(0.0, noise, (len(OBJ), 2)) for r, t in poses()]
+
+
+def test_equidistant_projection_puts_the_angle_at_the_radius():
+    # k = 0: the image radius is fx·θ, θ the angle off the axis, out to 85°.
+    k = np.array([[300.0, 0.0, 10.0], [0.0, 300.0, 20.0], [0.0, 0.0, 1.0]])
+    th = np.radians([1.0, 30.0, 60.0, 85.0])
+    phi = np.array([0.2, 1.9, 3.5, 5.0])
+    pts = np.c_[np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi), np.cos(th)]
+    p = fe.project_points(pts, [0, 0, 0], [0, 0, 0], k, np.zeros(4))
+    want = np.c_[10 + 300 * th * np.cos(phi), 20 + 300 * th * np.sin(phi)]
+    assert np.abs(p - want).max() < 1e-10
+    # At or behind the camera's plane there is no image.
+    assert np.isnan(fe.project_points([[1.0, 0.0, 0.0], [0.0, 1.0, -2.0]], [0, 0, 0], [0, 0, 0], k, np.zeros(4))).all()
+
+
+def test_undistort_points_inverts_the_projection_with_skew():
+    k = K.copy()
+    k[0, 1] = 0.004 * K[0, 0]
+    rng = np.random.default_rng(1)
+    th, phi = 1.45 * rng.uniform(size=500), 2 * np.pi * rng.uniform(size=500)
+    n = np.c_[np.tan(th) * np.cos(phi), np.tan(th) * np.sin(phi)]
+    px = fe.distort_points(n, k, D)
+    back = fe.undistort_points(px, k, D)
+    assert np.abs(back - n).max() < 1e-12 * (1 + np.abs(n).max())
+    # Beyond the range where θ_d increases (1 + 3 k1 θ² = 0 at k1 = −0.5) there is no ray.
+    fold = np.array([-0.5, 0.0, 0.0, 0.0])
+    tm = np.sqrt(1 / 1.5)
+    td = tm * (1 - 0.5 * tm ** 2)
+    q = np.array([[641.3 + 352.4 * 0.99 * td, 478.9], [641.3 + 352.4 * 1.01 * td, 478.9]])
+    u = fe.undistort_points(q, K, fold)
+    assert np.isfinite(u[0]).all() and np.isnan(u[1]).all()
+
+
+def test_calibrate_recovers_a_known_fisheye():
+    rms, k, d, rvecs, tvecs = fe.calibrate([OBJ] * len(VIEWS), views(), SIZE, flags=fe.CALIB_FIX_SKEW)
+    assert rms < 1e-9
+    assert np.abs(k - K).max() < 1e-8 * K[0, 0] and d.shape == (4, 1) and np.abs(d.ravel() - D).max() < 1e-9
+    for (r, t), rv, tv in zip(poses(), rvecs, tvecs):
+        assert np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
+    # CALIB_FIX_INTRINSIC fits the poses alone: K and D stay exactly where they were given.
+    k_off = K * np.array([[1.01], [1.0], [1.0]])
+    rms, k, d, _, _ = fe.calibrate([OBJ] * len(VIEWS), views(), SIZE, k_off, D, flags=fe.CALIB_FIX_INTRINSIC)
+    assert np.array_equal(k, k_off) and np.array_equal(d.ravel(), D) and rms > 0.5
+    # OpenCV 4's numbering of the fisheye flags (2 = CALIB_RECOMPUTE_EXTRINSIC there) is refused.
+    with pytest.raises(ValueError, match="OpenCV 4"):
+        fe.calibrate([OBJ] * len(VIEWS), views(), SIZE, flags=2)
+
+
+def test_fisheye_agrees_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(2)
+    pts = rng.uniform(-1, 1, (200, 3)) * [400, 300, 50] + [0, 0, 200]
+    r, t = np.array([0.1, -0.2, 0.05]), np.array([10.0, -5.0, 30.0])
+    ours = fe.project_points(pts, r, t, K, D)
+    theirs = cv2.fisheye.projectPoints(pts.reshape(-1, 1, 3), r, t, K, D)[0].reshape(-1, 2)
+    assert np.abs(ours - theirs).max() < 1e-9
+    n = rng.uniform(-1.5, 1.5, (100, 2))
+    assert np.abs(fe.distort_points(n, K, D) - cv2.fisheye.distortPoints(n.reshape(-1, 1, 2), K, D).reshape(-1, 2)).max() < 1e-9
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-15)
+    assert np.abs(fe.undistort_points(ours, K, D) - cv2.fisheye.undistortPoints(ours.reshape(-1, 1, 2), K, D, criteria=crit).reshape(-1, 2)).max() < 1e-12
+    P = np.array([[300.0, 0, 320], [0, 300, 240], [0, 0, 1]])
+    w = np.array([0.01, 0.02, -0.03])
+    theirs = cv2.fisheye.undistortPoints(ours.reshape(-1, 1, 2), K, D, R=cv2.Rodrigues(w)[0], P=P, criteria=crit).reshape(-1, 2)
+    assert np.abs(fe.undistort_points(ours, K, D, R=w, P=P) - theirs).max() < 1e-9
+    mx, my = fe.init_undistort_rectify_map(K, D, None, P, (640, 480))
+    cx, cy = cv2.fisheye.initUndistortRectifyMap(K, D, np.eye(3), P, (640, 480), cv2.CV_32FC1)
+    assert np.abs(mx - cx).max() < 1e-3 and np.abs(my - cy).max() < 1e-3
+    # Calibration on views with 0.3 px of noise: the same minimum, with the skew held and free
+    # (OpenCV 5's flag values; float64 points and tight criteria for OpenCV).
+    noisy = views(noise=0.3)
+    for flags in (fe.CALIB_RECOMPUTE_EXTRINSIC | fe.CALIB_FIX_SKEW, fe.CALIB_RECOMPUTE_EXTRINSIC):
+        ours = fe.calibrate([OBJ] * len(noisy), noisy, SIZE, flags=flags)
+        theirs = cv2.fisheye.calibrate([OBJ.reshape(-1, 1, 3)] * len(noisy), [v.reshape(-1, 1, 2) for v in noisy], SIZE, None, None,
+                                       flags=flags, criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 300, 1e-16))
+        assert abs(ours[0] - theirs[0]) < 1e-9 * theirs[0]
+        assert np.abs(ours[1] - theirs[1]).max() < 1e-5 and np.abs(ours[2] - theirs[2]).max() < 1e-6
