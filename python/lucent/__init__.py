@@ -1061,6 +1061,16 @@ def _rodrigues(v):
     return _np.eye(3) + _np.sin(th) * kx + (1.0 - _np.cos(th)) * kx @ kx
 
 
+def _left_3x3(m, name):
+    """The left 3×3 of a 3×3 camera matrix or a 3×4 projection, or ValueError."""
+    p = _np.asarray(m, dtype=float)
+    if p.shape == (3, 4):
+        p = p[:, :3]
+    if p.shape != (3, 3):
+        raise ValueError(f"{name}: expected 3×3 or 3×4, got shape {p.shape}")
+    return p
+
+
 #: ``cv2.CV_32FC1``, the map type :func:`init_undistort_rectify_map` returns.
 CV_32FC1 = 5
 
@@ -1078,11 +1088,7 @@ def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix,
     r = _np.eye(3) if R is None or _np.asarray(R).size == 0 else _np.asarray(R, dtype=float)
     if r.shape != (3, 3):
         raise ValueError(f"R: expected a 3×3 matrix, got shape {r.shape}")
-    p = _np.asarray(camera_matrix if new_camera_matrix is None else new_camera_matrix, dtype=float)
-    if p.shape == (3, 4):
-        p = p[:, :3]
-    if p.shape != (3, 3):
-        raise ValueError(f"new_camera_matrix: expected 3×3 or 3×4, got shape {p.shape}")
+    p = _left_3x3(camera_matrix if new_camera_matrix is None else new_camera_matrix, "new_camera_matrix")
     w, h = _pair(size, "size", 1)
     mx, my = _lucent.undistort_rectify_map_flat(k, d, [float(v) for v in r.ravel()], [float(v) for v in p.ravel()], w, h)
     return _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy(), _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
@@ -1187,6 +1193,15 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
     return Result(_json.loads(text))
 
 
+def _pose_args(rvec, tvec):
+    """A Rodrigues vector and a translation as two lists of 3 floats, or ValueError."""
+    r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]
+    t = [float(v) for v in _np.asarray(tvec, dtype=float).ravel()]
+    if len(r) != 3 or len(t) != 3:
+        raise ValueError("rvec, tvec: expected 3 numbers each")
+    return r, t
+
+
 def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -> _np.ndarray:
     """Pixel positions of 3-D points through an OpenCV camera, as ``cv2.projectPoints`` computes
     them (without its Jacobian): lucent's camera model with all of OpenCV's distortion terms.
@@ -1210,10 +1225,7 @@ def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -
     """
     p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
     k, d = _camera_args(camera_matrix, dist_coeffs)
-    r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]
-    t = [float(v) for v in _np.asarray(tvec, dtype=float).ravel()]
-    if len(r) != 3 or len(t) != 3:
-        raise ValueError("rvec, tvec: expected 3 numbers each")
+    r, t = _pose_args(rvec, tvec)
     out = _lucent.project_points_flat([float(v) for v in p.ravel()], r, t, k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
 

@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import numpy as _np
 
-from . import _lucent
+# The package's helpers; this module is imported at the end of lucent/__init__.py.
+from . import CV_32FC1, _left_3x3, _lucent, _pair, _planar_target, _pose_args, _rodrigues
 
 __all__ = [
     "project_points",
@@ -104,10 +105,7 @@ def project_points(object_points, rvec, tvec, K, D, alpha=None) -> _np.ndarray:
     """
     p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
     k, d = _lens(K, D, alpha)
-    r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]
-    t = [float(v) for v in _np.asarray(tvec, dtype=float).ravel()]
-    if len(r) != 3 or len(t) != 3:
-        raise ValueError("rvec, tvec: expected 3 numbers each")
+    r, t = _pose_args(rvec, tvec)
     out = _lucent.fisheye_project_flat([float(v) for v in p.ravel()], r, t, k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
 
@@ -123,17 +121,12 @@ def distort_points(undistorted, K, D, alpha=None) -> _np.ndarray:
 
 
 def _rotation(R):
+    """A 3×3 rotation from a matrix or a Rodrigues vector (None: the identity)."""
     if R is None or _np.asarray(R).size == 0:
         return _np.eye(3)
     r = _np.asarray(R, dtype=float)
     if r.size == 3:
-        v = r.ravel()
-        th = _np.linalg.norm(v)
-        if th == 0.0:
-            return _np.eye(3)
-        a = v / th
-        x = _np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-        return _np.eye(3) + _np.sin(th) * x + (1 - _np.cos(th)) * x @ x
+        return _rodrigues(r.ravel())
     if r.shape != (3, 3):
         raise ValueError(f"R: expected a 3×3 matrix or a Rodrigues vector, got shape {r.shape}")
     return r
@@ -154,10 +147,7 @@ def undistort_points(distorted, K, D, R=None, P=None) -> _np.ndarray:
         return x
     m = _rotation(R)
     if P is not None:
-        p = _np.asarray(P, dtype=float)
-        if p.shape not in ((3, 3), (3, 4)):
-            raise ValueError(f"P: expected 3×3 or 3×4, got shape {p.shape}")
-        m = p[:, :3] @ m
+        m = _left_3x3(P, "P") @ m
     h = _np.c_[x, _np.ones(len(x))] @ m.T
     with _np.errstate(divide="ignore", invalid="ignore"):
         out = h[:, :2] / h[:, 2:3]
@@ -165,23 +155,17 @@ def undistort_points(distorted, K, D, R=None, P=None) -> _np.ndarray:
     return out
 
 
-def init_undistort_rectify_map(K, D, R, P, size, m1type=5):
+def init_undistort_rectify_map(K, D, R, P, size, m1type=CV_32FC1):
     """The remapping of ``cv2.fisheye.initUndistortRectifyMap`` with float maps (``m1type``
     CV_32FC1 = 5): (map_x, map_y), each a (height, width) float32 array giving, for each pixel of
     the new pinhole image ``P`` (3×3 or 3×4) turned by ``R`` (None: the identity), the fisheye
     pixel whose ray it shows; ``cv2.remap`` takes them as they are. Pixels whose ray lies at or
     behind the camera's plane get NaN.
     """
-    if int(m1type) != 5:
-        raise ValueError(f"m1type: only CV_32FC1 (5) float maps, got {m1type}")
-    w, h = (int(v) for v in size)
-    if w < 1 or h < 1:
-        raise ValueError(f"size: expected (width, height) of at least 1, got {size}")
-    p = _np.asarray(K if P is None else P, dtype=float)
-    if p.shape == (3, 4):
-        p = p[:, :3]
-    if p.shape != (3, 3):
-        raise ValueError(f"P: expected 3×3 or 3×4, got shape {p.shape}")
+    if int(m1type) != CV_32FC1:
+        raise ValueError(f"m1type: only CV_32FC1 ({CV_32FC1}) float maps, got {m1type}")
+    w, h = _pair(size, "size", 1)
+    p = _left_3x3(K if P is None else P, "P")
     inv = _np.linalg.inv(p @ _rotation(R))
     j, i = _np.meshgrid(_np.arange(w, dtype=float), _np.arange(h, dtype=float))
     ray = _np.stack([j.ravel(), i.ravel(), _np.ones(w * h)], axis=1) @ inv.T
@@ -223,8 +207,6 @@ def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, 
         (with K₀₁ = α fx), D as a (4, 1) array, and per view the (3, 1) Rodrigues vector and
         translation of the target → camera transform.
     """
-    from . import _planar_target, _pair
-
     flags = int(flags)
     if flags & ~_KNOWN:
         raise ValueError(f"flags: {flags & ~_KNOWN} is not a flag lucent.fisheye.calibrate knows (it takes OpenCV 5's "
