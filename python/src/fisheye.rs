@@ -20,7 +20,13 @@ pub fn fisheye_project_flat(points: Vec<f64>, rvec: [f64; 3], tvec: [f64; 3], k:
         return Err(value("object_points, rvec, tvec: must be finite"));
     }
     let pose = Pose { rvec: Vector3::from(rvec), t: Vector3::from(tvec) };
-    Ok(points.chunks_exact(3).flat_map(|p| l.project(&pose.apply(&Vector3::new(p[0], p[1], p[2])))).collect())
+    Ok(points
+        .chunks_exact(3)
+        .flat_map(|p| {
+            let c = pose.apply(&Vector3::new(p[0], p[1], p[2]));
+            l.project([c[0], c[1], c[2]])
+        })
+        .collect())
 }
 
 /// Pixels (flat u, v) of flat undistorted normalised coordinates (x/z, y/z).

@@ -3,6 +3,7 @@
 //!
 //! - [`pinhole`]: the tutorial's pinhole (eye, look-at, up, field of view or camera constant).
 //! - [`opencv`]: OpenCV's calibrated model (intrinsics, radial/tangential distortion, R, t).
+//! - [`fisheye`]: OpenCV's fisheye model (`cv::fisheye`: θ_d = θ(1 + k1θ² + … + k4θ⁸), skew, R, t).
 //! - [`thin_lens`]: depth of field for either model.
 //! - [`filter`]: the pixel reconstruction filter, importance-sampled into the film position.
 //!
@@ -11,11 +12,13 @@
 //! integers; OpenCV's pixel coordinates are these minus ½ (see [`opencv`]).
 
 pub mod filter;
+pub mod fisheye;
 pub mod opencv;
 pub mod pinhole;
 pub mod thin_lens;
 
 pub use filter::{GaussianFilter, PixelFilter};
+pub use fisheye::{Fisheye, FisheyeLens};
 pub use opencv::{Distortion, Extrinsics, Intrinsics, OpenCv};
 pub use pinhole::Pinhole;
 pub use thin_lens::ThinLens;
@@ -30,6 +33,8 @@ pub enum CameraModel {
     Pinhole(Pinhole),
     /// OpenCV intrinsics, distortion and extrinsics.
     OpenCv(OpenCv),
+    /// OpenCV's fisheye model and extrinsics.
+    Fisheye(Fisheye),
 }
 
 /// A camera: model, optional thin lens, resolution.
@@ -68,11 +73,17 @@ impl Camera {
         Ok(Camera { model: CameraModel::OpenCv(cam), lens: None, width, height, filter: PixelFilter::Box })
     }
 
+    /// Fisheye camera built for this resolution (see [`Fisheye::new`]).
+    pub fn fisheye(cam: Fisheye, width: u32, height: u32) -> anyhow::Result<Camera> {
+        check_resolution(width, height)?;
+        Ok(Camera { model: CameraModel::Fisheye(cam), lens: None, width, height, filter: PixelFilter::Box })
+    }
+
     /// The pinhole model, if this is one.
     pub fn pinhole(&self) -> Option<&Pinhole> {
         match &self.model {
             CameraModel::Pinhole(p) => Some(p),
-            CameraModel::OpenCv(_) => None,
+            CameraModel::OpenCv(_) | CameraModel::Fisheye(_) => None,
         }
     }
 
@@ -81,15 +92,20 @@ impl Camera {
         match &self.model {
             CameraModel::Pinhole(p) => p.eye,
             CameraModel::OpenCv(c) => v3(c.centre_m()),
+            CameraModel::Fisheye(c) => v3(c.centre_m()),
         }
     }
 
     /// Unit optical axis and the lens-plane axes (image right, and image up for the pinhole or
-    /// image down for OpenCV).
+    /// image down for OpenCV's models).
     pub fn axes(&self) -> (Vec3, Vec3, Vec3) {
         match &self.model {
             CameraModel::Pinhole(p) => (p.forward, p.right, p.up),
             CameraModel::OpenCv(c) => {
+                let r = &c.extrinsics.r;
+                (v3(r[2]), v3(r[0]), v3(r[1]))
+            }
+            CameraModel::Fisheye(c) => {
                 let r = &c.extrinsics.r;
                 (v3(r[2]), v3(r[0]), v3(r[1]))
             }
@@ -101,19 +117,26 @@ impl Camera {
         self.axes().0
     }
 
-    /// Vertical field of view in degrees (of the undistorted model, about the principal point for OpenCV).
+    /// Vertical field of view in degrees (of the undistorted model, about the principal point for
+    /// OpenCV; for the fisheye, twice the angle off the axis at half the image height).
     pub fn vfov_deg(&self) -> f32 {
         match &self.model {
             CameraModel::Pinhole(p) => p.vfov_deg(),
             CameraModel::OpenCv(c) => (2.0 * (0.5 * self.height as f64 / c.intrinsics.fy).atan()).to_degrees() as f32,
+            CameraModel::Fisheye(c) => {
+                let l = &c.lens;
+                let td = 0.5 * self.height as f64 / l.fy;
+                (2.0 * l.solve_theta(td, l.theta_max()).unwrap_or(std::f64::consts::FRAC_PI_2)).to_degrees() as f32
+            }
         }
     }
 
-    /// Focal length in pixels along y (d·H for the pinhole, fy for OpenCV).
+    /// Focal length in pixels along y (d·H for the pinhole, fy for OpenCV's models).
     pub fn focal_length_px(&self) -> f64 {
         match &self.model {
             CameraModel::Pinhole(p) => p.d as f64 * self.height as f64,
             CameraModel::OpenCv(c) => c.intrinsics.fy,
+            CameraModel::Fisheye(c) => c.lens.fy,
         }
     }
 
@@ -124,6 +147,9 @@ impl Camera {
         match &mut self.model {
             CameraModel::Pinhole(_) => {}
             CameraModel::OpenCv(c) => {
+                *c = c.rescaled(width as f64 / self.width as f64, height as f64 / self.height as f64);
+            }
+            CameraModel::Fisheye(c) => {
                 *c = c.rescaled(width as f64 / self.width as f64, height as f64 / self.height as f64);
             }
         }
@@ -141,6 +167,10 @@ impl Camera {
                 Ray { o: p.eye, d, t_min: 0.0, t_max: f32::INFINITY }
             }
             CameraModel::OpenCv(c) => {
+                let (o, d) = c.ray_pixel(i as f64 + u.x as f64 - 0.5, j as f64 + u.y as f64 - 0.5);
+                Ray { o: v3(o), d: v3(d), t_min: 0.0, t_max: f32::INFINITY }
+            }
+            CameraModel::Fisheye(c) => {
                 let (o, d) = c.ray_pixel(i as f64 + u.x as f64 - 0.5, j as f64 + u.y as f64 - 0.5);
                 Ray { o: v3(o), d: v3(d), t_min: 0.0, t_max: f32::INFINITY }
             }
@@ -169,6 +199,10 @@ impl Camera {
         match &self.model {
             CameraModel::Pinhole(c) => c.project_direction(p - c.eye, self.width, self.height),
             CameraModel::OpenCv(c) => {
+                let q = c.project_pixel([p.x as f64, p.y as f64, p.z as f64])?;
+                Some(Vec2::new((q[0] + 0.5) as f32, (q[1] + 0.5) as f32))
+            }
+            CameraModel::Fisheye(c) => {
                 let q = c.project_pixel([p.x as f64, p.y as f64, p.z as f64])?;
                 Some(Vec2::new((q[0] + 0.5) as f32, (q[1] + 0.5) as f32))
             }

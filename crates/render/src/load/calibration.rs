@@ -7,7 +7,10 @@
 //! coefficient order for `dist` (4, 5 or 8 entries), R and t world → camera; instead of R a
 //! Rodrigues `"rvec"`. `t` is in `unit` (m, dm, cm, mm, um, km, in, ft), or the scene's unit when
 //! `unit` is absent. `lucent scan calibrate-camera` writes this form, with `rms_px` and the
-//! board pose of each view (`views`), which the renderer does not use.
+//! board pose of each view (`views`), which the renderer does not use. With `"model": "fisheye"`
+//! the camera is OpenCV's fisheye model (`camera::fisheye`): `dist` holds its k1, k2, k3, k4 (0
+//! or 4 entries) and `"skew"` its α (K₀₁/K₀₀, default 0), as `lucent scan calibrate-camera
+//! --fisheye` writes it; `"model": "opencv"` (the default) is the pinhole model above.
 //!
 //! A projector–camera calibration as `lucent scan calibrate` writes it (`{"camera": {…},
 //! "projector": {…}, "rotation": [[…]], "translation": […], …}`, each device `{width, height, fx,
@@ -31,7 +34,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::camera::{Distortion, Extrinsics, Intrinsics};
+use crate::camera::{Distortion, Extrinsics, FisheyeLens, Intrinsics};
 use anyhow::{anyhow, bail, Context, Result};
 use std::path::Path;
 
@@ -59,8 +62,11 @@ pub struct Calibration {
     pub height: Option<u32>,
     /// Intrinsics (pixels).
     pub intrinsics: Intrinsics,
-    /// Distortion coefficients.
+    /// Distortion coefficients (zero for a fisheye).
     pub distortion: Distortion,
+    /// OpenCV's fisheye model instead of the pinhole's distortion, when the file names it (its
+    /// fx, fy, cx, cy are `intrinsics`').
+    pub fisheye: Option<FisheyeLens>,
     /// World-to-camera rotation, when the file gives one.
     pub r: Option<[[f64; 3]; 3]>,
     /// World-to-camera translation in `t_unit_m` metres per unit, when given.
@@ -115,6 +121,10 @@ struct JsonCalib {
     cx: f64,
     cy: f64,
     dist: Option<Vec<f64>>,
+    /// `opencv` (the default) or `fisheye`.
+    model: Option<String>,
+    /// The fisheye model's skew α.
+    skew: Option<f64>,
     #[serde(rename = "R")]
     r: Option<[[f64; 3]; 3]>,
     rvec: Option<[f64; 3]>,
@@ -156,7 +166,7 @@ fn procam(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
         other => bail!("a projector–camera calibration holds the devices `camera` and `projector`, not `{other}`"),
     };
     let distortion = Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("distortion: {e}"))?;
-    Ok(Calibration { width: Some(d.width), height: Some(d.height), intrinsics: Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, distortion, r: Some(r), t: Some(t), t_unit_m: None })
+    Ok(Calibration { width: Some(d.width), height: Some(d.height), intrinsics: Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, distortion, fisheye: None, r: Some(r), t: Some(t), t_unit_m: None })
 }
 
 fn json(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
@@ -175,8 +185,27 @@ fn json(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
         None => None,
         Some(u) => Some(super::object::unit_in_metres(u).ok_or_else(|| anyhow!("unit: unknown length unit `{u}`"))?),
     };
-    let distortion = Distortion::from_opencv(j.dist.as_deref().unwrap_or(&[])).map_err(|e| anyhow!("dist: {e}"))?;
-    Ok(Calibration { width: j.width, height: j.height, intrinsics: Intrinsics { fx: j.fx, fy: j.fy, cx: j.cx, cy: j.cy }, distortion, r, t: j.t, t_unit_m })
+    let intrinsics = Intrinsics { fx: j.fx, fy: j.fy, cx: j.cx, cy: j.cy };
+    let (distortion, fisheye) = match j.model.as_deref().unwrap_or("opencv") {
+        "opencv" => {
+            if j.skew.is_some() {
+                bail!("skew: only the fisheye model (\"model\": \"fisheye\") has a skew");
+            }
+            (Distortion::from_opencv(j.dist.as_deref().unwrap_or(&[])).map_err(|e| anyhow!("dist: {e}"))?, None)
+        }
+        "fisheye" => {
+            let k = match j.dist.as_deref() {
+                None | Some([]) => [0.0; 4],
+                Some(&[k1, k2, k3, k4]) => [k1, k2, k3, k4],
+                Some(d) => bail!("dist: the fisheye model has 4 coefficients k1, k2, k3, k4, got {}", d.len()),
+            };
+            let skew = j.skew.unwrap_or(0.0);
+            let kk = [j.fx, skew * j.fx, j.cx, 0.0, j.fy, j.cy, 0.0, 0.0, 1.0];
+            (Distortion::default(), Some(FisheyeLens::from_opencv(&kk, &k)?))
+        }
+        other => bail!("model: `{other}` is not a camera model (opencv or fisheye)"),
+    };
+    Ok(Calibration { width: j.width, height: j.height, intrinsics, distortion, fisheye, r, t: j.t, t_unit_m })
 }
 
 /// A FileStorage node: a matrix (rows, cols, row-major data) or a scalar.
@@ -288,6 +317,7 @@ fn filestorage(s: &dyn Storage, nodes: &CalibrationNodes) -> Result<Calibration>
         height,
         intrinsics,
         distortion,
+        fisheye: None,
         r: rot,
         t,
         t_unit_m: None,

@@ -7,7 +7,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::camera::{Camera, CameraModel, Distortion, Extrinsics, GaussianFilter, Intrinsics, OpenCv, PixelFilter, ThinLens};
+use crate::camera::{Camera, CameraModel, Distortion, Extrinsics, Fisheye, FisheyeLens, GaussianFilter, Intrinsics, OpenCv, PixelFilter, ThinLens};
 use crate::load::calibration::{parse_calibration, Calibration, CalibrationNodes};
 use crate::load::desc::{CameraDesc, SceneDesc};
 use crate::load::object::{finite3, v3};
@@ -272,12 +272,21 @@ fn opencv_camera(
     }
     let (key, extr) = ways.pop().ok_or_else(|| err("R", &"missing pose: give R (or rvec) and t, pose, or eye and look_at"))?;
     let extrinsics = extr.map_err(|e| err(key, &e))?;
-    let cam = OpenCv::new(intrinsics, distortion, extrinsics, w0, h0).map_err(|e| cx.err(cspan, field, e))?;
-    let mut camera = Camera::opencv(cam, w0, h0).map_err(|e| cx.err(cspan, field, e))?;
+    let fisheye = calib.as_ref().and_then(|c| c.fisheye);
+    let mut camera = calibrated_model(intrinsics, distortion, fisheye, extrinsics, w0, h0).map_err(|e| cx.err(cspan, field, e))?;
     if let Some((w, h)) = rescale {
         camera.set_resolution(w, h);
     }
     Ok(camera)
+}
+
+/// A calibrated camera of OpenCV's pinhole model, or of its fisheye model when `fisheye` is given
+/// (whose fx, fy, cx, cy are then the intrinsics').
+fn calibrated_model(intrinsics: Intrinsics, distortion: Distortion, fisheye: Option<FisheyeLens>, extrinsics: Extrinsics, w: u32, h: u32) -> Result<Camera> {
+    match fisheye {
+        Some(lens) => Camera::fisheye(Fisheye::new(lens, extrinsics, w, h)?, w, h),
+        None => Camera::opencv(OpenCv::new(intrinsics, distortion, extrinsics, w, h)?, w, h),
+    }
 }
 
 /// Camera-to-world pose: 3 or 4 rows [r00, r01, r02, cx] … (columns: the camera's x right,
@@ -329,6 +338,7 @@ pub fn calibrated_camera(cal: &Calibration, base: &Camera, scene_unit_m: f64) ->
         Some(e) => e,
         None => match &base.model {
             CameraModel::OpenCv(c) => c.extrinsics,
+            CameraModel::Fisheye(c) => c.extrinsics,
             CameraModel::Pinhole(p) => {
                 let row = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
                 let r = [row(p.right), row(-p.up), row(p.forward)];
@@ -339,8 +349,7 @@ pub fn calibrated_camera(cal: &Calibration, base: &Camera, scene_unit_m: f64) ->
         },
     };
     let (w, h) = cal.width.zip(cal.height).unwrap_or((base.width, base.height));
-    let cam = OpenCv::new(cal.intrinsics, cal.distortion, extrinsics, w, h)?;
-    let mut camera = Camera::opencv(cam, w, h)?;
+    let mut camera = calibrated_model(cal.intrinsics, cal.distortion, cal.fisheye, extrinsics, w, h)?;
     camera.lens = base.lens;
     camera.filter = base.filter.clone();
     Ok(camera)

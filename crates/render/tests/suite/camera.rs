@@ -287,29 +287,14 @@ fn render_mean(s: &render::scene::Scene, spp: u64, seed: u64) -> Vec<[f32; 3]> {
     acc
 }
 
-#[test]
-fn rendered_emissive_sphere_centroid_is_the_projected_centre() {
-    // A sphere of image radius ≈ 2.5 px through a distorted OpenCV camera, direct lighting (the
-    // camera ray sees the emitter). Its image centroid differs from the projection of its centre
-    // by the distortion's curvature (≈ h R²/8 ≈ 0.003 px here) and the coverage noise.
-    let centre = [0.35, -0.2, 3.0];
-    let s = scene(&format!(
+/// A black sphere of radius 0.13 m at `centre` (m) that emits radiance 1, seen by the camera
+/// described by `camera` (the lines of a `[camera]` table).
+fn emissive_dot(camera: &str, centre: [f64; 3]) -> render::scene::Scene {
+    scene(&format!(
         r#"
         unit = "m"
         [camera]
-        model = "opencv"
-        width = 64
-        height = 48
-        fx = 60.0
-        fy = 62.0
-        cx = 31.2
-        cy = 24.1
-        k1 = -0.12
-        k2 = 0.02
-        p1 = 0.002
-        p2 = -0.001
-        rvec = [0.02, -0.03, 0.01]
-        t = [0.05, 0.02, 0.1]
+        {camera}
         [materials.black]
         type = "lambertian"
         albedo = 0
@@ -323,13 +308,41 @@ fn rendered_emissive_sphere_centroid_is_the_projected_centre() {
         radiance = 1
         "#,
         centre[0], centre[1], centre[2]
-    ));
-    let img = render_mean(&s, 512, 5);
+    ))
+}
+
+/// The distance (px) between a rendered dot's image centroid (64 px wide image, 512 spp) and the
+/// camera's projection of its centre.
+fn centroid_offset(s: &render::scene::Scene, centre: [f64; 3], what: &str) -> f32 {
+    let img = render_mean(s, 512, 5);
     let (c, _, _) = moments(&img, 64);
     let want = s.camera.project(Vec3::new(centre[0] as f32, centre[1] as f32, centre[2] as f32)).unwrap();
     let err = (c - want).length();
-    eprintln!("emissive sphere: centroid {c}, projected centre {want}, |Δ| = {err:.4} px");
-    assert!(err < 0.05, "centroid {c} vs projected {want}: {err} px");
+    eprintln!("{what}: centroid {c}, projected centre {want}, |Δ| = {err:.4} px");
+    err
+}
+
+#[test]
+fn rendered_emissive_sphere_centroid_is_the_projected_centre() {
+    // A sphere of image radius ≈ 2.5 px through a distorted OpenCV camera, direct lighting (the
+    // camera ray sees the emitter). Its image centroid differs from the projection of its centre
+    // by the distortion's curvature (≈ h R²/8 ≈ 0.003 px here) and the coverage noise.
+    let centre = [0.35, -0.2, 3.0];
+    let camera = r#"model = "opencv"
+        width = 64
+        height = 48
+        fx = 60.0
+        fy = 62.0
+        cx = 31.2
+        cy = 24.1
+        k1 = -0.12
+        k2 = 0.02
+        p1 = 0.002
+        p2 = -0.001
+        rvec = [0.02, -0.03, 0.01]
+        t = [0.05, 0.02, 0.1]"#;
+    let err = centroid_offset(&emissive_dot(camera, centre), centre, "emissive sphere");
+    assert!(err < 0.05, "centroid off the projected centre by {err} px");
 }
 
 #[test]
@@ -810,4 +823,65 @@ fn mutated_calibration_files_never_panic() {
     }
     eprintln!("mutated calibration files: {ok} read, {failed} refused (every error one line)");
     assert!(ok > 100 && failed > 1000, "the edits should both keep and break files: {ok} / {failed}");
+}
+
+/// A fisheye camera (OpenCV's `cv::fisheye` model with skew): rays, drawn through the lens's
+/// inverse, and the forward projection agree, checked by rendering. An emissive sphere 55° off the
+/// axis, seen through a lens whose k1…k4 bend it strongly, has its image centroid at the
+/// projection of its centre (the curvature over its ≈ 2.5-px image moves it by < 0.01 px). And
+/// with k = 0 a ray's angle off the axis is its pixel's distance from the principal point over f.
+#[test]
+fn fisheye_camera_renders_where_it_projects() {
+    use render::camera::{Fisheye, FisheyeLens};
+    let lens = FisheyeLens { fx: 30.0, fy: 30.5, cx: 31.7, cy: 23.4, skew: 0.003, k: [0.05, -0.02, 0.004, -0.0004] };
+    let ex = Extrinsics::from_rvec([0.02, -0.03, 0.01], [0.05, 0.02, 0.1]).unwrap();
+    let cam = Fisheye::new(lens, ex, 64, 48).unwrap();
+    // The sphere's centre 55° off the camera's axis, 3 m away, in world coordinates.
+    let th = 55f64.to_radians();
+    let c_cam = [3.0 * th.sin() * 0.8, 3.0 * th.sin() * 0.6, 3.0 * th.cos()];
+    let rt = [[ex.r[0][0], ex.r[1][0], ex.r[2][0]], [ex.r[0][1], ex.r[1][1], ex.r[2][1]], [ex.r[0][2], ex.r[1][2], ex.r[2][2]]];
+    let d = [c_cam[0] - ex.t_m[0], c_cam[1] - ex.t_m[1], c_cam[2] - ex.t_m[2]];
+    let centre: Vec<f64> = (0..3).map(|a| rt[a][0] * d[0] + rt[a][1] * d[1] + rt[a][2] * d[2]).collect();
+    let mut s = emissive_dot("eye = [0, 0, 0]\n        look_at = [0, 0, 1]\n        vfov_deg = 40\n        width = 64\n        height = 48", [centre[0], centre[1], centre[2]]);
+    s.camera = Camera::fisheye(cam, 64, 48).unwrap();
+    let err = centroid_offset(&s, [centre[0], centre[1], centre[2]], "fisheye emissive sphere");
+    assert!(err < 0.05, "centroid off the projected centre by {err} px");
+    // The equidistant lens: angle off the axis = distance from the principal point / f.
+    let eq = FisheyeLens { fx: 100.0, fy: 100.0, cx: 50.0, cy: 40.0, skew: 0.0, k: [0.0; 4] };
+    let cam = Fisheye::new(eq, Extrinsics::from_rvec([0.0; 3], [0.0; 3]).unwrap(), 120, 90).unwrap();
+    for (u, v) in [(50.0, 40.0), (119.5, 40.0), (0.0, 89.5), (80.0, 10.0)] {
+        let (_, dir) = cam.ray_pixel(u, v);
+        let want = ((u - 50.0f64).hypot(v - 40.0) / 100.0).to_degrees();
+        assert!((dir[2].acos().to_degrees() - want).abs() < 1e-9, "({u}, {v}): {dir:?}");
+    }
+    // A lens whose θ_d turns back (at √(2/3) rad for k1 = −0.5) before the image corners has no
+    // ray for them: refused.
+    let fold = FisheyeLens { k: [-0.5, 0.0, 0.0, 0.0], ..eq };
+    let e = Fisheye::new(fold, Extrinsics::from_rvec([0.0; 3], [0.0; 3]).unwrap(), 120, 90).unwrap_err().to_string();
+    assert!(e.contains("no ray for image corner"), "{e}");
+}
+
+/// lucent's calibration JSON with `"model": "fisheye"` (as `scan calibrate-camera --fisheye`
+/// writes it) is read as the fisheye model, and `lucent render --camera` takes it; a wrong number
+/// of coefficients, an unknown model or a skew on the pinhole model is one line naming the key.
+#[test]
+fn fisheye_calibration_json_is_read() {
+    let n = CalibrationNodes::default();
+    let j = r#"{"width": 640, "height": 480, "fx": 300.0, "fy": 301.0, "cx": 319.5, "cy": 239.5, "model": "fisheye", "skew": 0.001, "dist": [0.05, -0.02, 0.004, -0.0004]}"#;
+    let c = parse_calibration(j, "f.json", &n).unwrap();
+    let f = c.fisheye.expect("a fisheye model");
+    assert_eq!((f.fx, f.fy, f.cx, f.cy, f.skew, f.k), (300.0, 301.0, 319.5, 239.5, 0.001, [0.05, -0.02, 0.004, -0.0004]));
+    let base = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 40.0, 64, 48).unwrap();
+    let cam = render::load::camera::calibrated_camera(&c, &base, 1.0).unwrap();
+    assert_eq!((cam.width, cam.height), (640, 480));
+    let p = cam.project(Vec3::new(0.0, 0.0, 2.0)).unwrap();
+    assert!((p.x - 320.0).abs() < 1e-4 && (p.y - 240.0).abs() < 1e-4, "{p}");
+    for (bad, key) in [
+        (j.replace("[0.05, -0.02, 0.004, -0.0004]", "[0.05, -0.02, 0.004, -0.0004, 0.0]"), "dist"),
+        (j.replace("\"fisheye\"", "\"omnidir\""), "model"),
+        (j.replace("\"model\": \"fisheye\", ", ""), "skew"),
+    ] {
+        let e = parse_calibration(&bad, "f.json", &n).unwrap_err().to_string();
+        assert!(e.starts_with("f.json: ") && e.contains(key) && !e.contains('\n'), "{e}");
+    }
 }

@@ -36,7 +36,8 @@ fn observe(l: &FisheyeLens, obj: &[[f64; 2]], poses: &[Pose], noise_px: f64, see
         .map(|p| {
             obj.iter()
                 .map(|q| {
-                    let c = l.project(&p.apply(&Vector3::new(q[0], q[1], 0.0)));
+                    let x = p.apply(&Vector3::new(q[0], q[1], 0.0));
+                    let c = l.project([x[0], x[1], x[2]]);
                     [c[0] + noise_px * rng.normal(), c[1] + noise_px * rng.normal()]
                 })
                 .collect()
@@ -52,17 +53,16 @@ fn equidistant_lens_puts_angle_at_radius() {
     for deg in [0.5, 10.0, 45.0, 70.0, 89.0] {
         let th = f64::to_radians(deg);
         for phi in [0.3, 2.0, 4.0] {
-            let x = Vector3::new(th.sin() * f64::cos(phi), th.sin() * f64::sin(phi), th.cos());
-            let p = l.project(&x);
+            let p = l.project([th.sin() * f64::cos(phi), th.sin() * f64::sin(phi), th.cos()]);
             let want = [300.0 * th * f64::cos(phi), 300.0 * th * f64::sin(phi)];
             assert!((p[0] - want[0]).abs() < 1e-10 && (p[1] - want[1]).abs() < 1e-10, "{deg}°: {p:?} against {want:?}");
         }
     }
     let s = FisheyeLens { skew: 0.01, ..l };
-    let p = s.project(&Vector3::new(0.0, 0.5f64.tan(), 1.0));
+    let p = s.project([0.0, 0.5f64.tan(), 1.0]);
     assert!((p[0] - 300.0 * 0.01 * 0.5).abs() < 1e-12 && (p[1] - 150.0).abs() < 1e-12);
     // At or behind the camera's plane there is no image.
-    assert!(l.project(&Vector3::new(1.0, 0.0, 0.0))[0].is_nan() && l.project(&Vector3::new(0.0, 1.0, -1.0))[1].is_nan());
+    assert!(l.project([1.0, 0.0, 0.0])[0].is_nan() && l.project([0.0, 1.0, -1.0])[1].is_nan());
 }
 
 /// The inverse takes every pixel back to its ray: to 10⁻¹² over the field, with skew; θ_max
@@ -77,7 +77,7 @@ fn undistort_inverts_the_projection() {
         let th = 1.45 * rng.uniform();
         let phi = std::f64::consts::TAU * rng.uniform();
         let (a, b) = (th.tan() * phi.cos(), th.tan() * phi.sin());
-        let p = l.project(&Vector3::new(a, b, 1.0));
+        let p = l.project([a, b, 1.0]);
         let (xd, yd) = l.normalise(p[0], p[1]);
         let (x, y) = l.undistort(xd, yd, tm).expect("inside the increasing range");
         worst = worst.max(((x - a).hypot(y - b)) / (1.0 + a.hypot(b)));

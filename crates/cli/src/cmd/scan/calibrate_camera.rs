@@ -1,14 +1,16 @@
 //! `lucent scan calibrate-camera IMAGE… --corners CxR --square S [--pattern KIND] [--fix-k3]
-//! [--zero-tangent] [--rational] [--thin-prism] [--tilted] [--out CAMERA.json]
+//! [--zero-tangent] [--rational] [--thin-prism] [--tilted] [--fisheye] [--out CAMERA.json]
 //! [--opencv-out CAMERA.yml] [--json]`: one camera from photographs of a chessboard or a circle
 //! grid, as OpenCV's `findChessboardCorners` + `cornerSubPix` (or `findCirclesGrid`) +
-//! `calibrateCamera` (scan::calib::camera, scan::markers::grid; docs/scanning.md).
+//! `calibrateCamera`, or `fisheye::calibrate` with `--fisheye` (scan::calib::camera,
+//! scan::calib::fisheye, scan::markers::grid; docs/scanning.md).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 use scan::calib::camera::calibrate_camera_planar;
 use scan::calib::chessboard::{find_chessboard, GrayImage};
+use scan::calib::fisheye::{calibrate_fisheye_camera, FisheyeHold};
 use scan::calib::zhang::board_points;
 use scan::markers::grid::{find_circles_grid, grid_points, GridKind};
 
@@ -42,6 +44,11 @@ pub struct Args {
     pub target: TargetArgs,
     #[command(flatten)]
     pub lens: LensFlags,
+    /// Fit OpenCV's fisheye model (cv2.fisheye.calibrate with CALIB_FIX_SKEW: fx, fy, cx, cy and
+    /// k1…k4 of θ_d = θ(1 + k1θ² + … + k4θ⁸)) instead of the pinhole's distortion; the JSON then
+    /// has "model": "fisheye". Of the lens flags only --fix-principal-point applies.
+    #[arg(long)]
+    pub fisheye: bool,
     /// Skip the images in which the board is not found (OpenCV's samples do) instead of failing.
     #[arg(long)]
     pub skip_missing: bool,
@@ -135,6 +142,16 @@ impl Target {
 
 pub fn run(args: Args) -> Result<()> {
     let target = Target::from_args(&args.target)?;
+    if args.fisheye {
+        let l = &args.lens;
+        let pinhole = [(l.fix_k3, "--fix-k3"), (l.zero_tangent, "--zero-tangent"), (l.rational, "--rational"), (l.thin_prism, "--thin-prism"), (l.tilted, "--tilted"), (l.aspect_ratio.is_some(), "--aspect-ratio")];
+        if let Some((_, flag)) = pinhole.iter().find(|(on, _)| *on) {
+            bail!("{flag}: a term of the pinhole model; --fisheye fits k1…k4 of the fisheye model");
+        }
+        if args.opencv_out.is_some() {
+            bail!("--opencv-out: FileStorage has no node that names the fisheye model; lucent writes it as its camera JSON (--out)");
+        }
+    }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let (cols, rows) = (target.cols, target.rows);
     // Sizes, skips and errors are taken in the order given.
@@ -156,6 +173,26 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let (w, h, _) = size.expect("clap requires one image");
+    if args.fisheye {
+        let hold = FisheyeHold { principal_point: args.lens.fix_principal_point, skew: true, ..Default::default() };
+        let calib = calibrate_fisheye_camera(&target.object_points(args.target.square), &views, w, h, hold)?;
+        let text = serde_json::to_string_pretty(&calib)?;
+        if write_outputs(&text, args.out.as_deref(), None, String::new, args.json)? {
+            return Ok(());
+        }
+        let k = &calib.dist;
+        println!(
+            "fisheye camera {}x{} from {} views: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.5} k2 {:.5} k3 {:.5} k4 {:.5}; RMS {:.3} px",
+            calib.width, calib.height, calib.views.len(), calib.fx, calib.fy, calib.cx, calib.cy, k[0], k[1], k[2], k[3], calib.rms_px
+        );
+        for v in &calib.views {
+            println!("  {}: board at {:.1} units, RMS {:.3} px", v.name, (v.tvec[0].powi(2) + v.tvec[1].powi(2) + v.tvec[2].powi(2)).sqrt(), v.rms_px);
+        }
+        if let Some(out) = &args.out {
+            println!("wrote {}", out.display());
+        }
+        return Ok(());
+    }
     let calib = calibrate_camera_planar(&target.object_points(args.target.square), &views, w, h, args.lens.free())?;
     let text = serde_json::to_string_pretty(&calib)?;
     if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
