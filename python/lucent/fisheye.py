@@ -33,6 +33,7 @@ __all__ = [
     "undistort_points",
     "calibrate",
     "init_undistort_rectify_map",
+    "estimate_new_camera_matrix_for_undistort_rectify",
     "CALIB_USE_INTRINSIC_GUESS",
     "CALIB_RECOMPUTE_EXTRINSIC",
     "CALIB_CHECK_COND",
@@ -175,6 +176,41 @@ def init_undistort_rectify_map(K, D, R, P, size, m1type=CV_32FC1):
     out = _np.full((w * h, 2), _np.nan)
     out[ahead] = distort_points(xy[ahead], K, D)
     return out[:, 0].reshape(h, w).astype(_np.float32), out[:, 1].reshape(h, w).astype(_np.float32)
+
+
+def estimate_new_camera_matrix_for_undistort_rectify(K, D, image_size, R=None, balance=0.0, new_size=None, fov_scale=1.0):
+    """A pinhole camera matrix for the undistorted (and ``R``-turned) view of a fisheye image, as
+    ``cv2.fisheye.estimateNewCameraMatrixForUndistortRectify``: the rays of the four edge
+    midpoints (w/2, 0), (w, h/2), (w/2, h), (0, h/2) (integer halves, as OpenCV) are undistorted;
+    their mean is the new principal direction; the focal length that fits them into the image
+    ranges from the largest (``balance`` 0, no edge midpoint outside) to the smallest (1, every
+    one inside), divided by ``fov_scale``, with K's aspect ratio kept. ``new_size`` scales the
+    result to another image size.
+
+    Returns the 3×3 matrix.
+    """
+    w, h = _pair(image_size, "image_size", 1)
+    balance = min(max(float(balance), 0.0), 1.0)
+    k = _np.asarray(K, dtype=float)
+    edges = _np.array([[w // 2, 0], [w, h // 2], [w // 2, h], [0, h // 2]], dtype=float)
+    p = undistort_points(edges, K, D, R=R)
+    if not _np.isfinite(p).all():
+        raise ValueError("K, D: an edge midpoint of the image has no ray (beyond the range where θ_d increases)")
+    aspect = k[0, 0] / k[1, 1]
+    p[:, 1] *= aspect
+    cn = p.mean(axis=0)
+    fs = [w * 0.5 / (cn[0] - p[:, 0].min()), w * 0.5 / (p[:, 0].max() - cn[0]),
+          h * 0.5 * aspect / (cn[1] - p[:, 1].min()), h * 0.5 * aspect / (p[:, 1].max() - cn[1])]
+    f = balance * min(fs) + (1.0 - balance) * max(fs)
+    if fov_scale > 0:
+        f /= fov_scale
+    c = -cn * f + _np.array([w, h * aspect]) * 0.5
+    fx, fy, cx, cy = f, f / aspect, c[0], c[1] / aspect
+    if new_size is not None:
+        nw, nh = _pair(new_size, "new_size", 1)
+        rx, ry = nw / w, nh / h
+        fx, fy, cx, cy = fx * rx, fy * ry, cx * rx, cy * ry
+    return _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
 
 
 def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, criteria=None):

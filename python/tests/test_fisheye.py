@@ -84,6 +84,23 @@ def test_calibrate_recovers_a_known_fisheye():
         fe.calibrate([OBJ] * len(VIEWS), views(), SIZE, flags=2)
 
 
+def test_new_camera_matrix_fits_the_edge_midpoints():
+    # Square pixels. balance 1: every edge midpoint's ray lands inside the new pinhole image, one
+    # on its border; balance 0: every one on or outside the border, one on it.
+    k = np.array([[504.0, 0.0, 641.3], [0.0, 504.0, 478.9], [0.0, 0.0, 1.0]])
+    w, h = SIZE
+    edges = np.array([[w // 2, 0], [w, h // 2], [w // 2, h], [0, h // 2]], dtype=float)
+    rays = fe.undistort_points(edges, k, D)
+    for balance in (1.0, 0.0):
+        p = fe.estimate_new_camera_matrix_for_undistort_rectify(k, D, SIZE, balance=balance)
+        q = rays @ p[:2, :2].T + p[:2, 2]
+        margin = np.minimum(np.minimum(q[:, 0], w - q[:, 0]), np.minimum(q[:, 1], h - q[:, 1]))
+        if balance == 1.0:
+            assert margin.min() > -1e-9 and abs(margin).min() < 1e-9, margin
+        else:
+            assert margin.max() < 1e-9 and abs(margin).min() < 1e-9, margin
+
+
 def test_fisheye_agrees_with_live_opencv():
     cv2 = pytest.importorskip("cv2")
     rng = np.random.default_rng(2)
@@ -103,6 +120,13 @@ def test_fisheye_agrees_with_live_opencv():
     mx, my = fe.init_undistort_rectify_map(K, D, None, P, (640, 480))
     cx, cy = cv2.fisheye.initUndistortRectifyMap(K, D, np.eye(3), P, (640, 480), cv2.CV_32FC1)
     assert np.abs(mx - cx).max() < 1e-3 and np.abs(my - cy).max() < 1e-3
+    k = K @ np.diag([1.2, 1.2, 1.0])
+    k[:2, 2] = K[:2, 2]
+    for balance, R, size, fov in ((0.0, None, None, 1.0), (0.3, np.array([0.02, -0.01, 0.03]), (640, 480), 1.3), (1.0, None, (1281, 961), 0.8)):
+        ours = fe.estimate_new_camera_matrix_for_undistort_rectify(k, D, SIZE, R=R, balance=balance, new_size=size, fov_scale=fov)
+        theirs = cv2.fisheye.estimateNewCameraMatrixForUndistortRectify(k, D, SIZE, np.eye(3) if R is None else cv2.Rodrigues(R)[0],
+                                                                         balance=balance, new_size=size or (0, 0), fov_scale=fov)
+        assert np.abs(ours - theirs).max() < 1e-9
     # Calibration on views with 0.3 px of noise: the same minimum, with the skew held and free
     # (OpenCV 5's flag values; float64 points and tight criteria for OpenCV).
     noisy = views(noise=0.3)

@@ -832,4 +832,8 @@ fn calibrate_camera_fisheye_from_chessboards() {
     let yml = s.arg("fisheye.yml");
     let e = fails_on_one_line(&[bad.as_slice(), &["--opencv-out", &yml]].concat());
     assert!(e.contains("--opencv-out"), "{e}");
+    // `scan undistort` takes the pinhole model: a fisheye camera is refused, not misread.
+    let png = s.arg("flat.png");
+    let e = fails_on_one_line(&["scan", "undistort", &files[0], "--camera", &out, "--out", &png]);
+    assert!(e.contains("fisheye"), "{e}");
 }

@@ -25,6 +25,9 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--out {}: the undistorted image is written as PNG (.png)", args.out.display());
     }
     let calib = read_calibration(&args.camera, &CalibrationNodes::default())?;
+    if calib.fisheye.is_some() {
+        bail!("{}: a fisheye camera; scan undistort takes OpenCV's pinhole model (lucent.fisheye.init_undistort_rectify_map gives the fisheye's maps)", args.camera.display());
+    }
     let size = calib.width.zip(calib.height);
     scan::calib::undistort::undistort_photo(&args.image, &calib.intrinsics, &calib.distortion, size, &args.out).with_context(|| format!("camera {}", args.camera.display()))?;
     println!("wrote {}", args.out.display());
