@@ -34,6 +34,7 @@ __all__ = [
     "calibrate",
     "init_undistort_rectify_map",
     "estimate_new_camera_matrix_for_undistort_rectify",
+    "undistort_image",
     "CALIB_USE_INTRINSIC_GUESS",
     "CALIB_RECOMPUTE_EXTRINSIC",
     "CALIB_CHECK_COND",
@@ -211,6 +212,33 @@ def estimate_new_camera_matrix_for_undistort_rectify(K, D, image_size, R=None, b
         rx, ry = nw / w, nh / h
         fx, fy, cx, cy = fx * rx, fy * ry, cx * rx, cy * ry
     return _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+
+def undistort_image(distorted, K, D, Knew=None, new_size=None):
+    """A fisheye photograph seen through the pinhole camera ``Knew`` (``K`` by default; OpenCV takes
+    an identity matrix then), as ``cv2.fisheye.undistortImage``: each output pixel the
+    photograph's value where the fisheye lens puts that pixel's ray, blended bilinearly (lucent's
+    remap, that of :func:`lucent.undistort`), black where the photograph does not see it.
+
+    Parameters
+    ----------
+    distorted : (H, W) or (H, W, C) uint8 array
+    K, D : the fisheye lens
+    Knew : 3×3, optional
+        The output's pinhole camera matrix.
+    new_size : (width, height), optional
+        The output's size (the photograph's by default).
+    """
+    a = _np.asarray(distorted)
+    if a.dtype != _np.uint8 or a.ndim not in (2, 3):
+        raise ValueError(f"distorted: expected an (H, W) or (H, W, C) uint8 array, got {a.dtype} of shape {a.shape}")
+    h, w = a.shape[:2]
+    c = 1 if a.ndim == 2 else a.shape[2]
+    ow, oh = (w, h) if new_size is None else _pair(new_size, "new_size", 1)
+    mx, my = init_undistort_rectify_map(K, D, None, K if Knew is None else Knew, (ow, oh))
+    m = _np.stack([mx.ravel(), my.ravel()], axis=1).astype(float)
+    out = _lucent.remap_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, [float(v) for v in m.ravel()])
+    return _np.frombuffer(out, dtype=_np.uint8).reshape((oh, ow) + a.shape[2:]).copy()
 
 
 def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, criteria=None):

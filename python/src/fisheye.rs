@@ -80,3 +80,16 @@ pub fn fisheye_calibrate_flat(
     let tv = fit.poses.iter().map(|p| [p.t[0], p.t[1], p.t[2]]).collect();
     Ok((fit.rms_px, fit.lens.camera_matrix(), fit.lens.k, rv, tv))
 }
+
+/// `image` (row-major, `channels` interleaved 8-bit values per pixel, `width` × `height`) sampled
+/// bilinearly at the flat source positions `map` (x, y per output pixel; black outside or at NaN),
+/// as `cv2.remap` with INTER_LINEAR and a black constant border (`scan::calib::undistort`).
+#[pyfunction]
+pub fn remap_flat(py: Python<'_>, image: &[u8], width: usize, height: usize, channels: usize, map: Vec<f64>) -> PyResult<Py<pyo3::types::PyBytes>> {
+    if image.len() != width * height * channels || channels == 0 {
+        return Err(value(format!("src: expected {width}×{height}×{channels} values, got {}", image.len())));
+    }
+    let m: Vec<[f64; 2]> = map.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let pixels = py.allow_threads(|| scan::calib::undistort::remap_bilinear(image, channels, width, height, &m));
+    Ok(pyo3::types::PyBytes::new(py, &pixels).unbind())
+}
