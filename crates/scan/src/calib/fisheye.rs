@@ -241,7 +241,7 @@ pub fn calibrate_fisheye_camera(obj: &[Point2], views: &[(String, Vec<Point2>)],
     let fit = calibrate_fisheye(obj, &pts, width, height, hold, None, super::MAX_RMS_PX).map_err(|e| {
         // Name the photograph where the message names a view.
         let msg = e.to_string();
-        match (0..views.len()).find(|i| msg.starts_with(&format!("view {i}")) || msg.contains(&format!("view {i} "))) {
+        match (0..views.len()).find(|i| msg.starts_with(&format!("view {i} ")) || msg.starts_with(&format!("view {i}:"))) {
             Some(i) => anyhow::anyhow!("{}: {msg}", views[i].0),
             None => e,
         }
