@@ -1,6 +1,7 @@
 //! `[camera]`: the pinhole (eye, look_at, up, vfov_deg or camera_constant, resolution), the
 //! OpenCV model (`model = "opencv"`: fx, fy, cx, cy, k1…k6, p1, p2, s1…s4, tau_x_rad, tau_y_rad or `dist`, R/rvec + t, pose,
-//! or eye/look_at; or a `calibration` file), and a thin lens (aperture_radius or f_number with
+//! or eye/look_at; or a `calibration` file), OpenCV's fisheye model (`model = "fisheye"`: the same
+//! keys with k1…k4 of θ_d and `skew`, or a fisheye calibration file), and a thin lens (aperture_radius or f_number with
 //! focal_length_mm, focus_distance), and the pixel filter (`filter`). Lengths are in the scene
 //! unit.
 
@@ -68,8 +69,9 @@ pub(crate) fn camera_from(
             }
             .map_err(|e| cx.err(&cspan, field, e))?
         }
-        "opencv" => opencv_camera(cx, files, unit_m, c, &cspan, field, default_size, hash)?,
-        other => return Err(err("model", &format!("unknown camera model `{other}` (use pinhole or opencv)"))),
+        "opencv" => opencv_camera(cx, files, unit_m, c, &cspan, field, default_size, false, hash)?,
+        "fisheye" => opencv_camera(cx, files, unit_m, c, &cspan, field, default_size, true, hash)?,
+        other => return Err(err("model", &format!("unknown camera model `{other}` (use pinhole, opencv or fisheye)"))),
     };
     camera.lens = lens(c, unit_m).map_err(|(k, e)| err(k, &e))?;
     if let Some(f) = &c.filter {
@@ -151,6 +153,7 @@ fn opencv_keys(c: &CameraDesc) -> Vec<&'static str> {
         ("tau_x_rad", c.tau_x_rad.is_some()),
         ("tau_y_rad", c.tau_y_rad.is_some()),
         ("dist", c.dist.is_some()),
+        ("skew", c.skew.is_some()),
         ("R", c.r.is_some()),
         ("rvec", c.rvec.is_some()),
         ("t", c.t.is_some()),
@@ -171,6 +174,7 @@ fn opencv_camera(
     cspan: &std::ops::Range<usize>,
     field: &str,
     default_size: Option<(u32, u32)>,
+    fisheye_model: bool,
     hash: &mut dyn FnMut(&[u8]),
 ) -> Result<Camera> {
     let err = |key: &str, msg: &dyn std::fmt::Display| cx.err(cspan, &format!("{field}.{key}"), msg);
@@ -201,12 +205,41 @@ fn opencv_camera(
     };
     let keys = opencv_keys(c);
     let intr_keys: Vec<&&str> = keys.iter().filter(|k| matches!(**k, "fx" | "fy" | "cx" | "cy" | "k1" | "k2" | "k3" | "k4" | "k5" | "k6" | "p1" | "p2" | "s1" | "s2" | "s3" | "s4" | "tau_x_rad" | "tau_y_rad" | "dist")).collect();
+    if fisheye_model {
+        if let Some(cal) = &calib {
+            if cal.fisheye.is_none() {
+                return Err(err("calibration", &"is OpenCV's pinhole model; model = \"fisheye\" needs a fisheye calibration (\"model\": \"fisheye\")"));
+            }
+        }
+    } else if c.skew.is_some() {
+        return Err(err("skew", &"is a key of the fisheye model (set model = \"fisheye\")"));
+    }
+    let mut fisheye = calib.as_ref().and_then(|cal| cal.fisheye);
     let (intrinsics, distortion, mut size) = match &calib {
         Some(cal) => {
-            if let Some(k) = intr_keys.first() {
+            if let Some(k) = intr_keys.first().copied().or(c.skew.map(|_| &"skew")) {
                 return Err(err(k, &"the calibration file gives the intrinsics; do not also set them here"));
             }
             (cal.intrinsics, cal.distortion, cal.width.zip(cal.height))
+        }
+        None if fisheye_model => {
+            let need = |k: &str, v: Option<f64>| v.filter(|x| x.is_finite()).ok_or_else(|| err(k, &"missing or not finite"));
+            let intr = Intrinsics { fx: need("fx", c.fx)?, fy: need("fy", c.fy)?, cx: need("cx", c.cx)?, cy: need("cy", c.cy)? };
+            for (k, p) in [("k5", c.k5), ("k6", c.k6), ("p1", c.p1), ("p2", c.p2), ("s1", c.s1), ("s2", c.s2), ("s3", c.s3), ("s4", c.s4), ("tau_x_rad", c.tau_x_rad), ("tau_y_rad", c.tau_y_rad)] {
+                if p.is_some() {
+                    return Err(err(k, &"is a term of OpenCV's pinhole model; the fisheye model takes k1, k2, k3, k4 and skew"));
+                }
+            }
+            let named = [c.k1, c.k2, c.k3, c.k4];
+            let k = match &c.dist {
+                Some(_) if named.iter().any(|k| k.is_some()) => return Err(err("dist", &"give dist or k1…k4, not both")),
+                Some(d) => <[f64; 4]>::try_from(d.as_slice()).map_err(|_| err("dist", &format!("the fisheye model has 4 coefficients k1, k2, k3, k4, got {}", d.len())))?,
+                None => named.map(|k| k.unwrap_or(0.0)),
+            };
+            let skew = c.skew.unwrap_or(0.0);
+            let m = [intr.fx, skew * intr.fx, intr.cx, 0.0, intr.fy, intr.cy, 0.0, 0.0, 1.0];
+            fisheye = Some(FisheyeLens::from_opencv(&m, &k).map_err(|e| err("fx", &e))?);
+            (intr, Distortion::default(), None)
         }
         None => {
             let need = |k: &str, v: Option<f64>| v.filter(|x| x.is_finite()).ok_or_else(|| err(k, &"missing or not finite"));
@@ -272,7 +305,6 @@ fn opencv_camera(
     }
     let (key, extr) = ways.pop().ok_or_else(|| err("R", &"missing pose: give R (or rvec) and t, pose, or eye and look_at"))?;
     let extrinsics = extr.map_err(|e| err(key, &e))?;
-    let fisheye = calib.as_ref().and_then(|c| c.fisheye);
     let mut camera = calibrated_model(intrinsics, distortion, fisheye, extrinsics, w0, h0).map_err(|e| cx.err(cspan, field, e))?;
     if let Some((w, h)) = rescale {
         camera.set_resolution(w, h);

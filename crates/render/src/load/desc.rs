@@ -55,6 +55,8 @@ pub(crate) struct CameraDesc {
     pub(crate) tau_x_rad: Option<f64>,
     pub(crate) tau_y_rad: Option<f64>,
     pub(crate) dist: Option<Vec<f64>>,
+    /// The fisheye model's skew α (K₀₁/K₀₀; `model = "fisheye"` only).
+    pub(crate) skew: Option<f64>,
     #[serde(rename = "R")]
     pub(crate) r: Option<[[f64; 3]; 3]>,
     pub(crate) rvec: Option<[f64; 3]>,

@@ -885,3 +885,32 @@ fn fisheye_calibration_json_is_read() {
         assert!(e.starts_with("f.json: ") && e.contains(key) && !e.contains('\n'), "{e}");
     }
 }
+
+/// `[camera] model = "fisheye"` builds the fisheye model from its keys (k1…k4 named or as
+/// `dist`, `skew`): a point projects where `FisheyeLens` puts it. Pinhole-model terms with it,
+/// `skew` without it, a `dist` of 5 entries and a pinhole calibration file under it are one line
+/// naming the key.
+#[test]
+fn fisheye_scene_camera_keys() {
+    use render::camera::FisheyeLens;
+    let base = "model = \"fisheye\"\nwidth = 64\nheight = 48\nfx = 30.0\nfy = 30.5\ncx = 31.7\ncy = 23.4\neye = [0, 0, 0]\nlook_at = [0, 0, 1]\n";
+    let lens = FisheyeLens { fx: 30.0, fy: 30.5, cx: 31.7, cy: 23.4, skew: 0.002, k: [0.05, -0.02, 0.004, -0.0004] };
+    for terms in ["k1 = 0.05\nk2 = -0.02\nk3 = 0.004\nk4 = -0.0004\nskew = 0.002\n", "dist = [0.05, -0.02, 0.004, -0.0004]\nskew = 0.002\n"] {
+        let s = scene(&format!("unit = \"m\"\n[camera]\n{base}{terms}[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nname = \"s\"\nmaterial = \"m\"\nsphere = {{ center = [0, 0, 3], radius = 1 }}\n"));
+        let p = [0.7, -0.4, 1.5];
+        let got = s.camera.project(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32)).unwrap();
+        // look_at with up +y: the camera's x is world −x and its y (image down) world −y.
+        let want = lens.project([-p[0], -p[1], p[2]]);
+        assert!((got.x as f64 - 0.5 - want[0]).abs() < 1e-4 && (got.y as f64 - 0.5 - want[1]).abs() < 1e-4, "{got} against {want:?}");
+    }
+    let objects = "[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nname = \"s\"\nmaterial = \"m\"\nsphere = { center = [0, 0, 3], radius = 1 }\n";
+    for (extra, key) in [
+        (format!("{base}p1 = 0.001\n"), "camera.p1"),
+        (format!("{base}dist = [0.1, 0.0, 0.0, 0.0, 0.0]\n"), "camera.dist"),
+        (base.replace("\"fisheye\"", "\"opencv\"") + "skew = 0.01\n", "camera.skew"),
+    ] {
+        let text = format!("unit = \"m\"\n[camera]\n{extra}{objects}");
+        let e = render::scene::Scene::from_toml_str(&text, "f.toml", std::path::Path::new(".")).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains(key) && !e.contains('\n'), "{e}");
+    }
+}
