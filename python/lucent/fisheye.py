@@ -32,6 +32,7 @@ __all__ = [
     "distort_points",
     "undistort_points",
     "calibrate",
+    "stereo_calibrate",
     "init_undistort_rectify_map",
     "estimate_new_camera_matrix_for_undistort_rectify",
     "undistort_image",
@@ -293,3 +294,63 @@ def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, 
     return (rms, _np.asarray(k, dtype=float).reshape(3, 3), _np.asarray(d, dtype=float).reshape(4, 1),
             tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r in rvecs),
             tuple(_np.asarray(t, dtype=float).reshape(3, 1) for t in tvecs))
+
+
+def stereo_calibrate(object_points, image_points1, image_points2, K1, D1, K2, D2, image_size, R=None, T=None,
+                     flags=CALIB_FIX_INTRINSIC, criteria=None):
+    """Calibrate a pair of fisheye cameras from the same views of a planar target, as
+    ``cv2.fisheye.stereoCalibrate``: each camera alone first (or, with CALIB_FIX_INTRINSIC, the
+    default as in OpenCV, posed through K1, D1 and K2, D2), the relative pose from the views'
+    medians, then Levenberg–Marquardt over both lenses' free terms, the relative pose and every
+    view's pose together.
+
+    Parameters
+    ----------
+    object_points, image_points1, image_points2
+        As for :func:`calibrate`; one list of pixels per camera, the same views in both.
+    K1, D1, K2, D2
+        The lenses: held with CALIB_FIX_INTRINSIC, starts with CALIB_USE_INTRINSIC_GUESS, else
+        unused (None allowed).
+    image_size : (width, height)
+    R, T : ignored (OpenCV's outputs given as inputs)
+    flags : int
+        CALIB_FIX_INTRINSIC, CALIB_USE_INTRINSIC_GUESS, CALIB_FIX_SKEW, CALIB_FIX_K1 … K4,
+        CALIB_FIX_PRINCIPAL_POINT, CALIB_FIX_FOCAL_LENGTH; CALIB_RECOMPUTE_EXTRINSIC and
+        CALIB_CHECK_COND change nothing.
+    criteria : ignored
+
+    Returns
+    -------
+    (rms, K1, D1, K2, D2, R, T, rvecs, tvecs)
+        The RMS reprojection error over both cameras' points (pixels), the lenses, the first →
+        second camera rotation (3×3) and translation (3, 1), and per view the (3, 1) Rodrigues
+        vector and translation of the target → first camera.
+    """
+    flags = int(flags)
+    if flags & ~_KNOWN:
+        raise ValueError(f"flags: {flags & ~_KNOWN} is not a flag lucent.fisheye.stereo_calibrate knows (it takes OpenCV 5's "
+                         "values, lucent.fisheye.CALIB_*; OpenCV 4's fisheye numbers differ)")
+    obj, img1 = _planar_target(object_points, image_points1, "image_points1")
+    _, img2 = _planar_target(object_points, image_points2, "image_points2")
+    w, h = _pair(image_size, "image_size", 1)
+    fixed = bool(flags & CALIB_FIX_INTRINSIC)
+    guesses = []
+    for name, K, D in (("1", K1, D1), ("2", K2, D2)):
+        if fixed or flags & CALIB_USE_INTRINSIC_GUESS:
+            if K is None:
+                raise ValueError(f"K{name}: CALIB_FIX_INTRINSIC and CALIB_USE_INTRINSIC_GUESS start from it; got None")
+            k, d = _lens(K, D)
+            if not fixed:
+                d = [0.0 if flags & f else v for f, v in zip((CALIB_FIX_K1, CALIB_FIX_K2, CALIB_FIX_K3, CALIB_FIX_K4), d)]
+            guesses.append((k, d))
+        else:
+            guesses.append(None)
+    hold = (bool(flags & CALIB_FIX_FOCAL_LENGTH), bool(flags & CALIB_FIX_PRINCIPAL_POINT), bool(flags & CALIB_FIX_SKEW),
+            [bool(flags & f) for f in (CALIB_FIX_K1, CALIB_FIX_K2, CALIB_FIX_K3, CALIB_FIX_K4)])
+    rms, k1, d1, k2, d2, r, t, rvecs, tvecs = _lucent.fisheye_stereo_calibrate_flat(
+        [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img1], [[float(v) for v in p.ravel()] for p in img2],
+        w, h, hold, fixed, tuple(guesses))
+    m = lambda a: _np.asarray(a, dtype=float).reshape(3, 3)
+    return (rms, m(k1), _np.asarray(d1, dtype=float).reshape(4, 1), m(k2), _np.asarray(d2, dtype=float).reshape(4, 1), m(r),
+            _np.asarray(t, dtype=float).reshape(3, 1),
+            tuple(_np.asarray(v, dtype=float).reshape(3, 1) for v in rvecs), tuple(_np.asarray(v, dtype=float).reshape(3, 1) for v in tvecs))

@@ -93,3 +93,36 @@ pub fn remap_flat(py: Python<'_>, image: &[u8], width: usize, height: usize, cha
     let pixels = py.allow_threads(|| scan::calib::undistort::remap_bilinear(image, channels, width, height, &m));
     Ok(pyo3::types::PyBytes::new(py, &pixels).unbind())
 }
+
+/// Calibrate a fisheye pair from one planar target (flat x, y, z = 0) in the same views of both
+/// cameras (flat u, v per view, NaN where not seen): (RMS in pixels, K1, D1, K2, D2 row-major,
+/// R row-major, T, per-view Rodrigues vectors and translations of the target → first camera).
+/// `hold` as [`fisheye_calibrate_flat`]; `fix_intrinsic` holds both lenses at `guess`.
+#[pyfunction]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+pub fn fisheye_stereo_calibrate_flat(
+    object_xy: Vec<f64>,
+    image_points1: Vec<Vec<f64>>,
+    image_points2: Vec<Vec<f64>>,
+    width: u32,
+    height: u32,
+    hold: (bool, bool, bool, [bool; 4]),
+    fix_intrinsic: bool,
+    guess: (Option<([f64; 9], [f64; 4])>, Option<([f64; 9], [f64; 4])>),
+) -> PyResult<(f64, [f64; 9], [f64; 4], [f64; 9], [f64; 4], [f64; 9], [f64; 3], Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+    use scan::calib::fisheye::stereo_calibrate_fisheye;
+    let obj: Vec<[f64; 2]> = object_xy.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let pts = |v: &Vec<Vec<f64>>| -> Vec<Vec<[f64; 2]>> { v.iter().map(|p| p.chunks_exact(2).map(|q| [q[0], q[1]]).collect()).collect() };
+    let (v1, v2) = (pts(&image_points1), pts(&image_points2));
+    let g1 = guess.0.map(|(k, d)| lens(k, d)).transpose()?;
+    let g2 = guess.1.map(|(k, d)| lens(k, d)).transpose()?;
+    let (focal, principal_point, skew, k) = hold;
+    let hold = FisheyeHold { focal, principal_point, skew, k };
+    let fit = stereo_calibrate_fisheye(&obj, [&v1, &v2], width, height, hold, fix_intrinsic, [g1, g2], 10.0).or_py()?;
+    let r = fit.stereo.r();
+    let rm = [r[(0, 0)], r[(0, 1)], r[(0, 2)], r[(1, 0)], r[(1, 1)], r[(1, 2)], r[(2, 0)], r[(2, 1)], r[(2, 2)]];
+    let rv = fit.poses.iter().map(|p| [p.rvec[0], p.rvec[1], p.rvec[2]]).collect();
+    let tv = fit.poses.iter().map(|p| [p.t[0], p.t[1], p.t[2]]).collect();
+    let [l1, l2] = fit.lens;
+    Ok((fit.rms_px, l1.camera_matrix(), l1.k, l2.camera_matrix(), l2.k, rm, [fit.stereo.t[0], fit.stereo.t[1], fit.stereo.t[2]], rv, tv))
+}

@@ -51,6 +51,7 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fisheye::fisheye_undistort_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::fisheye_calibrate_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::remap_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_stereo_calibrate_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_procam_json, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -161,3 +161,52 @@ def test_fisheye_agrees_with_live_opencv():
                                        flags=flags, criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 300, 1e-16))
         assert abs(ours[0] - theirs[0]) < 1e-9 * theirs[0]
         assert np.abs(ours[1] - theirs[1]).max() < 1e-5 and np.abs(ours[2] - theirs[2]).max() < 1e-6
+
+
+K2 = np.array([[410.0, 0.0, 630.2], [0.0, 409.1, 489.5], [0.0, 0.0, 1.0]])
+D2 = np.array([0.047, -0.018, 0.0031, -0.0002])
+R12 = rodrigues([0.02, -0.12, 0.01])
+T12 = np.array([-60.0, 2.0, 5.0])
+
+
+def stereo_views(noise=0.0, seed=5):
+    """The views of the first camera (K, D) and of the second (K2, D2 at X₂ = R12 X₁ + T12)."""
+    rng = np.random.default_rng(seed)
+    v1, v2 = [], []
+    for r, t in poses():
+        r2 = R12 @ rodrigues(r)
+        th = np.arccos(np.clip((np.trace(r2) - 1) / 2, -1, 1))
+        w = np.array([r2[2, 1] - r2[1, 2], r2[0, 2] - r2[2, 0], r2[1, 0] - r2[0, 1]]) * th / (2 * np.sin(th))
+        v1.append(fe.project_points(OBJ, r, t, K, D) + rng.normal(0.0, noise, (len(OBJ), 2)))
+        v2.append(fe.project_points(OBJ, w, R12 @ t + T12, K2, D2) + rng.normal(0.0, noise, (len(OBJ), 2)))
+    return v1, v2
+
+
+def test_stereo_calibrate_recovers_a_known_fisheye_pair():
+    v1, v2 = stereo_views()
+    n = len(v1)
+    rms, k1, d1, k2, d2, r, t, rvecs, tvecs = fe.stereo_calibrate([OBJ] * n, v1, v2, None, None, None, None, SIZE,
+                                                                  flags=fe.CALIB_FIX_SKEW)
+    assert rms < 1e-9 and np.abs(k1 - K).max() < 1e-7 and np.abs(k2 - K2).max() < 1e-7
+    assert np.abs(d1.ravel() - D).max() < 1e-9 and np.abs(d2.ravel() - D2).max() < 1e-9
+    assert np.abs(r - R12).max() < 1e-10 and np.abs(t.ravel() - T12).max() < 1e-8
+    # The default, as OpenCV's: CALIB_FIX_INTRINSIC, the lenses given exactly and kept.
+    out = fe.stereo_calibrate([OBJ] * n, v1, v2, K, D, K2, D2, SIZE)
+    assert np.array_equal(out[1], K) and np.array_equal(out[3], K2) and np.abs(out[6].ravel() - T12).max() < 1e-8
+    with pytest.raises(ValueError, match="K1"):
+        fe.stereo_calibrate([OBJ] * n, v1, v2, None, None, K2, D2, SIZE)
+
+
+def test_fisheye_stereo_agrees_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    v1, v2 = stereo_views(noise=0.3)
+    n = len(v1)
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 300, 1e-16)
+    for flags in (fe.CALIB_FIX_SKEW | fe.CALIB_RECOMPUTE_EXTRINSIC, fe.CALIB_FIX_INTRINSIC):
+        ours = fe.stereo_calibrate([OBJ] * n, v1, v2, K, D, K2, D2, SIZE, flags=flags)
+        theirs = cv2.fisheye.stereoCalibrate([OBJ.reshape(-1, 1, 3)] * n, [v.reshape(-1, 1, 2) for v in v1], [v.reshape(-1, 1, 2) for v in v2],
+                                             K.copy(), D.copy(), K2.copy(), D2.copy(), SIZE, flags=flags, criteria=crit)
+        assert abs(ours[0] - theirs[0]) < 1e-9 * theirs[0]
+        assert np.abs(ours[1] - theirs[1]).max() < 1e-5 and np.abs(ours[3] - theirs[3]).max() < 1e-5
+        assert np.abs(ours[2] - theirs[2]).max() < 1e-6 and np.abs(ours[4] - theirs[4]).max() < 1e-6
+        assert np.abs(ours[5] - theirs[5]).max() < 1e-9 and np.abs(ours[6] - theirs[6]).max() < 1e-6

@@ -261,3 +261,137 @@ pub fn calibrate_fisheye_camera(obj: &[Point2], views: &[(String, Vec<Point2>)],
     let l = fit.lens;
     Ok(FisheyeCameraCalibration { width, height, model: "fisheye".into(), fx: l.fx, fy: l.fy, cx: l.cx, cy: l.cy, skew: l.skew, dist: l.k, rms_px: fit.rms_px, views: per_view })
 }
+
+/// A fisheye stereo calibration (OpenCV's `fisheye::stereoCalibrate`): both lenses, the first →
+/// second camera transform X₂ = R·X₁ + T, the target → first camera pose per view, and the RMS
+/// reprojection error over every observed point of both cameras (pixels).
+#[derive(Clone, Debug)]
+pub struct FisheyeStereoFit {
+    /// The first and the second camera's lens.
+    pub lens: [FisheyeLens; 2],
+    /// First → second camera.
+    pub stereo: Pose,
+    /// Target → first camera, per view.
+    pub poses: Vec<Pose>,
+    /// RMS reprojection error (pixels).
+    pub rms_px: f64,
+}
+
+/// The residuals of a fisheye stereo fit: per view, the first camera's points, then the
+/// second's (0 where not observed).
+struct StereoProblem<'a> {
+    obj: &'a [Vector3<f64>],
+    views: [&'a [Vec<Point2>]; 2],
+}
+
+/// Offset of the stereo pose, then of the first view's pose, in a stereo fit's vector.
+const STEREO_AT: usize = 2 * LENS;
+
+impl Blocks for StereoProblem<'_> {
+    fn n_blocks(&self) -> usize {
+        self.views[0].len()
+    }
+
+    fn block_rows(&self) -> usize {
+        4 * self.obj.len()
+    }
+
+    fn global_rows(&self) -> usize {
+        0
+    }
+
+    fn block(&self, x: &[f64], v: usize, r: &mut [f64]) {
+        let lens = [FisheyeLens::from_slice(&x[..LENS]), FisheyeLens::from_slice(&x[LENS..2 * LENS])];
+        let pose_at = |at: usize| Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) };
+        let (stereo, pose) = (pose_at(STEREO_AT), pose_at(STEREO_AT + 6 + 6 * v));
+        let (rs, rp) = (stereo.r(), pose.r());
+        let n = self.obj.len();
+        r.fill(0.0);
+        for (k, xo) in self.obj.iter().enumerate() {
+            let c1 = rp * xo + pose.t;
+            let c2 = rs * c1 + stereo.t;
+            for (d, c) in [c1, c2].iter().enumerate() {
+                let q = self.views[d][v][k];
+                if observed(q) {
+                    let p = lens[d].project([c[0], c[1], c[2]]);
+                    r[2 * (d * n + k)] = p[0] - q[0];
+                    r[2 * (d * n + k) + 1] = p[1] - q[1];
+                }
+            }
+        }
+    }
+
+    fn global(&self, _x: &[f64], _r: &mut [f64]) {}
+}
+
+/// Calibrate a pair of fisheye cameras from the same views of one planar target seen by both
+/// (`views[d][v]`: camera d's pixels of view v, NaN where not seen). Each camera is first
+/// calibrated alone ([`calibrate_fisheye`], from `guess[d]` when given), or, with
+/// `fix_intrinsic`, posed through its given lens; the relative pose starts at the per-view
+/// medians of R₂R₁ᵀ (as a Rodrigues vector) and t₂ − R₂R₁ᵀt₁; then Levenberg–Marquardt over
+/// both lenses' free terms (none with `fix_intrinsic`), the relative pose and every view's pose.
+pub fn stereo_calibrate_fisheye(obj: &[Point2], views: [&[Vec<Point2>]; 2], width: u32, height: u32, hold: FisheyeHold, fix_intrinsic: bool, guess: [Option<FisheyeLens>; 2], max_rms_px: f64) -> Result<FisheyeStereoFit> {
+    if views[0].len() != views[1].len() {
+        bail!("the cameras have {} and {} views; a stereo fit needs the same views in both", views[0].len(), views[1].len());
+    }
+    let every = FisheyeHold { focal: true, principal_point: true, skew: true, k: [true; 4] };
+    let mut single = Vec::new();
+    for d in 0..2 {
+        if fix_intrinsic && guess[d].is_none() {
+            bail!("camera {}: holding the intrinsics needs its lens", d + 1);
+        }
+        let h = if fix_intrinsic { every } else { hold };
+        single.push(calibrate_fisheye(obj, views[d], width, height, h, guess[d], max_rms_px).map_err(|e| anyhow::anyhow!("camera {}: {e}", d + 1))?);
+    }
+    // The relative pose of each view, and their per-component medians.
+    let rel: Vec<Pose> = single[0].poses.iter().zip(&single[1].poses).map(|(p1, p2)| {
+        let r = p2.r() * p1.r().transpose();
+        Pose::from_rt(&r, p2.t - r * p1.t)
+    }).collect();
+    let median = |f: &dyn Fn(&Pose) -> f64| {
+        let mut v: Vec<f64> = rel.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        let m = v.len() / 2;
+        if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
+    };
+    let stereo = Pose {
+        rvec: Vector3::new(median(&|p| p.rvec[0]), median(&|p| p.rvec[1]), median(&|p| p.rvec[2])),
+        t: Vector3::new(median(&|p| p.t[0]), median(&|p| p.t[1]), median(&|p| p.t[2])),
+    };
+    let mut x: Vec<f64> = single[0].lens.to_array().into_iter().chain(single[1].lens.to_array()).collect();
+    x.extend(stereo.rvec.iter().chain(stereo.t.iter()));
+    for p in &single[0].poses {
+        x.extend(p.rvec.iter().chain(p.t.iter()));
+    }
+    let free = |i: usize| {
+        !fix_intrinsic
+            && match i {
+                0 | 1 => !hold.focal,
+                2 | 3 => !hold.principal_point,
+                4 => !hold.skew,
+                _ => !hold.k[i - 5],
+            }
+    };
+    let mut global: Vec<usize> = (0..2 * LENS).filter(|&i| free(i % LENS)).collect();
+    global.extend(STEREO_AT..STEREO_AT + 6);
+    let layout = Layout { global, local: (0..views[0].len()).map(|v| std::array::from_fn(|k| STEREO_AT + 6 + 6 * v + k)).collect() };
+    let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
+    let problem = StereoProblem { obj: &obj3, views };
+    schur_lm::minimize(&problem, &layout, &mut x, MAX_ITERATIONS)?;
+    let lens = [FisheyeLens::from_slice(&x[..LENS]), FisheyeLens::from_slice(&x[LENS..2 * LENS])];
+    let pose_at = |at: usize| Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) };
+    let stereo = pose_at(STEREO_AT);
+    let poses: Vec<Pose> = (0..views[0].len()).map(|v| pose_at(STEREO_AT + 6 + 6 * v)).collect();
+    let poses2: Vec<Pose> = poses.iter().map(|p| stereo.after(p)).collect();
+    let (e1, e2) = (rms(&lens[0], &obj3, views[0], &poses), rms(&lens[1], &obj3, views[1], &poses2));
+    let count = |vs: &[Vec<Point2>]| vs.iter().flatten().filter(|q| observed(**q)).count() as f64;
+    let (n1, n2) = (count(views[0]), count(views[1]));
+    let rms_px = ((e1 * e1 * n1 + e2 * e2 * n2) / (n1 + n2).max(1.0)).sqrt();
+    if !(rms_px <= max_rms_px) {
+        bail!("the fisheye stereo calibration did not converge: reprojection RMS {rms_px:.3} px exceeds {max_rms_px} px");
+    }
+    if lens.iter().any(|l| !(l.fx > 0.0 && l.fy > 0.0)) {
+        bail!("the fit reached a focal length ≤ 0: fx, fy = {:.4}, {:.4} and {:.4}, {:.4} px", lens[0].fx, lens[0].fy, lens[1].fx, lens[1].fy);
+    }
+    Ok(FisheyeStereoFit { lens, stereo, poses, rms_px })
+}

@@ -156,3 +156,38 @@ fn fisheye_calibration_refuses_bad_input() {
     let views = observe(&lens(), &obj, &poses(), 0.0, 1);
     assert!(e(&views, Some(FisheyeLens { fx: -1.0, ..lens() })).contains("positive focal"));
 }
+
+/// A fisheye pair seeing the same eight views: noiseless projections give both lenses, the
+/// relative pose and every view's pose back to 10⁻⁸; with the intrinsics held (given exactly,
+/// then given 1 % off) the lenses stay where they were given, and the pose is exact only when
+/// they are.
+#[test]
+fn stereo_calibration_recovers_a_known_fisheye_pair() {
+    use scan::calib::fisheye::stereo_calibrate_fisheye;
+    let obj = board_points(9, 6, 40.0);
+    let second = FisheyeLens { fx: 349.0, fy: 348.2, cx: 630.2, cy: 489.5, skew: 0.0, k: [0.047, -0.018, 0.0031, -0.0002] };
+    let stereo = Pose { rvec: Vector3::new(0.02, -0.12, 0.01), t: Vector3::new(-60.0, 2.0, 5.0) };
+    let v1 = observe(&lens(), &obj, &poses(), 0.0, 1);
+    let poses2: Vec<Pose> = poses().iter().map(|p| stereo.after(p)).collect();
+    let v2 = observe(&second, &obj, &poses2, 0.0, 1);
+    let hold = FisheyeHold { skew: true, ..Default::default() };
+    let fit = stereo_calibrate_fisheye(&obj, [&v1, &v2], 1280, 960, hold, false, [None, None], 1.0).unwrap();
+    for (got, want) in fit.lens.iter().zip([lens(), second]) {
+        let (g, w) = (got.to_array(), want.to_array());
+        for i in 0..9 {
+            let scale = if i < 4 { w[0] } else { 1.0 };
+            assert!((g[i] - w[i]).abs() < 1e-8 * scale, "term {i}: {} against {}", g[i], w[i]);
+        }
+    }
+    assert!((fit.stereo.rvec - stereo.rvec).norm() < 1e-9 && (fit.stereo.t - stereo.t).norm() < 1e-8 * stereo.t.norm(), "{:?}", fit.stereo);
+    assert!(fit.rms_px < 1e-9, "RMS {}", fit.rms_px);
+    // Held intrinsics: exact ones give the rig exactly; 1 % off they stay off, and the RMS shows it.
+    let held = stereo_calibrate_fisheye(&obj, [&v1, &v2], 1280, 960, hold, true, [Some(lens()), Some(second)], 1.0).unwrap();
+    assert!((held.stereo.t - stereo.t).norm() < 1e-8 * stereo.t.norm() && held.rms_px < 1e-9);
+    let off = FisheyeLens { fx: 1.01 * second.fx, ..second };
+    let held = stereo_calibrate_fisheye(&obj, [&v1, &v2], 1280, 960, hold, true, [Some(lens()), Some(off)], 10.0).unwrap();
+    assert_eq!(held.lens, [lens(), off]);
+    assert!(held.rms_px > 0.1, "RMS {}", held.rms_px);
+    let e = stereo_calibrate_fisheye(&obj, [&v1, &v2[..7]], 1280, 960, hold, false, [None, None], 1.0).unwrap_err().to_string();
+    assert!(e.contains("8 and 7 views"), "{e}");
+}
