@@ -250,12 +250,14 @@ impl Fisheye {
     /// Unit world direction (and camera centre, m) of the ray through OpenCV pixel (u, v).
     pub fn ray_pixel(&self, u: f64, v: f64) -> ([f64; 3], [f64; 3]) {
         let (xd, yd) = self.lens.normalise(u, v);
-        // Every pixel of the image has a ray (checked in `new`); a position outside the image
-        // beyond the lens's range looks along the axis.
-        let (x, y) = self.lens.undistort(xd, yd, self.theta_max).unwrap_or((0.0, 0.0));
-        let d = mat_vec(&transpose(&self.extrinsics.r), [x, y, 1.0]);
-        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        (self.centre_m, [d[0] / n, d[1] / n, d[2] / n])
+        // The direction from θ and the azimuth (no tan θ, exact up to 90°). Every pixel of the
+        // image has a ray (checked in `new`); a film position a pixel filter puts outside the
+        // image, beyond the lens's range, takes the edge of the field in its azimuth.
+        let td = xd.hypot(yd);
+        let theta = self.lens.solve_theta(td, self.theta_max).unwrap_or(self.theta_max);
+        let (s, c) = theta.sin_cos();
+        let local = if td > 0.0 { [s * xd / td, s * yd / td, c] } else { [0.0, 0.0, 1.0] };
+        (self.centre_m, mat_vec(&transpose(&self.extrinsics.r), local))
     }
 
     /// Camera centre (m).

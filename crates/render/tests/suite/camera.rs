@@ -854,6 +854,10 @@ fn fisheye_camera_renders_where_it_projects() {
         let want = ((u - 50.0f64).hypot(v - 40.0) / 100.0).to_degrees();
         assert!((dir[2].acos().to_degrees() - want).abs() < 1e-9, "({u}, {v}): {dir:?}");
     }
+    // Far outside the image, beyond the lens's 90°, a film position takes the edge of the field
+    // in its azimuth (a wide pixel filter can reach there), not a ray behind the camera.
+    let (_, dir) = cam.ray_pixel(50.0 + 300.0, 40.0 - 300.0);
+    assert!(dir[2].abs() < 1e-12 && (dir[0] - 0.5f64.sqrt()).abs() < 1e-12 && (dir[1] + 0.5f64.sqrt()).abs() < 1e-12, "{dir:?}");
     // A lens whose θ_d turns back (at √(2/3) rad for k1 = −0.5) before the image corners has no
     // ray for them: refused.
     let fold = FisheyeLens { k: [-0.5, 0.0, 0.0, 0.0], ..eq };
