@@ -34,6 +34,23 @@ pub struct FisheyeHold {
     pub k: [bool; 4],
 }
 
+impl FisheyeHold {
+    /// Whether the fit moves term `i` of [`FisheyeLens::to_array`]'s order (fx, fy, cx, cy, α, k1…k4).
+    fn frees(&self, i: usize) -> bool {
+        match i {
+            0 | 1 => !self.focal,
+            2 | 3 => !self.principal_point,
+            4 => !self.skew,
+            _ => !self.k[i - 5],
+        }
+    }
+}
+
+/// The pose stored as (Rodrigues vector, translation) at `x[at..at + 6]`.
+fn pose_at(x: &[f64], at: usize) -> Pose {
+    Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) }
+}
+
 /// A fisheye calibration: the lens, each view's target → camera pose, and the RMS reprojection
 /// error (pixels, √(Σ‖e‖²/N) over the N observed points, OpenCV's `rms`).
 #[derive(Clone, Debug)]
@@ -68,8 +85,7 @@ impl Blocks for Problem<'_> {
 
     fn block(&self, x: &[f64], v: usize, r: &mut [f64]) {
         let lens = FisheyeLens::from_slice(&x[..LENS]);
-        let at = LENS + 6 * v;
-        let pose = Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) };
+        let pose = pose_at(x, LENS + 6 * v);
         let rot = pose.r();
         r.fill(0.0);
         for (k, (xo, q)) in self.obj.iter().zip(&self.views[v]).enumerate() {
@@ -147,24 +163,12 @@ pub fn calibrate_fisheye(obj: &[Point2], views: &[Vec<Point2>], width: u32, heig
         let (pose, _) = solve_pnp(&o, &n, &unit).map_err(|e| anyhow::anyhow!("view {i}: no first pose: {e}"))?;
         x.extend(pose.rvec.iter().chain(pose.t.iter()));
     }
-    let global: Vec<usize> = (0..LENS)
-        .filter(|&i| match i {
-            0 | 1 => !hold.focal,
-            2 | 3 => !hold.principal_point,
-            4 => !hold.skew,
-            _ => !hold.k[i - 5],
-        })
-        .collect();
+    let global: Vec<usize> = (0..LENS).filter(|&i| hold.frees(i)).collect();
     let layout = Layout { global, local: (0..views.len()).map(|v| std::array::from_fn(|k| LENS + 6 * v + k)).collect() };
     let problem = Problem { obj: &obj3, views };
     schur_lm::minimize(&problem, &layout, &mut x, MAX_ITERATIONS)?;
     let lens = FisheyeLens::from_slice(&x[..LENS]);
-    let poses: Vec<Pose> = (0..views.len())
-        .map(|v| {
-            let at = LENS + 6 * v;
-            Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) }
-        })
-        .collect();
+    let poses: Vec<Pose> = (0..views.len()).map(|v| pose_at(&x, LENS + 6 * v)).collect();
     let rms_px = rms(&lens, &obj3, views, &poses);
     if !(rms_px <= max_rms_px) {
         bail!("the fisheye calibration did not converge: reprojection RMS {rms_px:.3} px exceeds {max_rms_px} px");
@@ -302,8 +306,7 @@ impl Blocks for StereoProblem<'_> {
 
     fn block(&self, x: &[f64], v: usize, r: &mut [f64]) {
         let lens = [FisheyeLens::from_slice(&x[..LENS]), FisheyeLens::from_slice(&x[LENS..2 * LENS])];
-        let pose_at = |at: usize| Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) };
-        let (stereo, pose) = (pose_at(STEREO_AT), pose_at(STEREO_AT + 6 + 6 * v));
+        let (stereo, pose) = (pose_at(x, STEREO_AT), pose_at(x, STEREO_AT + 6 + 6 * v));
         let (rs, rp) = (stereo.r(), pose.r());
         let n = self.obj.len();
         r.fill(0.0);
@@ -363,25 +366,15 @@ pub fn stereo_calibrate_fisheye(obj: &[Point2], views: [&[Vec<Point2>]; 2], widt
     for p in &single[0].poses {
         x.extend(p.rvec.iter().chain(p.t.iter()));
     }
-    let free = |i: usize| {
-        !fix_intrinsic
-            && match i {
-                0 | 1 => !hold.focal,
-                2 | 3 => !hold.principal_point,
-                4 => !hold.skew,
-                _ => !hold.k[i - 5],
-            }
-    };
-    let mut global: Vec<usize> = (0..2 * LENS).filter(|&i| free(i % LENS)).collect();
+    let mut global: Vec<usize> = (0..2 * LENS).filter(|&i| !fix_intrinsic && hold.frees(i % LENS)).collect();
     global.extend(STEREO_AT..STEREO_AT + 6);
     let layout = Layout { global, local: (0..views[0].len()).map(|v| std::array::from_fn(|k| STEREO_AT + 6 + 6 * v + k)).collect() };
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let problem = StereoProblem { obj: &obj3, views };
     schur_lm::minimize(&problem, &layout, &mut x, MAX_ITERATIONS)?;
     let lens = [FisheyeLens::from_slice(&x[..LENS]), FisheyeLens::from_slice(&x[LENS..2 * LENS])];
-    let pose_at = |at: usize| Pose { rvec: Vector3::new(x[at], x[at + 1], x[at + 2]), t: Vector3::new(x[at + 3], x[at + 4], x[at + 5]) };
-    let stereo = pose_at(STEREO_AT);
-    let poses: Vec<Pose> = (0..views[0].len()).map(|v| pose_at(STEREO_AT + 6 + 6 * v)).collect();
+    let stereo = pose_at(&x, STEREO_AT);
+    let poses: Vec<Pose> = (0..views[0].len()).map(|v| pose_at(&x, STEREO_AT + 6 + 6 * v)).collect();
     let poses2: Vec<Pose> = poses.iter().map(|p| stereo.after(p)).collect();
     let (e1, e2) = (rms(&lens[0], &obj3, views[0], &poses), rms(&lens[1], &obj3, views[1], &poses2));
     let count = |vs: &[Vec<Point2>]| vs.iter().flatten().filter(|q| observed(**q)).count() as f64;
