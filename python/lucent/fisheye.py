@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as _np
 
 # The package's helpers; this module is imported at the end of lucent/__init__.py.
-from . import CV_32FC1, _left_3x3, _lucent, _pair, _planar_target, _pose_args, _rodrigues
+from . import CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _left_3x3, _lucent, _pair, _planar_target, _pose_args, _rodrigues
 
 __all__ = [
     "project_points",
@@ -36,6 +36,9 @@ __all__ = [
     "init_undistort_rectify_map",
     "estimate_new_camera_matrix_for_undistort_rectify",
     "undistort_image",
+    "stereo_rectify",
+    "solve_pnp",
+    "CALIB_ZERO_DISPARITY",
     "CALIB_USE_INTRINSIC_GUESS",
     "CALIB_RECOMPUTE_EXTRINSIC",
     "CALIB_CHECK_COND",
@@ -192,27 +195,75 @@ def estimate_new_camera_matrix_for_undistort_rectify(K, D, image_size, R=None, b
     Returns the 3×3 matrix.
     """
     w, h = _pair(image_size, "image_size", 1)
-    balance = min(max(float(balance), 0.0), 1.0)
-    k = _np.asarray(K, dtype=float)
-    edges = _np.array([[w // 2, 0], [w, h // 2], [w // 2, h], [0, h // 2]], dtype=float)
-    p = undistort_points(edges, K, D, R=R)
-    if not _np.isfinite(p).all():
-        raise ValueError("K, D: an edge midpoint of the image has no ray (beyond the range where θ_d increases)")
-    aspect = k[0, 0] / k[1, 1]
-    p[:, 1] *= aspect
-    cn = p.mean(axis=0)
-    fs = [w * 0.5 / (cn[0] - p[:, 0].min()), w * 0.5 / (p[:, 0].max() - cn[0]),
-          h * 0.5 * aspect / (cn[1] - p[:, 1].min()), h * 0.5 * aspect / (p[:, 1].max() - cn[1])]
-    f = balance * min(fs) + (1.0 - balance) * max(fs)
-    if fov_scale > 0:
-        f /= fov_scale
-    c = -cn * f + _np.array([w, h * aspect]) * 0.5
-    fx, fy, cx, cy = f, f / aspect, c[0], c[1] / aspect
-    if new_size is not None:
-        nw, nh = _pair(new_size, "new_size", 1)
-        rx, ry = nw / w, nh / h
-        fx, fy, cx, cy = fx * rx, fy * ry, cx * rx, cy * ry
+    new = (0, 0) if new_size is None or tuple(new_size) == (0, 0) else _pair(new_size, "new_size", 1)
+    k, d = _lens(K, D)
+    fx, fy, cx, cy = _lucent.fisheye_new_camera_matrix_flat(k, d, (w, h), [float(v) for v in _rotation(R).ravel()],
+                                                           float(balance), new, float(fov_scale))
     return _np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+
+def stereo_rectify(K1, D1, K2, D2, imageSize, R, tvec, flags=CALIB_ZERO_DISPARITY, newImageSize=None, balance=0.0,
+                   fov_scale=1.0):
+    """Rectifying rotations and projections of a calibrated fisheye pair, as
+    ``cv2.fisheye.stereoRectify`` (``scan::calib::fisheye::rectify``): each camera turned by half
+    the relative rotation, then both by the rotation that puts the baseline on the x axis; each
+    turned view's :func:`estimate_new_camera_matrix_for_undistort_rectify` (``balance``,
+    ``newImageSize``, ``fov_scale``); the pair shares the smaller vertical focal length and the
+    mean principal point (both coordinates with CALIB_ZERO_DISPARITY, the vertical one with 0).
+
+    ``R``, ``tvec``: the pair's pose, X₂ = R X₁ + T (3×3 or a Rodrigues vector; as
+    :func:`stereo_calibrate` returns it). ``flags`` is required in OpenCV's Python binding and
+    defaults to CALIB_ZERO_DISPARITY here.
+
+    Returns (R1, R2, P1, P2, Q) as OpenCV: each camera's rotation into the rectified frame, their
+    3×4 projections (P2 carries the baseline times the focal length) and the 4×4
+    disparity-to-depth matrix. :func:`init_undistort_rectify_map` with (R1, P1) and (R2, P2) gives
+    the maps.
+    """
+    flags = int(flags)
+    if flags & ~CALIB_ZERO_DISPARITY:
+        raise ValueError(f"flags: only CALIB_ZERO_DISPARITY ({CALIB_ZERO_DISPARITY}) or 0, got {flags}")
+    w, h = _pair(imageSize, "imageSize", 1)
+    new = (0, 0) if newImageSize is None or tuple(newImageSize) == (0, 0) else _pair(newImageSize, "newImageSize", 1)
+    k1, d1 = _lens(K1, D1)
+    k2, d2 = _lens(K2, D2)
+    t = _np.asarray(tvec, dtype=float).ravel()
+    if t.size != 3:
+        raise ValueError(f"tvec: expected 3 values, got {t.size}")
+    r1, r2, p1, p2, q = _lucent.fisheye_stereo_rectify_flat(
+        k1, d1, k2, d2, (w, h), [float(v) for v in _rotation(R).ravel()], [float(v) for v in t],
+        bool(flags & CALIB_ZERO_DISPARITY), new, float(balance), float(fov_scale))
+    m = lambda v, rows: _np.asarray(v, dtype=float).reshape(rows, -1)
+    return m(r1, 3), m(r2, 3), m(p1, 3), m(p2, 3), m(q, 4)
+
+
+def solve_pnp(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tvec=None, useExtrinsicGuess=False,
+              flags=SOLVEPNP_ITERATIVE, criteria=None):
+    """The pose of a known object from its image in a fisheye camera, as ``cv2.fisheye.solvePnP``
+    (``SOLVEPNP_ITERATIVE``): the pixels taken through the lens's inverse to normalised
+    coordinates, then :func:`lucent.solve_pnp`'s closed-form start (or ``rvec``, ``tvec`` with
+    ``useExtrinsicGuess``) and Levenberg–Marquardt there, as OpenCV does. A pixel beyond the
+    range where θ_d increases raises ``ValueError`` (OpenCV moves it to (−10⁶, −10⁶) and goes
+    on). ``criteria`` is ignored (the inverse is exact to 10⁻¹⁵).
+
+    Returns (True, rvec, tvec): the (3, 1) Rodrigues vector and translation of the object →
+    camera transform.
+    """
+    if flags != SOLVEPNP_ITERATIVE:
+        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
+    obj = _np.asarray(objectPoints, dtype=float).reshape(-1, 3)
+    img = _np.asarray(imagePoints, dtype=float).reshape(-1, 2)
+    k, d = _lens(cameraMatrix, distCoeffs)
+    guess = None
+    if useExtrinsicGuess:
+        if rvec is None or tvec is None:
+            raise ValueError("useExtrinsicGuess needs rvec and tvec")
+        rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
+        if rv.size != 3 or tv.size != 3:
+            raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
+        guess = (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
+    r, t, _ = _lucent.fisheye_solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d, guess)
+    return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
 
 
 def undistort_image(distorted, K, D, Knew=None, new_size=None):

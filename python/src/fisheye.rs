@@ -1,5 +1,6 @@
 //! OpenCV's fisheye camera model for Python (`cv2.fisheye`'s `projectPoints`, `distortPoints`,
-//! `undistortPoints` and `calibrate`) on flat arrays: `scan::calib::fisheye`.
+//! `undistortPoints`, `calibrate`, `stereoCalibrate`, `estimateNewCameraMatrixForUndistortRectify`,
+//! `stereoRectify` and `solvePnP`) on flat arrays: `scan::calib::fisheye`.
 
 use crate::errors::{value, OrPy};
 use nalgebra::Vector3;
@@ -125,4 +126,107 @@ pub fn fisheye_stereo_calibrate_flat(
     let tv = fit.poses.iter().map(|p| [p.t[0], p.t[1], p.t[2]]).collect();
     let [l1, l2] = fit.lens;
     Ok((fit.rms_px, l1.camera_matrix(), l1.k, l2.camera_matrix(), l2.k, rm, [fit.stereo.t[0], fit.stereo.t[1], fit.stereo.t[2]], rv, tv))
+}
+
+/// A rotation from 9 row-major values, refused unless finite and a proper rotation.
+fn rotation(r: &[f64], name: &str) -> PyResult<nalgebra::Matrix3<f64>> {
+    if r.len() != 9 || !r.iter().all(|v| v.is_finite()) {
+        return Err(value(format!("{name}: expected a finite 3×3 rotation")));
+    }
+    let m = nalgebra::Matrix3::from_row_slice(r);
+    if (m * m.transpose() - nalgebra::Matrix3::identity()).norm() > 1e-6 || m.determinant() < 0.0 {
+        return Err(value(format!("{name}: not a rotation matrix")));
+    }
+    Ok(m)
+}
+
+/// `cv2.fisheye.estimateNewCameraMatrixForUndistortRectify`: [fx, fy, cx, cy] of the new pinhole
+/// camera (`scan::calib::fisheye::rectify::new_camera_matrix`).
+#[pyfunction]
+pub fn fisheye_new_camera_matrix_flat(
+    k: [f64; 9],
+    d: [f64; 4],
+    size: (u32, u32),
+    r: Vec<f64>,
+    balance: f64,
+    new_size: (u32, u32),
+    fov_scale: f64,
+) -> PyResult<[f64; 4]> {
+    let l = lens(k, d)?;
+    let m = rotation(&r, "R")?;
+    let n = scan::calib::fisheye::rectify::new_camera_matrix(
+        &l, size, &m, balance, new_size, fov_scale,
+    )
+    .map_err(|e| value(format!("K, D: {e:#}")))?;
+    Ok([n.fx, n.fy, n.cx, n.cy])
+}
+
+/// `cv2.fisheye.stereoRectify`: R1, R2 (row-major 3×3), P1, P2 (row-major 3×4), Q (row-major 4×4)
+/// (`scan::calib::fisheye::rectify::stereo_rectify_fisheye`).
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn fisheye_stereo_rectify_flat(
+    k1: [f64; 9],
+    d1: [f64; 4],
+    k2: [f64; 9],
+    d2: [f64; 4],
+    size: (u32, u32),
+    r: Vec<f64>,
+    t: [f64; 3],
+    zero_disparity: bool,
+    new_size: (u32, u32),
+    balance: f64,
+    fov_scale: f64,
+) -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>)> {
+    let (a, b) = (lens(k1, d1)?, lens(k2, d2)?);
+    let m = rotation(&r, "R")?;
+    if !t.iter().all(|v| v.is_finite()) {
+        return Err(value("tvec: must be finite"));
+    }
+    let rect = scan::calib::fisheye::rectify::stereo_rectify_fisheye(
+        [&a, &b],
+        size,
+        &m,
+        &Vector3::from(t),
+        zero_disparity,
+        new_size,
+        balance,
+        fov_scale,
+    )
+    .map_err(|e| value(format!("{e:#}")))?;
+    let rows3 = |m: &nalgebra::Matrix3<f64>| m.transpose().iter().copied().collect::<Vec<_>>();
+    let rows34 = |m: &nalgebra::Matrix3x4<f64>| m.transpose().iter().copied().collect::<Vec<_>>();
+    Ok((
+        rows3(&rect.r[0]),
+        rows3(&rect.r[1]),
+        rows34(&rect.p[0]),
+        rows34(&rect.p[1]),
+        rect.q.transpose().iter().copied().collect(),
+    ))
+}
+
+/// `cv2.fisheye.solvePnP` (`SOLVEPNP_ITERATIVE`): the Rodrigues vector and translation of the
+/// object → camera pose, and the RMS reprojection error (pixels).
+#[pyfunction]
+pub fn fisheye_solve_pnp_flat(
+    object: Vec<f64>,
+    pixels: Vec<f64>,
+    k: [f64; 9],
+    d: [f64; 4],
+    guess: Option<([f64; 3], [f64; 3])>,
+) -> PyResult<([f64; 3], [f64; 3], f64)> {
+    let l = lens(k, d)?;
+    let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let guess = guess.map(|(r, t)| Pose {
+        rvec: r.into(),
+        t: t.into(),
+    });
+    let (pose, rms) = scan::calib::fisheye::pnp::solve_pnp_fisheye(&obj, &px, &l, guess)
+        .map_err(|e| value(format!("{e:#}")))?;
+    Ok((
+        [pose.rvec[0], pose.rvec[1], pose.rvec[2]],
+        [pose.t[0], pose.t[1], pose.t[2]],
+        rms,
+    ))
 }

@@ -52,6 +52,9 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fisheye::fisheye_calibrate_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::remap_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::fisheye_stereo_calibrate_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_new_camera_matrix_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_stereo_rectify_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_solve_pnp_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_procam_json, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

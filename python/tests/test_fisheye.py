@@ -1,5 +1,5 @@
 """lucent.fisheye (cv2.fisheye's projectPoints, distortPoints, undistortPoints,
-initUndistortRectifyMap and calibrate) on data with a known truth: the equidistant projection's
+initUndistortRectifyMap, calibrate, stereoCalibrate, stereoRectify and solvePnP) on data with a known truth: the equidistant projection's
 closed form, round trips through the inverse, and calibration from the projections of a known
 lens; where cv2 is installed, also against OpenCV on the same points.
 """
@@ -210,3 +210,68 @@ def test_fisheye_stereo_agrees_with_live_opencv():
         assert np.abs(ours[1] - theirs[1]).max() < 1e-5 and np.abs(ours[3] - theirs[3]).max() < 1e-5
         assert np.abs(ours[2] - theirs[2]).max() < 1e-6 and np.abs(ours[4] - theirs[4]).max() < 1e-6
         assert np.abs(ours[5] - theirs[5]).max() < 1e-9 and np.abs(ours[6] - theirs[6]).max() < 1e-6
+
+
+# Longer lenses for rectification: the edge midpoints of K and K2 (f ≈ 350 px over 1280 × 960)
+# lie more than 90° off the axis, where no pinhole image reaches (lucent refuses them).
+KR = np.array([[504.0, 0.0, 641.3], [0.0, 501.0, 478.9], [0.0, 0.0, 1.0]])
+KR2 = np.array([[515.0, 0.0, 630.2], [0.0, 514.0, 489.5], [0.0, 0.0, 1.0]])
+
+
+def test_stereo_rectify_puts_matching_points_on_one_row():
+    # The rectified pixels of a point, mapped through each camera's own fisheye pixel, share a
+    # row; Q takes (u, v, disparity) back to the point in the first rectified frame.
+    K, K2 = KR, KR2
+    for flags, T in ((fe.CALIB_ZERO_DISPARITY, T12), (0, np.array([95.0, -8.0, 4.0]))):
+        r1, r2, p1, p2, q = fe.stereo_rectify(K, D, K2, D2, SIZE, R12, T, flags, balance=0.5)
+        x = np.array([[60.0, -40.0, 400.0], [-150.0, 90.0, 700.0], [10.0, 200.0, 350.0]])
+        px1 = fe.project_points(x, np.zeros(3), np.zeros(3), K, D)
+        px2 = fe.project_points(x @ R12.T + T, np.zeros(3), np.zeros(3), K2, D2)
+        a = fe.undistort_points(px1, K, D, R=r1, P=p1)
+        b = fe.undistort_points(px2, K2, D2, R=r2, P=p2)
+        assert np.abs(a[:, 1] - b[:, 1]).max() < 1e-8, (a, b)
+        h = np.c_[a, a[:, 0] - b[:, 0], np.ones(3)] @ q.T
+        assert np.abs(h[:, :3] / h[:, 3:] - x @ r1.T).max() < 1e-8 * 700
+        assert (p1[0, 2] == p2[0, 2]) == bool(flags)
+
+
+def test_solve_pnp_recovers_a_known_pose():
+    r, t = poses()[3]
+    px = fe.project_points(OBJ, r, t, K, D)
+    ok, rv, tv = fe.solve_pnp(OBJ, px, K, D)
+    assert ok and np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
+    ok, rv, tv = fe.solve_pnp(OBJ, px, K, D, rvec=r + 0.05, tvec=t + 10.0, useExtrinsicGuess=True)
+    assert np.abs(rv.ravel() - r).max() < 1e-9
+    far = px.copy()
+    far[5] = (K[0, 2] + 100 * K[0, 0], K[1, 2])
+    with pytest.raises(ValueError, match="image point 5"):
+        fe.solve_pnp(OBJ, far, K, D)
+    # An edge midpoint more than 90° off the axis has no place in a pinhole image.
+    with pytest.raises(ValueError, match="edge midpoint"):
+        fe.stereo_rectify(K, D, K2, D2, SIZE, R12, T12)
+
+
+def test_stereo_rectify_and_solve_pnp_agree_with_live_opencv():
+    cv2 = pytest.importorskip("cv2")
+    K, K2 = KR, KR2
+    for flags in (cv2.fisheye.CALIB_ZERO_DISPARITY, 0):
+        for balance, new_size, fov_scale in ((0.0, (0, 0), 1.0), (0.4, (1600, 1200), 1.0), (1.0, (640, 480), 1.3)):
+            ours = fe.stereo_rectify(K, D, K2, D2, SIZE, R12, T12, flags, newImageSize=new_size, balance=balance, fov_scale=fov_scale)
+            theirs = cv2.fisheye.stereoRectify(K, D, K2, D2, SIZE, R12, T12, flags, newImageSize=new_size, balance=balance,
+                                               fov_scale=fov_scale)
+            for a, b in zip(ours, theirs):
+                assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(b).max()), (a, b)
+    # solvePnP: OpenCV stops its undistortion and its Levenberg–Marquardt early; with tight
+    # criteria on both its pose agrees with lucent's, whose cost is never higher.
+    rng = np.random.default_rng(11)
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-15)
+    for r, t in poses():
+        px = fe.project_points(OBJ, r, t, K, D) + rng.normal(0.0, 0.3, (len(OBJ), 2))
+        _, rv, tv = fe.solve_pnp(OBJ, px, K, D)
+        und = cv2.fisheye.undistortPoints(px.reshape(-1, 1, 2), K, D, criteria=crit)
+        _, r0, t0 = cv2.solvePnP(OBJ.reshape(-1, 1, 3), und, np.eye(3), None)
+        r1, t1 = cv2.solvePnPRefineLM(OBJ.reshape(-1, 1, 3), und, np.eye(3), None, r0, t0, criteria=crit)
+        assert np.abs(rv - r1).max() < 1e-6 and np.abs(tv - t1).max() < 1e-6 * np.linalg.norm(t1)
+        _, rq, tq = cv2.fisheye.solvePnP(OBJ.reshape(-1, 1, 3), px.reshape(-1, 1, 2), K, D)
+        cost = lambda rr, tt: ((cv2.projectPoints(OBJ, rr, tt, np.eye(3), None)[0] - und) ** 2).sum()
+        assert cost(rv, tv) <= cost(rq, tq) * (1 + 1e-9)

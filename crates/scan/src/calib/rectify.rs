@@ -135,17 +135,18 @@ pub struct Rectification {
     pub roi: [Roi; 2],
 }
 
-/// OpenCV's `stereoRectify` for two cameras (`k`, `d` each) of `size` pixels with
-/// X₂ = R·X₁ + T: with `zero_disparity` the two principal points coincide
-/// (`CALIB_ZERO_DISPARITY`, OpenCV's default); `alpha` < 0 keeps the default scale, 0…1 as in
-/// [`optimal_new_camera_matrix`]; `new_size` the rectified images' size.
-#[allow(clippy::too_many_arguments)]
-pub fn stereo_rectify(k: [&Intrinsics; 2], d: [&Distortion; 2], size: (u32, u32), r: &Matrix3<f64>, t: &Vector3<f64>, zero_disparity: bool, alpha: f64, new_size: (u32, u32)) -> Result<Rectification> {
+/// The rectifying rotations of a pair with X₂ = R·X₁ + T (Bouguet's, as OpenCV computes them):
+/// each camera turned by half the relative rotation in opposite senses, then both by the
+/// rotation that puts the baseline on the x axis, or, with `allow_vertical` and a baseline
+/// more vertical than horizontal, on the y axis (the axis index is returned).
+pub(crate) fn rectifying_rotations(r: &Matrix3<f64>, t: &Vector3<f64>, allow_vertical: bool) -> Result<(Matrix3<f64>, Matrix3<f64>, usize)> {
+    if r.iter().chain(t.iter()).any(|v| !v.is_finite()) {
+        bail!("R and T must be finite");
+    }
     let om = Rotation3::from_matrix_eps(r, 1e-15, 100, Rotation3::identity()).scaled_axis();
-    // Each camera turned by half the relative rotation, in opposite senses.
     let r_half = *Rotation3::new(-0.5 * om).matrix();
     let th = r_half * t;
-    let idx = if th.x.abs() > th.y.abs() { 0 } else { 1 };
+    let idx = if allow_vertical && th.x.abs() <= th.y.abs() { 1 } else { 0 };
     let (c, nt) = (th[idx], th.norm());
     if !(nt > 0.0) {
         bail!("the two cameras share a centre (T = 0): a pair without a baseline cannot be rectified");
@@ -157,8 +158,16 @@ pub fn stereo_rectify(k: [&Intrinsics; 2], d: [&Distortion; 2], size: (u32, u32)
     let nw = ww.norm();
     let ww = if nw > 0.0 { ww * ((c.abs() / nt).clamp(-1.0, 1.0).acos() / nw) } else { ww };
     let wr = *Rotation3::new(ww).matrix();
-    let r1 = wr * r_half.transpose();
-    let r2 = wr * r_half;
+    Ok((wr * r_half.transpose(), wr * r_half, idx))
+}
+
+/// OpenCV's `stereoRectify` for two cameras (`k`, `d` each) of `size` pixels with
+/// X₂ = R·X₁ + T: with `zero_disparity` the two principal points coincide
+/// (`CALIB_ZERO_DISPARITY`, OpenCV's default); `alpha` < 0 keeps the default scale, 0…1 as in
+/// [`optimal_new_camera_matrix`]; `new_size` the rectified images' size.
+#[allow(clippy::too_many_arguments)]
+pub fn stereo_rectify(k: [&Intrinsics; 2], d: [&Distortion; 2], size: (u32, u32), r: &Matrix3<f64>, t: &Vector3<f64>, zero_disparity: bool, alpha: f64, new_size: (u32, u32)) -> Result<Rectification> {
+    let (r1, r2, idx) = rectifying_rotations(r, t, true)?;
     let t2 = r2 * t;
     let (w, h) = (size.0 as f64, size.1 as f64);
     let new_size = if new_size.0 * new_size.1 != 0 { new_size } else { size };

@@ -12,6 +12,9 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod pnp;
+pub mod rectify;
+
 use super::bundle::observed;
 use super::homography::Point2;
 use super::model::{Lens, Pose};
@@ -333,6 +336,7 @@ impl Blocks for StereoProblem<'_> {
 /// `fix_intrinsic`, posed through its given lens; the relative pose starts at the per-view
 /// medians of R₂R₁ᵀ (as a Rodrigues vector) and t₂ − R₂R₁ᵀt₁; then Levenberg–Marquardt over
 /// both lenses' free terms (none with `fix_intrinsic`), the relative pose and every view's pose.
+#[allow(clippy::too_many_arguments)]
 pub fn stereo_calibrate_fisheye(obj: &[Point2], views: [&[Vec<Point2>]; 2], width: u32, height: u32, hold: FisheyeHold, fix_intrinsic: bool, guess: [Option<FisheyeLens>; 2], max_rms_px: f64) -> Result<FisheyeStereoFit> {
     if views[0].len() != views[1].len() {
         bail!("the cameras have {} and {} views; a stereo fit needs the same views in both", views[0].len(), views[1].len());
