@@ -84,6 +84,9 @@ impl ProcamCalibration {
         let name = path.display();
         let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read"))?;
         if !render::load::calibration::is_filestorage(&text) {
+            if fisheye::pair::FisheyeStereoCalibration::is_fisheye(&text) {
+                bail!("{name}: a fisheye pair's calibration (\"model\": \"fisheye\"); this command takes OpenCV's pinhole model (scan rectify and lucent render take fisheye pairs)");
+            }
             let c: ProcamCalibration = serde_json::from_str(&text).map_err(|e| anyhow!("{name}: not a calibration: {e}"))?;
             if let Some((w, h)) = projector {
                 if (w, h) != (c.projector.width, c.projector.height) {

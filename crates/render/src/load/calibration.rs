@@ -18,7 +18,10 @@
 //! camera by default, the projector when the matrix node is named `projector` (`matrix_node =
 //! "projector"` in the scene, `--camera-matrix-node projector` on the command line). The camera sits
 //! at the world origin with the world axes (R = I, t = 0); the projector has R = `rotation`,
-//! t = `translation` (X_p = R·X_c + T), in the scene's unit (the board's square unit).
+//! t = `translation` (X_p = R·X_c + T), in the scene's unit (the board's square unit). A fisheye
+//! pair's file (`lucent scan calibrate-stereo --fisheye`: the same layout with `"model":
+//! "fisheye"`, each device's `distortion` holding k1…k4 and `skew` its α) gives either camera
+//! as a fisheye camera.
 //!
 //! FileStorage (as `cv::FileStorage` and OpenCV's calibration sample write it): the camera matrix
 //! and distortion nodes are `!!opencv-matrix` (YAML, `%YAML:1.0`) or `type_id="opencv-matrix"`
@@ -147,10 +150,14 @@ struct ProcamDevice {
     cx: f64,
     cy: f64,
     distortion: Vec<f64>,
+    /// The fisheye model's skew α (a fisheye pair's file).
+    skew: Option<f64>,
 }
 
 #[derive(serde::Deserialize)]
 struct Procam {
+    /// `fisheye` for a fisheye pair (`scan calibrate-stereo --fisheye`), else absent.
+    model: Option<String>,
     camera: ProcamDevice,
     projector: ProcamDevice,
     rotation: [[f64; 3]; 3],
@@ -165,8 +172,21 @@ fn procam(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
         "projector" => (&j.projector, j.rotation, j.translation),
         other => bail!("a projector–camera calibration holds the devices `camera` and `projector`, not `{other}`"),
     };
-    let distortion = Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("distortion: {e}"))?;
-    Ok(Calibration { width: Some(d.width), height: Some(d.height), intrinsics: Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, distortion, fisheye: None, r: Some(r), t: Some(t), t_unit_m: None })
+    let (distortion, fisheye) = match j.model.as_deref() {
+        None => {
+            if d.skew.is_some() {
+                bail!("skew: only a fisheye pair (\"model\": \"fisheye\") has a skew");
+            }
+            (Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("distortion: {e}"))?, None)
+        }
+        Some("fisheye") => {
+            let &[k1, k2, k3, k4] = d.distortion.as_slice() else { bail!("distortion: the fisheye model has 4 coefficients k1, k2, k3, k4, got {}", d.distortion.len()) };
+            let kk = [d.fx, d.skew.unwrap_or(0.0) * d.fx, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0];
+            (Distortion::default(), Some(FisheyeLens::from_opencv(&kk, &[k1, k2, k3, k4])?))
+        }
+        Some(other) => bail!("model: `{other}` is not a camera model of a pair (fisheye, or absent for the pinhole model)"),
+    };
+    Ok(Calibration { width: Some(d.width), height: Some(d.height), intrinsics: Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, distortion, fisheye, r: Some(r), t: Some(t), t_unit_m: None })
 }
 
 fn json(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {

@@ -96,7 +96,7 @@ pub struct LensFlags {
 }
 
 /// clap value parser: a finite positive number.
-fn positive_f64(s: &str) -> std::result::Result<f64, String> {
+pub(super) fn positive_f64(s: &str) -> std::result::Result<f64, String> {
     let v = crate::cmd::mie::finite_f64(s)?;
     if v > 0.0 { Ok(v) } else { Err(format!("{s:?} is not positive")) }
 }
@@ -107,6 +107,19 @@ impl LensFlags {
         use scan::calib::bundle::{Free, HOLD_PRINCIPAL_POINT};
         let held = if self.fix_principal_point { HOLD_PRINCIPAL_POINT } else { 0 };
         Free { lenses: true, k3: !self.fix_k3, tangential: !self.zero_tangent, rational: self.rational, thin_prism: self.thin_prism, tilted: self.tilted, held, aspect_ratio: [self.aspect_ratio; 2], ..Default::default() }
+    }
+
+    /// With `--fisheye`: the flags of the pinhole model's terms are errors, and
+    /// `--opencv-out` too (FileStorage has no node that names the fisheye model).
+    pub fn check_fisheye(&self, opencv_out: bool) -> Result<()> {
+        let pinhole = [(self.fix_k3, "--fix-k3"), (self.zero_tangent, "--zero-tangent"), (self.rational, "--rational"), (self.thin_prism, "--thin-prism"), (self.tilted, "--tilted"), (self.aspect_ratio.is_some(), "--aspect-ratio")];
+        if let Some((_, flag)) = pinhole.iter().find(|(on, _)| *on) {
+            bail!("{flag}: a term of the pinhole model; --fisheye fits k1…k4 of the fisheye model");
+        }
+        if opencv_out {
+            bail!("--opencv-out: FileStorage has no node that names the fisheye model; lucent writes it as its JSON (--out)");
+        }
+        Ok(())
     }
 }
 

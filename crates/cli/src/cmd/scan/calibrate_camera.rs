@@ -143,14 +143,7 @@ impl Target {
 pub fn run(args: Args) -> Result<()> {
     let target = Target::from_args(&args.target)?;
     if args.fisheye {
-        let l = &args.lens;
-        let pinhole = [(l.fix_k3, "--fix-k3"), (l.zero_tangent, "--zero-tangent"), (l.rational, "--rational"), (l.thin_prism, "--thin-prism"), (l.tilted, "--tilted"), (l.aspect_ratio.is_some(), "--aspect-ratio")];
-        if let Some((_, flag)) = pinhole.iter().find(|(on, _)| *on) {
-            bail!("{flag}: a term of the pinhole model; --fisheye fits k1…k4 of the fisheye model");
-        }
-        if args.opencv_out.is_some() {
-            bail!("--opencv-out: FileStorage has no node that names the fisheye model; lucent writes it as its camera JSON (--out)");
-        }
+        args.lens.check_fisheye(args.opencv_out.is_some())?;
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let (cols, rows) = (target.cols, target.rows);

@@ -1,9 +1,10 @@
 //! `lucent scan calibrate-stereo --left IMAGE… --right IMAGE… --corners CxR --square S
 //! [--pattern KIND] [--fix-k3] [--zero-tangent] [--rational] [--thin-prism] [--tilted]
-//! [--fix-principal-point] [--aspect-ratio R] [--same-focal-length] [--skip-missing] [--out CALIB.json] [--opencv-out CALIB.xml] [--json]`: two cameras and their
+//! [--fix-principal-point] [--aspect-ratio R] [--same-focal-length] [--fisheye] [--skip-missing] [--out CALIB.json] [--opencv-out CALIB.xml] [--json]`: two cameras and their
 //! relative pose from simultaneous photographs of one target, as OpenCV's `calibrateCamera` per
 //! camera followed by `stereoCalibrate` with free intrinsics (scan::calib::calibrate_planar;
-//! docs/scanning.md, "Stereo cameras").
+//! docs/scanning.md, "Stereo cameras"), or with `--fisheye` as `fisheye::calibrate` and
+//! `fisheye::stereoCalibrate` (scan::calib::fisheye::pair).
 
 use std::path::PathBuf;
 
@@ -30,6 +31,12 @@ pub struct Args {
     /// CALIB_SAME_FOCAL_LENGTH).
     #[arg(long)]
     pub same_focal_length: bool,
+    /// Fit OpenCV's fisheye model to both cameras (cv2.fisheye.stereoCalibrate with free
+    /// intrinsics and CALIB_FIX_SKEW: fx, fy, cx, cy and k1…k4 of each); the JSON then has
+    /// "model": "fisheye". Both cameras' photographs must share one size. Of the lens flags only
+    /// --fix-principal-point applies.
+    #[arg(long)]
+    pub fisheye: bool,
     /// Leave out the pairs in which either camera does not see the whole target, instead of failing.
     #[arg(long)]
     pub skip_missing: bool,
@@ -50,6 +57,12 @@ pub fn run(args: Args) -> Result<()> {
     let target = Target::from_args(&args.target)?;
     if args.left.len() != args.right.len() {
         bail!("--left has {} photographs and --right {}: they are taken in pairs", args.left.len(), args.right.len());
+    }
+    if args.fisheye {
+        args.lens.check_fisheye(args.opencv_out.is_some())?;
+        if args.same_focal_length {
+            bail!("--same-focal-length: a flag of the pinhole fit; --fisheye fits each camera's focal lengths");
+        }
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
     let mut sizes: [Option<(u32, u32, String)>; 2] = [None, None];
@@ -81,20 +94,30 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    let (Some((lw, lh, _)), Some((rw, rh, _))) = (&sizes[0], &sizes[1]) else { bail!("no photographs") };
+    let (Some((lw, lh, lname)), Some((rw, rh, rname))) = (&sizes[0], &sizes[1]) else { bail!("no photographs") };
+    if args.fisheye {
+        if (lw, lh) != (rw, rh) {
+            bail!("{rname}: {rw}x{rh} pixels, but {lname} is {lw}x{lh}: a fisheye pair is calibrated at one image size (as cv2.fisheye.stereoCalibrate)");
+        }
+        let pairs: Vec<(String, Vec<_>, Vec<_>)> = captures.into_iter().map(|c| (c.name, c.cam, c.proj)).collect();
+        let hold = scan::calib::fisheye::FisheyeHold { principal_point: args.lens.fix_principal_point, skew: true, ..Default::default() };
+        let calib = scan::calib::fisheye::pair::calibrate_fisheye_pair(&target.object_points(args.target.square), &pairs, *lw, *lh, hold)?;
+        warn_shared_centre(calib.translation, calib.captures.iter().map(|c| c.tvec));
+        let text = serde_json::to_string_pretty(&calib)?;
+        if write_outputs(&text, args.out.as_deref(), None, String::new, args.json)? {
+            return Ok(());
+        }
+        for (what, d) in [("left ", &calib.camera), ("right", &calib.projector)] {
+            let k = &d.distortion;
+            println!("{what} {}x{} fisheye: fx {:.2} fy {:.2} cx {:.2} cy {:.2} px; k1 {:.5} k2 {:.5} k3 {:.5} k4 {:.5}; RMS {:.3} px", d.width, d.height, d.fx, d.fy, d.cx, d.cy, k[0], k[1], k[2], k[3], d.rms_px);
+        }
+        summary(calib.translation, calib.captures.len(), calib.rms_px, &args);
+        return Ok(());
+    }
     let rig = Rig { cols: target.cols, rows: target.rows, square: args.target.square, camera: (*lw, *lh), projector: (*rw, *rh) };
     let calib = calibrate_planar(&rig, &target.object_points(args.target.square), &captures, None, scan::calib::bundle::Free { same_focal: args.same_focal_length, ..args.lens.free() }, ["left camera", "right camera"])
         .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace("at least 3 captures", "at least 3 pairs of photographs")))?;
-    // Two cameras at one centre (the same photographs twice, or a rotating camera) calibrate,
-    // but nothing can be triangulated from them.
-    let baseline = calib.translation.iter().map(|t| t * t).sum::<f64>().sqrt();
-    let mut dist: Vec<f64> = calib.captures.iter().map(|c| c.tvec.iter().map(|t| t * t).sum::<f64>().sqrt()).collect();
-    dist.sort_by(f64::total_cmp);
-    if let Some(&d) = dist.get(dist.len() / 2) {
-        if baseline < 1e-3 * d {
-            eprintln!("lucent: warning: the two cameras share a centre (baseline {baseline:.3e} units, the target {d:.1} units away): nothing can be triangulated from this rig");
-        }
-    }
+    warn_shared_centre(calib.translation, calib.captures.iter().map(|c| c.tvec));
     let text = serde_json::to_string_pretty(&calib)?;
     if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
         return Ok(());
@@ -106,18 +129,28 @@ pub fn run(args: Args) -> Result<()> {
             d.width, d.height, d.fx, d.fy, d.cx, d.cy, k[0], k[1], k[2], k[3], k[4], d.rms_px
         );
     }
-    let t = calib.translation;
-    println!(
-        "right = R·left + T: T ({:.3}, {:.3}, {:.3}), baseline {:.3} units; {} pairs, RMS {:.3} px",
-        t[0],
-        t[1],
-        t[2],
-        (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt(),
-        calib.captures.len(),
-        calib.rms_px
-    );
+    summary(calib.translation, calib.captures.len(), calib.rms_px, &args);
+    Ok(())
+}
+
+/// Two cameras at one centre (the same photographs twice, or a rotating camera) calibrate, but
+/// nothing can be triangulated from them: a warning when the baseline is below 10⁻³ of the
+/// median target distance.
+fn warn_shared_centre(t: [f64; 3], board: impl Iterator<Item = [f64; 3]>) {
+    let baseline = t.iter().map(|t| t * t).sum::<f64>().sqrt();
+    let mut dist: Vec<f64> = board.map(|b| b.iter().map(|t| t * t).sum::<f64>().sqrt()).collect();
+    dist.sort_by(f64::total_cmp);
+    if let Some(&d) = dist.get(dist.len() / 2) {
+        if baseline < 1e-3 * d {
+            eprintln!("lucent: warning: the two cameras share a centre (baseline {baseline:.3e} units, the target {d:.1} units away): nothing can be triangulated from this rig");
+        }
+    }
+}
+
+/// The pair's pose and error, and the files written.
+fn summary(t: [f64; 3], pairs: usize, rms_px: f64, args: &Args) {
+    println!("right = R·left + T: T ({:.3}, {:.3}, {:.3}), baseline {:.3} units; {pairs} pairs, RMS {rms_px:.3} px", t[0], t[1], t[2], (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt());
     for out in args.out.iter().chain(args.opencv_out.iter()) {
         println!("wrote {}", out.display());
     }
-    Ok(())
 }

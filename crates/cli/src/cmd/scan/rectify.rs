@@ -1,11 +1,16 @@
 //! `lucent scan rectify LEFT RIGHT --calibration CALIB.json --out-left L.png --out-right R.png
-//! [--alpha A] [--keep-disparity] [--json]`: a stereo pair of photographs rectified, so that a
-//! point seen by both cameras lies on the same row of the two images, as OpenCV's
-//! `stereoRectify` + `initUndistortRectifyMap` + `remap` (scan::calib::rectify; docs/scanning.md).
+//! [--alpha A | --balance B [--fov-scale S]] [--keep-disparity] [--json]`: a stereo pair of
+//! photographs rectified, so that a point seen by both cameras lies on the same row of the two
+//! images, as OpenCV's `stereoRectify` + `initUndistortRectifyMap` + `remap`
+//! (scan::calib::rectify; docs/scanning.md), or for a fisheye pair (`scan calibrate-stereo
+//! --fisheye`) as `fisheye::stereoRectify` + `fisheye::initUndistortRectifyMap` + `remap`
+//! (scan::calib::fisheye::rectify).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use scan::calib::fisheye::pair::FisheyeStereoCalibration;
+use scan::calib::fisheye::rectify::{stereo_rectify_fisheye, undistort_rectify_map_fisheye};
 use scan::calib::rectify::{rectify_calibration, undistort_rectify_map};
 use scan::calib::ProcamCalibration;
 
@@ -25,10 +30,18 @@ pub struct Args {
     /// The rectified second photograph (PNG).
     #[arg(long, value_name = "R.png")]
     pub out_right: PathBuf,
-    /// Free scaling, as OpenCV's: 0 shows only valid pixels, 1 keeps every source pixel; by
-    /// default OpenCV's −1 (no scaling).
-    #[arg(long, default_value_t = -1.0, allow_hyphen_values = true, value_parser = crate::cmd::mie::finite_f64)]
-    pub alpha: f64,
+    /// Free scaling of a pinhole pair, as OpenCV's: 0 shows only valid pixels, 1 keeps every
+    /// source pixel; by default OpenCV's −1 (no scaling).
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::cmd::mie::finite_f64)]
+    pub alpha: Option<f64>,
+    /// A fisheye pair's new focal length between the largest (0, the default: no edge midpoint
+    /// of the image outside the rectified one) and the smallest (1: every one inside), as
+    /// cv2.fisheye.stereoRectify's balance.
+    #[arg(long, value_parser = crate::cmd::mie::finite_f64)]
+    pub balance: Option<f64>,
+    /// A fisheye pair's focal length divisor (cv2.fisheye.stereoRectify's fov_scale; default 1).
+    #[arg(long, value_parser = crate::cmd::scan::calibrate::positive_f64)]
+    pub fov_scale: Option<f64>,
     /// Give each image its own principal point along the baseline instead of a shared one
     /// (OpenCV's stereoRectify without CALIB_ZERO_DISPARITY).
     #[arg(long)]
@@ -44,9 +57,16 @@ pub fn run(args: Args) -> Result<()> {
             bail!("{}: the rectified images are written as PNG (.png)", out.display());
         }
     }
+    let text = std::fs::read_to_string(&args.calibration).with_context(|| format!("{}: cannot read", args.calibration.display()))?;
+    if FisheyeStereoCalibration::is_fisheye(&text) {
+        return run_fisheye(&args);
+    }
+    if args.balance.is_some() || args.fov_scale.is_some() {
+        bail!("--balance, --fov-scale: options of a fisheye pair; {} is a pinhole pair (--alpha scales it)", args.calibration.display());
+    }
     let c = ProcamCalibration::read(&args.calibration, None)?;
     let size = (c.camera.width, c.camera.height);
-    let (rect, lenses) = rectify_calibration(&c, !args.keep_disparity, args.alpha).with_context(|| args.calibration.display().to_string())?;
+    let (rect, lenses) = rectify_calibration(&c, !args.keep_disparity, args.alpha.unwrap_or(-1.0)).with_context(|| args.calibration.display().to_string())?;
     for (i, (photo, out)) in [(&args.left, &args.out_left), (&args.right, &args.out_right)].into_iter().enumerate() {
         let (k, d) = &lenses[i];
         let p = rect.p[i].fixed_view::<3, 3>(0, 0).into_owned();
@@ -67,6 +87,40 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         let p = &rect.p[0];
         println!("rectified: f {:.2} px, principal points ({:.2}, {:.2}) and ({:.2}, {:.2}); valid {:?} and {:?}", p[(0, 0)], p[(0, 2)], p[(1, 2)], rect.p[1][(0, 2)], rect.p[1][(1, 2)], rect.roi[0], rect.roi[1]);
+        println!("wrote {} and {}", args.out_left.display(), args.out_right.display());
+    }
+    Ok(())
+}
+
+/// `scan rectify` of a fisheye pair.
+fn run_fisheye(args: &Args) -> Result<()> {
+    if args.alpha.is_some() {
+        bail!("--alpha: the free scaling of a pinhole pair; {} is a fisheye pair (--balance and --fov-scale scale it)", args.calibration.display());
+    }
+    let c = FisheyeStereoCalibration::read(&args.calibration)?;
+    let size = (c.camera.width, c.camera.height);
+    if size != (c.projector.width, c.projector.height) {
+        bail!("{}: the two cameras are {}x{} and {}x{}; rectification takes two images of one size", args.calibration.display(), size.0, size.1, c.projector.width, c.projector.height);
+    }
+    let (lens, r, t) = c.parts()?;
+    let rect = stereo_rectify_fisheye([&lens[0], &lens[1]], size, &r, &t, !args.keep_disparity, (0, 0), args.balance.unwrap_or(0.0), args.fov_scale.unwrap_or(1.0)).with_context(|| args.calibration.display().to_string())?;
+    for (i, (photo, out)) in [(&args.left, &args.out_left), (&args.right, &args.out_right)].into_iter().enumerate() {
+        let p = rect.p[i].fixed_view::<3, 3>(0, 0).into_owned();
+        scan::calib::undistort::remap_photo(photo, Some(size), out, |w, h| undistort_rectify_map_fisheye(&lens[i], &rect.r[i], &p, w, h))?;
+    }
+    if args.json {
+        let rows = |m: &[f64], n: usize| m.chunks(n).map(|r| r.to_vec()).collect::<Vec<_>>();
+        let v = serde_json::json!({
+            "R1": rows(rect.r[0].transpose().as_slice(), 3),
+            "R2": rows(rect.r[1].transpose().as_slice(), 3),
+            "P1": rows(rect.p[0].transpose().as_slice(), 4),
+            "P2": rows(rect.p[1].transpose().as_slice(), 4),
+            "Q": rows(rect.q.transpose().as_slice(), 4),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        let p = &rect.p[0];
+        println!("rectified fisheye pair: f {:.2} px, principal points ({:.2}, {:.2}) and ({:.2}, {:.2})", p[(0, 0)], p[(0, 2)], p[(1, 2)], rect.p[1][(0, 2)], rect.p[1][(1, 2)]);
         println!("wrote {} and {}", args.out_left.display(), args.out_right.display());
     }
     Ok(())

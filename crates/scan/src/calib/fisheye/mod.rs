@@ -12,6 +12,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod pair;
 pub mod pnp;
 pub mod rectify;
 
