@@ -957,6 +957,26 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
 SOLVEPNP_ITERATIVE = 0
 
 
+def _solve_pnp_with(solver, object_points, image_points, lens, rvec, tvec, useExtrinsicGuess, flags):
+    """The argument handling of :func:`solve_pnp` and :func:`lucent.fisheye.solve_pnp` around
+    their Rust solver (flat points, the lens as ``lens`` = (k, d), the guess or None)."""
+    if flags != SOLVEPNP_ITERATIVE:
+        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
+    obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    guess = None
+    if useExtrinsicGuess:
+        if rvec is None or tvec is None:
+            raise ValueError("useExtrinsicGuess needs rvec and tvec")
+        rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
+        if rv.size != 3 or tv.size != 3:
+            raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
+        guess = (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
+    k, d = lens
+    r, t, _ = solver([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d, guess)
+    return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
+
+
 def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs, rvec=None, tvec=None,
               useExtrinsicGuess=False, flags=SOLVEPNP_ITERATIVE):
     """The pose of a known object from its image, as ``cv2.solvePnP`` (``SOLVEPNP_ITERATIVE``):
@@ -981,21 +1001,7 @@ def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs, rvec=None
         As OpenCV: True, and the (3, 1) Rodrigues vector and translation of the object → camera
         transform. Configurations that determine no pose raise ``ValueError``.
     """
-    if flags != SOLVEPNP_ITERATIVE:
-        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
-    obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
-    img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
-    k, d = _camera_args(camera_matrix, dist_coeffs)
-    guess = None
-    if useExtrinsicGuess:
-        if rvec is None or tvec is None:
-            raise ValueError("useExtrinsicGuess needs rvec and tvec")
-        rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
-        if rv.size != 3 or tv.size != 3:
-            raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
-        guess = (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
-    r, t, _ = _lucent.solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d, guess)
-    return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
+    return _solve_pnp_with(_lucent.solve_pnp_flat, object_points, image_points, _camera_args(camera_matrix, dist_coeffs), rvec, tvec, useExtrinsicGuess, flags)
 
 
 CALIB_ZERO_DISPARITY = 1024

@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as _np
 
 # The package's helpers; this module is imported at the end of lucent/__init__.py.
-from . import CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _left_3x3, _lucent, _pair, _planar_target, _pose_args, _rodrigues
+from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
+               _rodrigues, _solve_pnp_with)
 
 __all__ = [
     "project_points",
@@ -249,21 +250,8 @@ def solve_pnp(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tv
     Returns (True, rvec, tvec): the (3, 1) Rodrigues vector and translation of the object →
     camera transform.
     """
-    if flags != SOLVEPNP_ITERATIVE:
-        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
-    obj = _np.asarray(objectPoints, dtype=float).reshape(-1, 3)
-    img = _np.asarray(imagePoints, dtype=float).reshape(-1, 2)
-    k, d = _lens(cameraMatrix, distCoeffs)
-    guess = None
-    if useExtrinsicGuess:
-        if rvec is None or tvec is None:
-            raise ValueError("useExtrinsicGuess needs rvec and tvec")
-        rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
-        if rv.size != 3 or tv.size != 3:
-            raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
-        guess = (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
-    r, t, _ = _lucent.fisheye_solve_pnp_flat([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d, guess)
-    return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
+    return _solve_pnp_with(_lucent.fisheye_solve_pnp_flat, objectPoints, imagePoints, _lens(cameraMatrix, distCoeffs), rvec,
+                           tvec, useExtrinsicGuess, flags)
 
 
 def undistort_image(distorted, K, D, Knew=None, new_size=None):

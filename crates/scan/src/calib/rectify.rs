@@ -235,6 +235,12 @@ pub fn stereo_rectify(k: [&Intrinsics; 2], d: [&Distortion; 2], size: (u32, u32)
     Ok(Rectification { r: [r1, r2], p: [p1, p2], q, roi: [roi(&inner1, 0), roi(&inner2, 1)] })
 }
 
+/// R1, R2, P1, P2 and Q of a rectification, each as its rows, under OpenCV's names.
+pub fn matrix_rows(r: &[Matrix3<f64>; 2], p: &[Matrix3x4<f64>; 2], q: &Matrix4<f64>) -> [(&'static str, Vec<Vec<f64>>); 5] {
+    let rows = |m: &[f64], n: usize| m.chunks(n).map(|r| r.to_vec()).collect::<Vec<_>>();
+    [("R1", rows(r[0].transpose().as_slice(), 3)), ("R2", rows(r[1].transpose().as_slice(), 3)), ("P1", rows(p[0].transpose().as_slice(), 4)), ("P2", rows(p[1].transpose().as_slice(), 4)), ("Q", rows(q.transpose().as_slice(), 4))]
+}
+
 /// [`stereo_rectify`] of a two-camera calibration (`scan calibrate-stereo`'s: the first camera in
 /// `camera`, the second in `projector`, X₂ = R·X₁ + T), at the cameras' common size; and each
 /// camera's lens.

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use scan::calib::fisheye::pair::FisheyeStereoCalibration;
 use scan::calib::fisheye::rectify::{stereo_rectify_fisheye, undistort_rectify_map_fisheye};
-use scan::calib::rectify::{rectify_calibration, undistort_rectify_map};
+use scan::calib::rectify::{matrix_rows, rectify_calibration, undistort_rectify_map};
 use scan::calib::ProcamCalibration;
 
 /// Arguments of `lucent scan rectify`.
@@ -73,16 +73,9 @@ pub fn run(args: Args) -> Result<()> {
         scan::calib::undistort::remap_photo(photo, Some(size), out, |w, h| undistort_rectify_map(k, d, &rect.r[i], &p, w, h))?;
     }
     if args.json {
-        let rows = |m: &[f64], n: usize| m.chunks(n).map(|r| r.to_vec()).collect::<Vec<_>>();
-        let v = serde_json::json!({
-            "R1": rows(rect.r[0].transpose().as_slice(), 3),
-            "R2": rows(rect.r[1].transpose().as_slice(), 3),
-            "P1": rows(rect.p[0].transpose().as_slice(), 4),
-            "P2": rows(rect.p[1].transpose().as_slice(), 4),
-            "Q": rows(rect.q.transpose().as_slice(), 4),
-            "roi1": rect.roi[0],
-            "roi2": rect.roi[1],
-        });
+        let mut v = matrices_json(matrix_rows(&rect.r, &rect.p, &rect.q));
+        v["roi1"] = serde_json::json!(rect.roi[0]);
+        v["roi2"] = serde_json::json!(rect.roi[1]);
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         let p = &rect.p[0];
@@ -109,19 +102,16 @@ fn run_fisheye(args: &Args) -> Result<()> {
         scan::calib::undistort::remap_photo(photo, Some(size), out, |w, h| undistort_rectify_map_fisheye(&lens[i], &rect.r[i], &p, w, h))?;
     }
     if args.json {
-        let rows = |m: &[f64], n: usize| m.chunks(n).map(|r| r.to_vec()).collect::<Vec<_>>();
-        let v = serde_json::json!({
-            "R1": rows(rect.r[0].transpose().as_slice(), 3),
-            "R2": rows(rect.r[1].transpose().as_slice(), 3),
-            "P1": rows(rect.p[0].transpose().as_slice(), 4),
-            "P2": rows(rect.p[1].transpose().as_slice(), 4),
-            "Q": rows(rect.q.transpose().as_slice(), 4),
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        println!("{}", serde_json::to_string_pretty(&matrices_json(matrix_rows(&rect.r, &rect.p, &rect.q)))?);
     } else {
         let p = &rect.p[0];
         println!("rectified fisheye pair: f {:.2} px, principal points ({:.2}, {:.2}) and ({:.2}, {:.2})", p[(0, 0)], p[(0, 2)], p[(1, 2)], rect.p[1][(0, 2)], rect.p[1][(1, 2)]);
         println!("wrote {} and {}", args.out_left.display(), args.out_right.display());
     }
     Ok(())
+}
+
+/// R1, R2, P1, P2 and Q as JSON rows (`--json`).
+fn matrices_json(named: [(&str, Vec<Vec<f64>>); 5]) -> serde_json::Value {
+    serde_json::Value::Object(named.into_iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect())
 }
