@@ -261,17 +261,12 @@ def test_stereo_rectify_and_solve_pnp_agree_with_live_opencv():
                                                fov_scale=fov_scale)
             for a, b in zip(ours, theirs):
                 assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(b).max()), (a, b)
-    # solvePnP: OpenCV stops its undistortion and its Levenberg–Marquardt early; with tight
-    # criteria on both its pose agrees with lucent's, whose cost is never higher.
+    # solvePnP: OpenCV undistorts to the pixels of the pinhole K and solves there; with its
+    # inverse run to convergence its pose is lucent's to the precision of its own stopping rule.
     rng = np.random.default_rng(11)
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-15)
     for r, t in poses():
         px = fe.project_points(OBJ, r, t, K, D) + rng.normal(0.0, 0.3, (len(OBJ), 2))
         _, rv, tv = fe.solve_pnp(OBJ, px, K, D)
-        und = cv2.fisheye.undistortPoints(px.reshape(-1, 1, 2), K, D, criteria=crit)
-        _, r0, t0 = cv2.solvePnP(OBJ.reshape(-1, 1, 3), und, np.eye(3), None)
-        r1, t1 = cv2.solvePnPRefineLM(OBJ.reshape(-1, 1, 3), und, np.eye(3), None, r0, t0, criteria=crit)
-        assert np.abs(rv - r1).max() < 1e-6 and np.abs(tv - t1).max() < 1e-6 * np.linalg.norm(t1)
-        _, rq, tq = cv2.fisheye.solvePnP(OBJ.reshape(-1, 1, 3), px.reshape(-1, 1, 2), K, D)
-        cost = lambda rr, tt: ((cv2.projectPoints(OBJ, rr, tt, np.eye(3), None)[0] - und) ** 2).sum()
-        assert cost(rv, tv) <= cost(rq, tq) * (1 + 1e-9)
+        _, rq, tq = cv2.fisheye.solvePnP(OBJ.reshape(-1, 1, 3), px.reshape(-1, 1, 2), K, D, criteria=crit)
+        assert np.abs(rv - rq).max() < 1e-6 and np.abs(tv - tq).max() < 1e-6 * np.linalg.norm(tq), (rv, rq, tv, tq)

@@ -32,7 +32,7 @@
 
 use super::homography::{apply, fit_homography, Point2};
 use anyhow::{anyhow, Context, Result};
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// A greyscale image, row-major, 8-bit grey levels as f32.
@@ -252,7 +252,7 @@ fn nearest(cands: &[Candidate], p: Point2) -> Option<(usize, f64)> {
 }
 
 /// Grow a lattice from seed candidate `s`; lattice coordinates → position (candidate or predicted).
-fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashMap<(i32, i32), Point2>> {
+fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<BTreeMap<(i32, i32), Point2>> {
     let e = cands[s].edges;
     // Two extra rows and columns of room, so that a larger board is seen as larger and refused.
     let maxext = cols.max(rows) as i32 + 2;
@@ -265,7 +265,7 @@ fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashM
         if d3 > 0.3 * step {
             continue;
         }
-        let mut at: HashMap<(i32, i32), usize> = HashMap::new();
+        let mut at: BTreeMap<(i32, i32), usize> = BTreeMap::new();
         let mut used = vec![false; cands.len()];
         for (ij, c) in [((0, 0), s), ((1, 0), n1), ((0, 1), n2), ((1, 1), n3)] {
             at.insert(ij, c);
@@ -284,11 +284,20 @@ fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashM
                     }
                 }
             }
+            // Each frontier node's nearest candidate to its prediction; where two nodes want one
+            // candidate, the nearer prediction (relative to the local step) takes it.
+            let mut claims: Vec<(f64, (i32, i32), usize)> = frontier
+                .into_iter()
+                .filter_map(|q| {
+                    let (pred, step) = predict(cands, &at, q)?;
+                    let (c, d) = nearest(cands, pred)?;
+                    (d < 0.3 * step).then_some((d / step, q, c))
+                })
+                .collect();
+            claims.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             let mut added = 0;
-            for q in frontier {
-                let Some((pred, step)) = predict(cands, &at, q) else { continue };
-                let Some((c, d)) = nearest(cands, pred) else { continue };
-                if d < 0.3 * step && !used[c] {
+            for (_, q, c) in claims {
+                if !used[c] {
                     at.insert(q, c);
                     used[c] = true;
                     added += 1;
@@ -319,7 +328,7 @@ fn grow(cands: &[Candidate], s: usize, cols: usize, rows: usize) -> Option<HashM
             continue;
         }
         at.retain(|k, _| k.0 >= imin && k.0 < imin + ni as i32 && k.1 >= jmin && k.1 < jmin + nj as i32);
-        let mut out: HashMap<(i32, i32), Point2> = at.iter().map(|(&k, &c)| ((k.0 - imin, k.1 - jmin), cands[c].p)).collect();
+        let mut out: BTreeMap<(i32, i32), Point2> = at.iter().map(|(&k, &c)| ((k.0 - imin, k.1 - jmin), cands[c].p)).collect();
         for i in 0..ni as i32 {
             for j in 0..nj as i32 {
                 if !out.contains_key(&(i, j)) {
@@ -339,7 +348,7 @@ fn extent<'a>(keys: impl Iterator<Item = &'a (i32, i32)>) -> (i32, i32, i32, i32
 
 /// Position predicted for lattice node `q` by a homography of the assigned nodes within two
 /// steps (all nodes when fewer than 6 are near), and the local step length (pixels).
-fn predict(cands: &[Candidate], at: &HashMap<(i32, i32), usize>, q: (i32, i32)) -> Option<(Point2, f64)> {
+fn predict(cands: &[Candidate], at: &BTreeMap<(i32, i32), usize>, q: (i32, i32)) -> Option<(Point2, f64)> {
     let mut near: Vec<(Point2, Point2)> = at.iter().filter(|(k, _)| (k.0 - q.0).abs() <= 2 && (k.1 - q.1).abs() <= 2).map(|(k, &c)| ([k.0 as f64, k.1 as f64], cands[c].p)).collect();
     if near.len() < 6 {
         near = at.iter().map(|(k, &c)| ([k.0 as f64, k.1 as f64], cands[c].p)).collect();
@@ -355,7 +364,7 @@ fn predict(cands: &[Candidate], at: &HashMap<(i32, i32), usize>, q: (i32, i32)) 
 }
 
 /// Row-major ordering with `cols` per row; corner 0 nearest the image's top-left.
-fn order(grid: &HashMap<(i32, i32), Point2>, cols: usize, rows: usize) -> Vec<Point2> {
+fn order(grid: &BTreeMap<(i32, i32), Point2>, cols: usize, rows: usize) -> Vec<Point2> {
     let (_, imax, _, _) = extent(grid.keys());
     let ni = (imax + 1) as usize;
     let mut best: Option<(f64, f64, Vec<Point2>)> = None;

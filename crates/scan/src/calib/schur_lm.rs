@@ -54,16 +54,19 @@ pub struct Normal {
     pub gl: Vec<Vector6<f64>>,
 }
 
-/// ½‖r‖² over all residuals.
+/// ½‖r‖² over all residuals. The blocks are evaluated in parallel and summed in their order, so
+/// the same `x` gives the same bits on any number of threads (a parallel reduction would not,
+/// and the minimiser's accept/reject decisions compare costs).
 pub fn cost<P: Blocks>(p: &P, x: &[f64]) -> f64 {
     let mut r = vec![0.0; p.global_rows()];
-    let blocks: f64 = (0..p.n_blocks())
+    let per_block: Vec<f64> = (0..p.n_blocks())
         .into_par_iter()
         .map_init(|| vec![0.0; p.block_rows()], |r, b| {
             p.block(x, b, r);
             r.iter().map(|v| v * v).sum::<f64>()
         })
-        .sum();
+        .collect();
+    let blocks: f64 = per_block.iter().sum();
     p.global(x, &mut r);
     0.5 * (blocks + r.iter().map(|v| v * v).sum::<f64>())
 }

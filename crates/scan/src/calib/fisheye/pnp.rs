@@ -1,8 +1,10 @@
 //! The pose of a known object seen by a fisheye camera (OpenCV's `fisheye::solvePnP` with
-//! `SOLVEPNP_ITERATIVE`): the pixels are taken through the lens's inverse to normalised
-//! coordinates, and the pinhole solver (`calib::pnp`: a closed-form start, then
-//! Levenberg–Marquardt) finds the pose that reprojects them there, as OpenCV does. The RMS is
-//! measured in pixels through the fisheye lens.
+//! `SOLVEPNP_ITERATIVE`): the pixels are taken through the lens's inverse to the pixels of the
+//! distortion-free pinhole camera with the lens's fx, fy, cx, cy, and the pinhole solver
+//! (`calib::pnp`: a closed-form start, then Levenberg–Marquardt) finds the pose that reprojects
+//! them there, as OpenCV does (its `undistortPoints` with P = K, then `solvePnP` with K). The
+//! skew is left out of that pinhole camera (OpenCV's P = K keeps it; with a skew the two weigh
+//! the residuals slightly differently). The RMS is measured in pixels through the fisheye lens.
 
 use anyhow::{bail, Result};
 use nalgebra::Vector3;
@@ -26,7 +28,7 @@ pub fn solve_pnp_fisheye(
         bail!("{} object points but {} image points", obj.len(), px.len());
     }
     let tm = lens.theta_max();
-    let mut norm = Vec::with_capacity(px.len());
+    let mut pinhole = Vec::with_capacity(px.len());
     for (i, q) in px.iter().enumerate() {
         if !(q[0].is_finite() && q[1].is_finite()) {
             bail!("image point {i} is not finite");
@@ -35,9 +37,9 @@ pub fn solve_pnp_fisheye(
         let Some((x, y)) = lens.undistort(xd, yd, tm) else {
             bail!("image point {i} ({}, {}) has no ray: it lies beyond the range where the lens's θ_d increases", q[0], q[1]);
         };
-        norm.push([x, y]);
+        pinhole.push([lens.fx * x + lens.cx, lens.fy * y + lens.cy]);
     }
-    let (pose, _) = solve_pnp_from(obj, &norm, &Lens::pinhole(1.0, 1.0, 0.0, 0.0), guess)?;
+    let (pose, _) = solve_pnp_from(obj, &pinhole, &Lens::pinhole(lens.fx, lens.fy, lens.cx, lens.cy), guess)?;
     let mut s = 0.0;
     for (p, q) in obj.iter().zip(px) {
         let c = pose.apply(&Vector3::from(*p));
