@@ -283,6 +283,11 @@ pub fn predict(basis: &Basis, params: &Params, f: usize) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// Pixels per chunk of the error sums, and rows per chunk of the normal equations: fixed, so
+/// that the parallel sums do not depend on the threads.
+const SUM_CHUNK: usize = 1 << 14;
+const ROW_CHUNK: usize = 16;
+
 /// Whether pixel `i` of `frame` is compared: labelled and not saturated.
 fn usable(regions: &[i32], frame: &Frame, i: usize, saturation: f64) -> bool {
     regions[i] >= 0 && frame.codes[i].iter().all(|&v| (v as f64) < saturation)
@@ -291,30 +296,30 @@ fn usable(regions: &[i32], frame: &Frame, i: usize, saturation: f64) -> bool {
 /// Errors of the predicted codes `pred` (every pixel) against `frame` over its usable pixels.
 pub fn frame_metrics(pred: &[[f64; 3]], frame: &Frame, regions: &[i32], labels: usize, saturation: f64) -> FrameMetrics {
     let k = labels;
-    let (whole, per) = (0..pred.len())
+    // Fixed chunks summed in order: the same sums on any number of threads.
+    let n = pred.len();
+    let chunks: Vec<(Sums, Vec<Sums>)> = (0..n.div_ceil(SUM_CHUNK))
         .into_par_iter()
-        .fold(
-            || (Sums::default(), vec![Sums::default(); k]),
-            |(mut w, mut per), i| {
+        .map(|c| {
+            let (mut w, mut per) = (Sums::default(), vec![Sums::default(); k]);
+            for i in c * SUM_CHUNK..((c + 1) * SUM_CHUNK).min(n) {
                 if usable(regions, frame, i, saturation) {
                     let photo = frame.codes[i].map(|v| v as f64);
                     let p = pred[i].map(|v| v.clamp(0.0, 1.0));
                     w.add(p, photo);
                     per[regions[i] as usize].add(p, photo);
                 }
-                (w, per)
-            },
-        )
-        .reduce(
-            || (Sums::default(), vec![Sums::default(); k]),
-            |(mut a, mut pa), (b, pb)| {
-                a.merge(&b);
-                for (x, y) in pa.iter_mut().zip(&pb) {
-                    x.merge(y);
-                }
-                (a, pa)
-            },
-        );
+            }
+            (w, per)
+        })
+        .collect();
+    let (mut whole, mut per) = (Sums::default(), vec![Sums::default(); k]);
+    for (b, pb) in &chunks {
+        whole.merge(b);
+        for (x, y) in per.iter_mut().zip(pb) {
+            x.merge(y);
+        }
+    }
     FrameMetrics { name: frame.name.clone(), whole: whole.metrics(), per_label: per.iter().map(Sums::metrics).collect() }
 }
 
@@ -496,9 +501,11 @@ fn normal_equations(
         jy: std::array::from_fn(|_| vec![0.0; np]),
         jy2: std::array::from_fn(|_| vec![0.0; np]),
     };
-    let acc = rows
-        .par_iter()
-        .fold(new_acc, |mut a, &(f, y)| {
+    // Fixed chunks of rows summed in order, so that the cost and the normal equations (whose
+    // comparisons steer the minimiser) are the same bits on any number of threads.
+    let partial: Vec<Acc> = rows
+        .par_chunks(ROW_CHUNK)
+        .map(|chunk| chunk.iter().fold(new_acc(), |mut a, &(f, y)| {
             let frame = &frames[f];
             for x in (0..w).step_by(stride) {
                 let i = y * w + x;
@@ -532,18 +539,19 @@ fn normal_equations(
                 }
             }
             a
-        })
-        .reduce(new_acc, |mut a, b| {
-            a.cost += b.cost;
-            a.n += b.n;
-            for (x, y) in a.jtj.iter_mut().zip(&b.jtj) {
-                *x += y;
-            }
-            for (x, y) in a.jtr.iter_mut().zip(&b.jtr) {
-                *x += y;
-            }
-            a
-        });
+        }))
+        .collect();
+    let acc = partial.into_iter().fold(new_acc(), |mut a, b| {
+        a.cost += b.cost;
+        a.n += b.n;
+        for (x, y) in a.jtj.iter_mut().zip(&b.jtj) {
+            *x += y;
+        }
+        for (x, y) in a.jtr.iter_mut().zip(&b.jtr) {
+            *x += y;
+        }
+        a
+    });
     let system = jacobian.then(|| {
         let m = DMatrix::from_fn(nf, nf, |p, q| if q >= p { acc.jtj[p * nf + q] } else { acc.jtj[q * nf + p] });
         (m, DVector::from_vec(acc.jtr.clone()))
