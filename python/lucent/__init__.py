@@ -75,6 +75,7 @@ __all__ = [
     "CALIB_USE_EXTRINSIC_GUESS",
     "CALIB_ZERO_DISPARITY",
     "SOLVEPNP_ITERATIVE",
+    "solve_pnp_ransac",
     "CALIB_FIX_SKEW",
     "CALIB_USE_LU",
     "CALIB_USE_QR",
@@ -964,16 +965,9 @@ def _solve_pnp_with(solver, object_points, image_points, lens, rvec, tvec, useEx
         raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
     obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
     img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
-    guess = None
-    if useExtrinsicGuess:
-        if rvec is None or tvec is None:
-            raise ValueError("useExtrinsicGuess needs rvec and tvec")
-        rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
-        if rv.size != 3 or tv.size != 3:
-            raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
-        guess = (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
     k, d = lens
-    r, t, _ = solver([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d, guess)
+    r, t, _ = solver([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d,
+                     _pnp_guess(rvec, tvec, useExtrinsicGuess))
     return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
 
 
@@ -1002,6 +996,55 @@ def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs, rvec=None
         transform. Configurations that determine no pose raise ``ValueError``.
     """
     return _solve_pnp_with(_lucent.solve_pnp_flat, object_points, image_points, _camera_args(camera_matrix, dist_coeffs), rvec, tvec, useExtrinsicGuess, flags)
+
+
+def _pnp_guess(rvec, tvec, useExtrinsicGuess):
+    """The (rvec, tvec) guess of a solve_pnp call as Rust takes it, or None."""
+    if not useExtrinsicGuess:
+        return None
+    if rvec is None or tvec is None:
+        raise ValueError("useExtrinsicGuess needs rvec and tvec")
+    rv, tv = _np.asarray(rvec, dtype=float).ravel(), _np.asarray(tvec, dtype=float).ravel()
+    if rv.size != 3 or tv.size != 3:
+        raise ValueError(f"rvec and tvec: need 3 values each, got {rv.size} and {tv.size}")
+    return (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
+
+
+def _solve_pnp_ransac_with(solver, object_points, image_points, lens, rvec, tvec, useExtrinsicGuess, iterationsCount,
+                           reprojectionError, confidence, flags):
+    """The argument handling of :func:`solve_pnp_ransac` and :func:`lucent.fisheye.solve_pnp_ransac`."""
+    if flags != SOLVEPNP_ITERATIVE:
+        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
+    obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    k, d = lens
+    out = solver([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d,
+                 _pnp_guess(rvec, tvec, useExtrinsicGuess), int(iterationsCount), float(reprojectionError), float(confidence))
+    if out is None:
+        return False, None, None, None
+    r, t, inliers, _ = out
+    return (True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1),
+            _np.asarray(inliers, dtype=_np.int32).reshape(-1, 1))
+
+
+def solve_pnp_ransac(object_points, image_points, camera_matrix, dist_coeffs, rvec=None, tvec=None, useExtrinsicGuess=False,
+                     iterationsCount=100, reprojectionError=8.0, confidence=0.99, flags=SOLVEPNP_ITERATIVE):
+    """The pose of a known object from correspondences of which some are wrong, as
+    ``cv2.solvePnPRansac`` (``SOLVEPNP_ITERATIVE``; ``scan::calib::pnp_ransac``): random minimal
+    sets (4 points on a plane, 6 off it; a fixed seed, so calls repeat) posed by
+    :func:`solve_pnp`'s solver, the pose with the most correspondences reprojecting within
+    ``reprojectionError`` pixels through the full lens kept, at most ``iterationsCount`` sets
+    and no more than ``confidence`` asks, then the pose refined on its inliers. OpenCV poses its
+    sets of five with EPnP; on the same data both find the same inliers and, refined on them, the
+    same pose.
+
+    Returns (retval, rvec, tvec, inliers) as OpenCV: True, the (3, 1) Rodrigues vector and
+    translation, and the inliers' indices as an (M, 1) int32 array; (False, None, None, None) when
+    no pose has a minimal set of inliers. Bad input raises ``ValueError``.
+    """
+    return _solve_pnp_ransac_with(_lucent.solve_pnp_ransac_flat, object_points, image_points,
+                                  _camera_args(camera_matrix, dist_coeffs), rvec, tvec, useExtrinsicGuess, iterationsCount,
+                                  reprojectionError, confidence, flags)
 
 
 CALIB_ZERO_DISPARITY = 1024

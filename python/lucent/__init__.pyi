@@ -91,6 +91,12 @@ def solve_pnp(object_points: npt.ArrayLike, image_points: npt.ArrayLike, camera_
               dist_coeffs: Optional[npt.ArrayLike], rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,
               useExtrinsicGuess: bool = False, flags: int = 0) -> Tuple[bool, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(True, rvec, tvec) of a known object seen by a calibrated camera (cv2.solvePnP, iterative; useExtrinsicGuess starts from rvec, tvec)."""
+def solve_pnp_ransac(object_points: npt.ArrayLike, image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
+                     dist_coeffs: Optional[npt.ArrayLike], rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,
+                     useExtrinsicGuess: bool = False, iterationsCount: int = 100, reprojectionError: float = 8.0,
+                     confidence: float = 0.99, flags: int = 0
+                     ) -> Tuple[bool, Optional[npt.NDArray[np.float64]], Optional[npt.NDArray[np.float64]], Optional[npt.NDArray[np.int32]]]:
+    """(retval, rvec, tvec, inliers) of a known object from partly wrong correspondences (cv2.solvePnPRansac, iterative); (False, None, None, None) without a consensus."""
 def undistort(src: npt.ArrayLike, camera_matrix: npt.ArrayLike, dist_coeffs: Optional[npt.ArrayLike],
               new_camera_matrix: Optional[npt.ArrayLike] = ...) -> npt.NDArray[np.uint8]:
     """A uint8 photograph with its lens distortion removed (cv2.undistort)."""

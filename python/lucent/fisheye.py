@@ -26,7 +26,7 @@ import numpy as _np
 
 # The package's helpers; this module is imported at the end of lucent/__init__.py.
 from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
-               _rodrigues, _solve_pnp_with)
+               _rodrigues, _solve_pnp_ransac_with, _solve_pnp_with)
 
 __all__ = [
     "project_points",
@@ -39,6 +39,7 @@ __all__ = [
     "undistort_image",
     "stereo_rectify",
     "solve_pnp",
+    "solve_pnp_ransac",
     "CALIB_ZERO_DISPARITY",
     "CALIB_USE_INTRINSIC_GUESS",
     "CALIB_RECOMPUTE_EXTRINSIC",
@@ -254,6 +255,21 @@ def solve_pnp(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tv
     """
     return _solve_pnp_with(_lucent.fisheye_solve_pnp_flat, objectPoints, imagePoints, _lens(cameraMatrix, distCoeffs), rvec,
                            tvec, useExtrinsicGuess, flags)
+
+
+def solve_pnp_ransac(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tvec=None, useExtrinsicGuess=False,
+                     iterationsCount=100, reprojectionError=8.0, confidence=0.99, flags=SOLVEPNP_ITERATIVE, criteria=None):
+    """The pose of a known object from partly wrong correspondences in a fisheye camera, as
+    ``cv2.fisheye.solvePnPRansac``: :func:`lucent.solve_pnp_ransac` on the pixels of the pinhole
+    camera with K's fx, fy, cx, cy after the lens's inverse (``reprojectionError`` in those
+    pixels, as OpenCV's). A pixel beyond the range where θ_d increases is an outlier.
+    ``criteria`` is ignored (the inverse is exact).
+
+    Returns (retval, rvec, tvec, inliers) as :func:`lucent.solve_pnp_ransac`.
+    """
+    return _solve_pnp_ransac_with(_lucent.fisheye_solve_pnp_ransac_flat, objectPoints, imagePoints,
+                                  _lens(cameraMatrix, distCoeffs), rvec, tvec, useExtrinsicGuess, iterationsCount,
+                                  reprojectionError, confidence, flags)
 
 
 def undistort_image(distorted, K, D, Knew=None, new_size=None):

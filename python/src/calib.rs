@@ -305,3 +305,17 @@ pub fn triangulate_points_flat(p1: Vec<f64>, p2: Vec<f64>, a: Vec<f64>, b: Vec<f
     let (m1, m2) = (nalgebra::Matrix3x4::from_row_slice(&p1), nalgebra::Matrix3x4::from_row_slice(&p2));
     Ok(a.chunks_exact(2).zip(b.chunks_exact(2)).flat_map(|(x, y)| scan::triangulate::triangulate_dlt(&m1, &m2, [x[0], x[1]], [y[0], y[1]])).collect())
 }
+
+/// `cv2.solvePnPRansac` (`SOLVEPNP_ITERATIVE`): the Rodrigues vector, the translation, the inlier
+/// indices and the RMS over them (pixels); None when no pose has a minimal set of inliers.
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn solve_pnp_ransac_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec<f64>, guess: Option<([f64; 3], [f64; 3])>, iterations: usize, threshold_px: f64, confidence: f64) -> PyResult<Option<([f64; 3], [f64; 3], Vec<usize>, f64)>> {
+    let lens = lens_of(&k, &dist, "camera_matrix", "dist_coeffs")?;
+    let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let guess = guess.map(|(r, t)| scan::calib::model::Pose { rvec: r.into(), t: t.into() });
+    let settings = scan::calib::pnp_ransac::RansacSettings { iterations, threshold_px, confidence };
+    let r = scan::calib::pnp_ransac::solve_pnp_ransac(&obj, &px, &lens, guess, &settings, 0).map_err(|e| value(format!("{e:#}")))?;
+    Ok(r.map(|r| ([r.pose.rvec[0], r.pose.rvec[1], r.pose.rvec[2]], [r.pose.t[0], r.pose.t[1], r.pose.t[2]], r.inliers, r.rms_px)))
+}

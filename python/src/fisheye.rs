@@ -230,3 +230,17 @@ pub fn fisheye_solve_pnp_flat(
         rms,
     ))
 }
+
+/// `cv2.fisheye.solvePnPRansac` (`SOLVEPNP_ITERATIVE`): as `solve_pnp_ransac_flat`, through the
+/// fisheye lens `k`, `d`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn fisheye_solve_pnp_ransac_flat(object: Vec<f64>, pixels: Vec<f64>, k: [f64; 9], d: [f64; 4], guess: Option<([f64; 3], [f64; 3])>, iterations: usize, threshold_px: f64, confidence: f64) -> PyResult<Option<([f64; 3], [f64; 3], Vec<usize>, f64)>> {
+    let l = lens(k, d)?;
+    let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let guess = guess.map(|(r, t)| Pose { rvec: r.into(), t: t.into() });
+    let settings = scan::calib::pnp_ransac::RansacSettings { iterations, threshold_px, confidence };
+    let r = scan::calib::fisheye::pnp::solve_pnp_ransac_fisheye(&obj, &px, &l, guess, &settings, 0).map_err(|e| value(format!("{e:#}")))?;
+    Ok(r.map(|r| ([r.pose.rvec[0], r.pose.rvec[1], r.pose.rvec[2]], [r.pose.t[0], r.pose.t[1], r.pose.t[2]], r.inliers, r.rms_px)))
+}

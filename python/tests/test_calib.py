@@ -483,6 +483,46 @@ def test_solve_pnp_agrees_with_live_opencv():
         assert ok and np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-4 * np.linalg.norm(t)
 
 
+def outliers(px, rng, share=4):
+    """A copy of `px` with every `share`-th correspondence moved 30–100 px in a random direction,
+    and the indices left as they were."""
+    bad = np.arange(len(px))[1::share]
+    ang, mag = rng.uniform(0, 2 * np.pi, len(bad)), rng.uniform(30, 100, len(bad))
+    out = px.copy()
+    out[bad] += np.c_[np.cos(ang), np.sin(ang)] * mag[:, None]
+    return out, np.setdiff1d(np.arange(len(px)), bad)
+
+
+def test_solve_pnp_ransac_leaves_out_gross_outliers():
+    rng = np.random.default_rng(21)
+    cloud = rng.uniform(-60, 60, (40, 3))
+    r, t = np.array([0.3, -0.45, 0.2]), np.array([-40.0, 25.0, 520.0])
+    for obj in (cloud, OBJ):
+        px, good = outliers(lucent.project_points(obj, r, t, K, DIST), rng)
+        ok, rv, tv, inl = lucent.solve_pnp_ransac(obj, px, K, DIST)
+        assert ok and inl.dtype == np.int32 and inl.shape == (len(good), 1) and np.array_equal(inl.ravel(), good)
+        assert np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
+    # Correspondences that fit no pose: OpenCV's (False, …).
+    scrambled = rng.uniform(0, 640, (len(OBJ), 2))
+    assert lucent.solve_pnp_ransac(OBJ, scrambled, K, DIST, reprojectionError=0.5)[0] is False
+    with pytest.raises(ValueError, match="at least 4"):
+        lucent.solve_pnp_ransac(OBJ[:3], scrambled[:3], K, DIST)
+
+
+def test_solve_pnp_ransac_agrees_with_live_opencv():
+    # With 0.3-px noise and a quarter of the correspondences 30–100 px off, both find the same
+    # inliers and, refined on them, the same pose.
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(22)
+    r, t = np.array([0.3, -0.45, 0.2]), np.array([-40.0, 25.0, 520.0])
+    for obj in (rng.uniform(-60, 60, (40, 3)), OBJ):
+        px, _ = outliers(lucent.project_points(obj, r, t, K, DIST) + rng.normal(0, 0.3, (len(obj), 2)), rng)
+        _, rv, tv, inl = lucent.solve_pnp_ransac(obj, px, K, DIST)
+        ok, rc, tc, inc = cv2.solvePnPRansac(obj, px, K, DIST)
+        assert ok and np.array_equal(np.sort(inl.ravel()), np.sort(inc.ravel()))
+        assert np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-4 * np.linalg.norm(t)
+
+
 RECT_K1 = np.array([[905.0, 0, 322.5], [0, 899.0, 241.0], [0, 0, 1]])
 RECT_D1 = np.array([-0.12, 0.05, 0.001, -0.0007, 0.0])
 RECT_K2 = np.array([[870.0, 0, 330.0], [0, 866.0, 236.0], [0, 0, 1]])

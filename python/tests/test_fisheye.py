@@ -270,3 +270,24 @@ def test_stereo_rectify_and_solve_pnp_agree_with_live_opencv():
         _, rv, tv = fe.solve_pnp(OBJ, px, K, D)
         _, rq, tq = cv2.fisheye.solvePnP(OBJ.reshape(-1, 1, 3), px.reshape(-1, 1, 2), K, D, criteria=crit)
         assert np.abs(rv - rq).max() < 1e-6 and np.abs(tv - tq).max() < 1e-6 * np.linalg.norm(tq), (rv, rq, tv, tq)
+
+
+def test_solve_pnp_ransac_leaves_out_gross_outliers_and_agrees_with_live_opencv():
+    rng = np.random.default_rng(23)
+    r, t = poses()[2]
+    px = fe.project_points(OBJ, r, t, K, D)
+    bad = np.arange(len(OBJ))[1::4]
+    ang, mag = rng.uniform(0, 2 * np.pi, len(bad)), rng.uniform(30, 100, len(bad))
+    px[bad] += np.c_[np.cos(ang), np.sin(ang)] * mag[:, None]
+    good = np.setdiff1d(np.arange(len(OBJ)), bad)
+    ok, rv, tv, inl = fe.solve_pnp_ransac(OBJ, px, K, D)
+    assert ok and np.array_equal(inl.ravel(), good)
+    assert np.abs(rv.ravel() - r).max() < 1e-9 and np.abs(tv.ravel() - t).max() < 1e-7
+    cv2 = pytest.importorskip("cv2")
+    noisy = px + rng.normal(0, 0.3, px.shape)
+    _, rv, tv, inl = fe.solve_pnp_ransac(OBJ, noisy, K, D)
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-15)
+    ok, rc, tc, inc = cv2.fisheye.solvePnPRansac(OBJ.reshape(-1, 1, 3), noisy.reshape(-1, 1, 2), K, D, criteria=crit)
+    assert ok and np.array_equal(np.sort(inl.ravel()), np.sort(inc.ravel()))
+    assert np.abs(rv - rc).max() < 1e-5 and np.abs(tv - tc).max() < 1e-5 * np.linalg.norm(tc)
+

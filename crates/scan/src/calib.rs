@@ -7,6 +7,7 @@ pub mod fisheye;
 pub mod homography;
 pub mod model;
 pub mod pnp;
+pub mod pnp_ransac;
 pub mod procam;
 pub mod rectify;
 pub mod schur_lm;

@@ -55,7 +55,10 @@ pub fn solve_pnp_from(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Optio
         Some(g) => g,
         None => closed_form_start(&x, &norm)?,
     };
-    let pose = refine(&x, px, lens, start);
+    // The rotation vector of the same rotation with angle ≤ π (the minimiser may leave it anywhere
+    // on its 2π-periodic line), as OpenCV returns it.
+    let refined = refine(&x, px, lens, start);
+    let pose = Pose::from_rt(&refined.r(), refined.t);
     let rms = (sq_error(&x, px, lens, &pose) / px.len() as f64).sqrt();
     if !rms.is_finite() {
         bail!("the pose puts points behind the camera");
@@ -81,6 +84,11 @@ fn closed_form_start(x: &[Vector3<f64>], norm: &[Point2]) -> Result<Pose> {
             dlt(x, norm).ok_or_else(|| anyhow::anyhow!("the points determine no projection (degenerate configuration)"))?
         }
     })
+}
+
+/// Whether the points lie on one plane (the test that chooses the closed-form start).
+pub(crate) fn coplanar(x: &[Vector3<f64>]) -> bool {
+    plane_frame(x).is_some()
 }
 
 /// The centroid and an orthonormal frame (columns e₁, e₂, n) of coplanar points; None when they
