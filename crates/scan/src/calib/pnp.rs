@@ -58,7 +58,9 @@ pub fn solve_pnp_from(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Optio
     // The rotation vector of the same rotation with angle ≤ π (the minimiser may leave it anywhere
     // on its 2π-periodic line), as OpenCV returns it.
     let refined = refine(&x, px, lens, start);
-    let pose = Pose::from_rt(&refined.r(), refined.t);
+    let theta = refined.rvec.norm();
+    let wrapped = theta - std::f64::consts::TAU * (theta / std::f64::consts::TAU).round();
+    let pose = if theta > std::f64::consts::PI { Pose { rvec: refined.rvec * (wrapped / theta), t: refined.t } } else { refined };
     let rms = (sq_error(&x, px, lens, &pose) / px.len() as f64).sqrt();
     if !rms.is_finite() {
         bail!("the pose puts points behind the camera");
