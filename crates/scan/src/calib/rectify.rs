@@ -143,7 +143,7 @@ pub(crate) fn rectifying_rotations(r: &Matrix3<f64>, t: &Vector3<f64>, allow_ver
     if r.iter().chain(t.iter()).any(|v| !v.is_finite()) {
         bail!("R and T must be finite");
     }
-    let om = Rotation3::from_matrix_eps(r, 1e-15, 100, Rotation3::identity()).scaled_axis();
+    let om = super::model::Pose::from_rt(r, Vector3::zeros()).rvec;
     let r_half = *Rotation3::new(-0.5 * om).matrix();
     let th = r_half * t;
     let idx = if allow_vertical && th.x.abs() <= th.y.abs() { 1 } else { 0 };
