@@ -935,11 +935,12 @@ fn calibrate_stereo_and_rectify_a_fisheye_pair() {
     assert!(mean.abs() < 0.05 && rms < 0.15, "rows apart through the fitted calibration: mean {mean:.3}, rms {rms:.3} px");
     // Through the true one: what is left is the corner finder's error.
     let mut truth = calib.clone();
-    for (d, l) in [(&mut truth.camera, &lens[0]), (&mut truth.projector, &lens[1])] {
-        (d.fx, d.fy, d.cx, d.cy, d.skew, d.distortion) = (l.fx, l.fy, l.cx, l.cy, 0.0, l.k);
+    truth.skew = [0.0; 2];
+    for (d, l) in [(&mut truth.pair.camera, &lens[0]), (&mut truth.pair.projector, &lens[1])] {
+        (d.fx, d.fy, d.cx, d.cy, d.distortion) = (l.fx, l.fy, l.cx, l.cy, l.k.to_vec());
     }
-    truth.rotation = std::array::from_fn(|i| std::array::from_fn(|j| rot.matrix()[(i, j)]));
-    truth.translation = [t.x, t.y, t.z];
+    truth.pair.rotation = std::array::from_fn(|i| std::array::from_fn(|j| rot.matrix()[(i, j)]));
+    truth.pair.translation = [t.x, t.y, t.z];
     let true_json = s.arg("true.json");
     std::fs::write(&true_json, serde_json::to_string(&truth).unwrap()).unwrap();
     let (tl, tr) = (s.arg("l0t.png"), s.arg("r0t.png"));

@@ -20,8 +20,8 @@
 //! at the world origin with the world axes (R = I, t = 0); the projector has R = `rotation`,
 //! t = `translation` (X_p = R·X_c + T), in the scene's unit (the board's square unit). A fisheye
 //! pair's file (`lucent scan calibrate-stereo --fisheye`: the same layout with `"model":
-//! "fisheye"`, each device's `distortion` holding k1…k4 and `skew` its α) gives either camera
-//! as a fisheye camera.
+//! "fisheye"` and `"skew": [α₁, α₂]`, each device's `distortion` holding k1…k4) gives either
+//! camera as a fisheye camera.
 //!
 //! FileStorage (as `cv::FileStorage` and OpenCV's calibration sample write it): the camera matrix
 //! and distortion nodes are `!!opencv-matrix` (YAML, `%YAML:1.0`) or `type_id="opencv-matrix"`
@@ -150,14 +150,14 @@ struct ProcamDevice {
     cx: f64,
     cy: f64,
     distortion: Vec<f64>,
-    /// The fisheye model's skew α (a fisheye pair's file).
-    skew: Option<f64>,
 }
 
 #[derive(serde::Deserialize)]
 struct Procam {
     /// `fisheye` for a fisheye pair (`scan calibrate-stereo --fisheye`), else absent.
     model: Option<String>,
+    /// A fisheye pair's skews α of the first and the second camera.
+    skew: Option<[f64; 2]>,
     camera: ProcamDevice,
     projector: ProcamDevice,
     rotation: [[f64; 3]; 3],
@@ -167,21 +167,21 @@ struct Procam {
 /// A `lucent scan calibrate` file, read as the device named by `nodes.matrix`.
 fn procam(text: &str, nodes: &CalibrationNodes) -> Result<Calibration> {
     let j: Procam = serde_json::from_str(text).map_err(|e| anyhow!("{e}"))?;
-    let (d, r, t) = match nodes.matrix.as_str() {
-        "camera" | "camera_matrix" => (&j.camera, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]),
-        "projector" => (&j.projector, j.rotation, j.translation),
+    let (d, r, t, which) = match nodes.matrix.as_str() {
+        "camera" | "camera_matrix" => (&j.camera, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3], 0),
+        "projector" => (&j.projector, j.rotation, j.translation, 1),
         other => bail!("a projector–camera calibration holds the devices `camera` and `projector`, not `{other}`"),
     };
     let (distortion, fisheye) = match j.model.as_deref() {
         None => {
-            if d.skew.is_some() {
+            if j.skew.is_some() {
                 bail!("skew: only a fisheye pair (\"model\": \"fisheye\") has a skew");
             }
             (Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("distortion: {e}"))?, None)
         }
         Some("fisheye") => {
             let &[k1, k2, k3, k4] = d.distortion.as_slice() else { bail!("distortion: the fisheye model has 4 coefficients k1, k2, k3, k4, got {}", d.distortion.len()) };
-            let kk = [d.fx, d.skew.unwrap_or(0.0) * d.fx, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0];
+            let kk = [d.fx, j.skew.map_or(0.0, |s| s[which]) * d.fx, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0];
             (Distortion::default(), Some(FisheyeLens::from_opencv(&kk, &[k1, k2, k3, k4])?))
         }
         Some(other) => bail!("model: `{other}` is not a camera model of a pair (fisheye, or absent for the pinhole model)"),

@@ -102,8 +102,9 @@ pub fn run(args: Args) -> Result<()> {
         let pairs: Vec<(String, Vec<_>, Vec<_>)> = captures.into_iter().map(|c| (c.name, c.cam, c.proj)).collect();
         let hold = scan::calib::fisheye::FisheyeHold { principal_point: args.lens.fix_principal_point, skew: true, ..Default::default() };
         let calib = scan::calib::fisheye::pair::calibrate_fisheye_pair(&target.object_points(args.target.square), &pairs, *lw, *lh, hold)?;
-        warn_shared_centre(calib.translation, calib.captures.iter().map(|c| c.tvec));
         let text = serde_json::to_string_pretty(&calib)?;
+        let calib = calib.pair;
+        warn_shared_centre(calib.translation, calib.captures.iter().map(|c| c.tvec));
         if write_outputs(&text, args.out.as_deref(), None, String::new, args.json)? {
             return Ok(());
         }

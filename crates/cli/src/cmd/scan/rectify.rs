@@ -91,11 +91,12 @@ fn run_fisheye(args: &Args) -> Result<()> {
         bail!("--alpha: the free scaling of a pinhole pair; {} is a fisheye pair (--balance and --fov-scale scale it)", args.calibration.display());
     }
     let c = FisheyeStereoCalibration::read(&args.calibration)?;
+    let (lens, r, t) = c.parts()?;
+    let c = c.pair;
     let size = (c.camera.width, c.camera.height);
     if size != (c.projector.width, c.projector.height) {
         bail!("{}: the two cameras are {}x{} and {}x{}; rectification takes two images of one size", args.calibration.display(), size.0, size.1, c.projector.width, c.projector.height);
     }
-    let (lens, r, t) = c.parts()?;
     let rect = stereo_rectify_fisheye([&lens[0], &lens[1]], size, &r, &t, !args.keep_disparity, (0, 0), args.balance.unwrap_or(0.0), args.fov_scale.unwrap_or(1.0)).with_context(|| args.calibration.display().to_string())?;
     for (i, (photo, out)) in [(&args.left, &args.out_left), (&args.right, &args.out_right)].into_iter().enumerate() {
         let p = rect.p[i].fixed_view::<3, 3>(0, 0).into_owned();

@@ -1,8 +1,8 @@
 //! A fisheye stereo pair's calibration file, as `lucent scan calibrate-stereo --fisheye` writes
-//! it: the layout of the pinhole pair's (`ProcamCalibration`: the first camera in `camera`, the
-//! second in `projector`, X₂ = R·X₁ + T in `rotation` and `translation`, the board pose per pair
-//! of photographs in `captures`), with `"model": "fisheye"` at the top and each device's
-//! `distortion` holding k1…k4 of OpenCV's fisheye model and `skew` its α. Readers of the pinhole
+//! it: the pinhole pair's file (`ProcamCalibration`: the first camera in `camera`, the second in
+//! `projector`, X₂ = R·X₁ + T in `rotation` and `translation`, the board pose per pair of
+//! photographs in `captures`) with each device's `distortion` holding k1…k4 of OpenCV's fisheye
+//! model, and at the top `"model": "fisheye"` and `"skew": [α₁, α₂]`. Readers of the pinhole
 //! file refuse it by its `model` (`ProcamCalibration::read`); `render::load::calibration` reads
 //! either camera of it as a fisheye camera.
 
@@ -16,57 +16,19 @@ use serde::{Deserialize, Serialize};
 use super::{rms, stereo_calibrate_fisheye, FisheyeHold, FisheyeLens};
 use crate::calib::bundle::observed;
 use crate::calib::homography::Point2;
-use crate::calib::CapturePose;
+use crate::calib::{CapturePose, DeviceCalibration, ProcamCalibration};
 
-/// One fisheye camera of a pair.
+/// A fisheye stereo calibration file (module documentation): the pinhole pair's fields, each
+/// device's `distortion` holding k1…k4, with the model's name and the two skews.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct FisheyeDevice {
-    /// Image width (pixels).
-    pub width: u32,
-    /// Image height (pixels).
-    pub height: u32,
-    /// Focal length along x (pixels).
-    pub fx: f64,
-    /// Focal length along y (pixels).
-    pub fy: f64,
-    /// Principal point x (pixels, OpenCV convention).
-    pub cx: f64,
-    /// Principal point y (pixels).
-    pub cy: f64,
-    /// The skew α (dimensionless; K₀₁ = α fx).
-    pub skew: f64,
-    /// k1, k2, k3, k4 (dimensionless).
-    pub distortion: [f64; 4],
-    /// RMS reprojection error of this camera (pixels).
-    pub rms_px: f64,
-}
-
-impl FisheyeDevice {
-    /// The camera's lens.
-    pub fn lens(&self) -> Result<FisheyeLens> {
-        FisheyeLens::from_opencv(&[self.fx, self.skew * self.fx, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0], &self.distortion)
-    }
-}
-
-/// A fisheye stereo calibration file (module documentation).
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
 pub struct FisheyeStereoCalibration {
     /// Always `fisheye`.
     pub model: String,
-    /// The first camera.
-    pub camera: FisheyeDevice,
-    /// The second camera (named as the pinhole pair's file names it).
-    pub projector: FisheyeDevice,
-    /// Rotation first → second camera, row-major (X₂ = R X₁ + T).
-    pub rotation: [[f64; 3]; 3],
-    /// Translation first → second camera (square units).
-    pub translation: [f64; 3],
-    /// RMS reprojection error over both cameras (pixels).
-    pub rms_px: f64,
-    /// The board → first camera pose of each pair of photographs.
-    pub captures: Vec<CapturePose>,
+    /// The skew α of the first and of the second camera (dimensionless; K₀₁ = α fx).
+    pub skew: [f64; 2],
+    /// The devices (the second camera in `projector`), their relative pose and the board poses.
+    #[serde(flatten)]
+    pub pair: ProcamCalibration,
 }
 
 impl FisheyeStereoCalibration {
@@ -83,19 +45,26 @@ impl FisheyeStereoCalibration {
         if c.model != "fisheye" {
             bail!("{name}: model: expected \"fisheye\", got \"{}\"", c.model);
         }
-        for (what, d) in [("camera", &c.camera), ("projector", &c.projector)] {
-            d.lens().map_err(|e| anyhow!("{name}: {what}: {e}"))?;
-        }
-        let r = Matrix3::from_fn(|i, j| c.rotation[i][j]);
-        if !r.iter().chain(c.translation.iter()).all(|v| v.is_finite()) || (r * r.transpose() - Matrix3::identity()).norm() > 1e-6 || r.determinant() < 0.0 {
+        c.lenses().map_err(|e| anyhow!("{name}: {e}"))?;
+        let r = Matrix3::from_fn(|i, j| c.pair.rotation[i][j]);
+        if !r.iter().chain(c.pair.translation.iter()).all(|v| v.is_finite()) || (r * r.transpose() - Matrix3::identity()).norm() > 1e-6 || r.determinant() < 0.0 {
             bail!("{name}: rotation: not a finite rotation matrix");
         }
         Ok(c)
     }
 
+    /// The two lenses.
+    pub fn lenses(&self) -> Result<[FisheyeLens; 2]> {
+        let lens = |d: &DeviceCalibration, skew: f64, what: &str| -> Result<FisheyeLens> {
+            let &[k1, k2, k3, k4] = d.distortion.as_slice() else { bail!("{what}: distortion: the fisheye model has 4 coefficients k1, k2, k3, k4, got {}", d.distortion.len()) };
+            FisheyeLens::from_opencv(&[d.fx, skew * d.fx, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0], &[k1, k2, k3, k4]).map_err(|e| anyhow!("{what}: {e}"))
+        };
+        Ok([lens(&self.pair.camera, self.skew[0], "camera")?, lens(&self.pair.projector, self.skew[1], "projector")?])
+    }
+
     /// The two lenses, the rotation and the translation.
     pub fn parts(&self) -> Result<([FisheyeLens; 2], Matrix3<f64>, Vector3<f64>)> {
-        Ok(([self.camera.lens()?, self.projector.lens()?], Matrix3::from_fn(|i, j| self.rotation[i][j]), Vector3::from(self.translation)))
+        Ok((self.lenses()?, Matrix3::from_fn(|i, j| self.pair.rotation[i][j]), Vector3::from(self.pair.translation)))
     }
 }
 
@@ -119,15 +88,14 @@ pub fn calibrate_fisheye_pair(obj: &[Point2], pairs: &[(String, Vec<Point2>, Vec
     })?;
     let obj3: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
     let poses2: Vec<_> = fit.poses.iter().map(|p| fit.stereo.after(p)).collect();
-    let device = |l: &FisheyeLens, views: &[Vec<Point2>], poses: &[crate::calib::model::Pose]| FisheyeDevice {
+    let device = |l: &FisheyeLens, views: &[Vec<Point2>], poses: &[crate::calib::model::Pose]| DeviceCalibration {
         width,
         height,
         fx: l.fx,
         fy: l.fy,
         cx: l.cx,
         cy: l.cy,
-        skew: l.skew,
-        distortion: l.k,
+        distortion: l.k.to_vec(),
         rms_px: rms(l, &obj3, views, poses),
     };
     let captures = pairs
@@ -149,11 +117,14 @@ pub fn calibrate_fisheye_pair(obj: &[Point2], pairs: &[(String, Vec<Point2>, Vec
     let r = fit.stereo.r();
     Ok(FisheyeStereoCalibration {
         model: "fisheye".into(),
-        camera: device(&fit.lens[0], &v1, &fit.poses),
-        projector: device(&fit.lens[1], &v2, &poses2),
-        rotation: [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
-        translation: [fit.stereo.t[0], fit.stereo.t[1], fit.stereo.t[2]],
-        rms_px: fit.rms_px,
-        captures,
+        skew: [fit.lens[0].skew, fit.lens[1].skew],
+        pair: ProcamCalibration {
+            camera: device(&fit.lens[0], &v1, &fit.poses),
+            projector: device(&fit.lens[1], &v2, &poses2),
+            rotation: [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
+            translation: [fit.stereo.t[0], fit.stereo.t[1], fit.stereo.t[2]],
+            rms_px: fit.rms_px,
+            captures,
+        },
     })
 }
