@@ -174,15 +174,11 @@ def init_undistort_rectify_map(K, D, R, P, size, m1type=CV_32FC1):
         raise ValueError(f"m1type: only CV_32FC1 ({CV_32FC1}) float maps, got {m1type}")
     w, h = _pair(size, "size", 1)
     p = _left_3x3(K if P is None else P, "P")
-    inv = _np.linalg.inv(p @ _rotation(R))
-    j, i = _np.meshgrid(_np.arange(w, dtype=float), _np.arange(h, dtype=float))
-    ray = _np.stack([j.ravel(), i.ravel(), _np.ones(w * h)], axis=1) @ inv.T
-    with _np.errstate(divide="ignore", invalid="ignore"):
-        xy = ray[:, :2] / ray[:, 2:3]
-    ahead = ray[:, 2] > 0
-    out = _np.full((w * h, 2), _np.nan)
-    out[ahead] = distort_points(xy[ahead], K, D)
-    return out[:, 0].reshape(h, w).astype(_np.float32), out[:, 1].reshape(h, w).astype(_np.float32)
+    k, d = _lens(K, D)
+    flat = _lucent.fisheye_undistort_rectify_map_flat(k, d, [float(v) for v in _rotation(R).ravel()],
+                                                      [float(v) for v in p.ravel()], w, h)
+    out = _np.asarray(flat, dtype=float).reshape(h, w, 2)
+    return out[:, :, 0].astype(_np.float32), out[:, :, 1].astype(_np.float32)
 
 
 def estimate_new_camera_matrix_for_undistort_rectify(K, D, image_size, R=None, balance=0.0, new_size=None, fov_scale=1.0):

@@ -244,3 +244,18 @@ pub fn fisheye_solve_pnp_ransac_flat(object: Vec<f64>, pixels: Vec<f64>, k: [f64
     let r = scan::calib::fisheye::pnp::solve_pnp_ransac_fisheye(&obj, &px, &l, guess, &settings, 0).map_err(|e| value(format!("{e:#}")))?;
     Ok(r.map(|r| ([r.pose.rvec[0], r.pose.rvec[1], r.pose.rvec[2]], [r.pose.t[0], r.pose.t[1], r.pose.t[2]], r.inliers, r.rms_px)))
 }
+
+/// `cv2.fisheye.initUndistortRectifyMap`'s float maps, flat (x, y per pixel of the `w` × `h`
+/// output, row-major): the pinhole `p` (3×3, row-major) turned by `r` (3×3, row-major) from the
+/// fisheye lens `k`, `d`; NaN where a pixel's ray lies at or behind the camera's plane
+/// (`scan::calib::fisheye::rectify::undistort_rectify_map_fisheye`).
+#[pyfunction]
+pub fn fisheye_undistort_rectify_map_flat(k: [f64; 9], d: [f64; 4], r: [f64; 9], p: [f64; 9], w: usize, h: usize) -> PyResult<Vec<f64>> {
+    let l = lens(k, d)?;
+    if !r.iter().chain(p.iter()).all(|v| v.is_finite()) {
+        return Err(value("R, P: must be finite"));
+    }
+    let (rm, pm) = (nalgebra::Matrix3::from_row_slice(&r), nalgebra::Matrix3::from_row_slice(&p));
+    let map = scan::calib::fisheye::rectify::undistort_rectify_map_fisheye(&l, &rm, &pm, w, h).map_err(|e| value(format!("R, P: {e:#}")))?;
+    Ok(map.into_iter().flatten().collect())
+}

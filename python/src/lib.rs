@@ -57,6 +57,7 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fisheye::fisheye_stereo_rectify_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::fisheye_solve_pnp_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::fisheye_solve_pnp_ransac_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(fisheye::fisheye_undistort_rectify_map_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_procam_json, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
