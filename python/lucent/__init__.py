@@ -75,6 +75,14 @@ __all__ = [
     "CALIB_USE_EXTRINSIC_GUESS",
     "CALIB_ZERO_DISPARITY",
     "SOLVEPNP_ITERATIVE",
+    "SOLVEPNP_EPNP",
+    "SOLVEPNP_P3P",
+    "SOLVEPNP_AP3P",
+    "SOLVEPNP_IPPE",
+    "SOLVEPNP_IPPE_SQUARE",
+    "SOLVEPNP_SQPNP",
+    "solve_pnp_generic",
+    "solve_pnp_refine_lm",
     "solve_pnp_ransac",
     "CALIB_FIX_SKEW",
     "CALIB_USE_LU",
@@ -955,30 +963,64 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     return (rms, k1, _np.asarray(d1, dtype=float).reshape(1, -1), k2, _np.asarray(d2, dtype=float).reshape(1, -1), r, t, e, f)
 
 
+# OpenCV 5's numbers (OpenCV 4 had DLS 3 and UPNP 4, and numbered the last four 5-8).
 SOLVEPNP_ITERATIVE = 0
+SOLVEPNP_EPNP = 1
+SOLVEPNP_P3P = 2
+SOLVEPNP_AP3P = 3
+SOLVEPNP_IPPE = 4
+SOLVEPNP_IPPE_SQUARE = 5
+SOLVEPNP_SQPNP = 6
 
 
-def _solve_pnp_with(solver, object_points, image_points, lens, rvec, tvec, useExtrinsicGuess, flags):
-    """The argument handling of :func:`solve_pnp` and :func:`lucent.fisheye.solve_pnp` around
-    their Rust solver (flat points, the lens as ``lens`` = (k, d), the guess or None)."""
-    if flags != SOLVEPNP_ITERATIVE:
-        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
+def _pnp_points(object_points, image_points):
+    """Object and image points as flat float lists (N × 3 and N × 2)."""
     obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
     img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    return [float(v) for v in obj.ravel()], [float(v) for v in img.ravel()]
+
+
+def _pinhole_generic(lens):
+    """The closed-form methods' solver for the pinhole ``lens`` = (k, d): (object, image, flags)
+    → [(rvec, tvec, rms)], best first."""
     k, d = lens
-    r, t, _ = solver([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d,
-                     _pnp_guess(rvec, tvec, useExtrinsicGuess))
+    return lambda obj, img, flags: _lucent.solve_pnp_generic_flat(obj, img, k, d, int(flags))
+
+
+def _check_flags(flags):
+    if isinstance(flags, bool) or not isinstance(flags, (int, _np.integer)) or not 0 <= int(flags) <= SOLVEPNP_SQPNP:
+        raise ValueError(f"flags: expected one of OpenCV 5's SOLVEPNP_* methods (0-6), got {flags!r}")
+    return int(flags)
+
+
+def _solve_pnp_with(solver, object_points, image_points, lens, rvec, tvec, useExtrinsicGuess, flags, generic=None):
+    """The argument handling of :func:`solve_pnp` and :func:`lucent.fisheye.solve_pnp` around
+    their Rust solvers: ``solver`` for ``SOLVEPNP_ITERATIVE`` (flat points, the lens as ``lens`` =
+    (k, d), the guess or None), ``generic`` (default: the pinhole lens's) for the other methods."""
+    flags = _check_flags(flags)
+    obj, img = _pnp_points(object_points, image_points)
+    if flags != SOLVEPNP_ITERATIVE:
+        # OpenCV ignores the guess for the other methods.
+        r, t, _ = (generic or _pinhole_generic(lens))(obj, img, flags)[0]
+    else:
+        k, d = lens
+        r, t, _ = solver(obj, img, k, d, _pnp_guess(rvec, tvec, useExtrinsicGuess))
     return True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1)
 
 
 def solve_pnp(object_points, image_points, camera_matrix, dist_coeffs, rvec=None, tvec=None,
               useExtrinsicGuess=False, flags=SOLVEPNP_ITERATIVE):
-    """The pose of a known object from its image, as ``cv2.solvePnP`` (``SOLVEPNP_ITERATIVE``):
-    a closed-form start (the plane's homography for coplanar points, at least 4; the direct linear
-    transform otherwise, at least 6), or ``rvec``, ``tvec`` with ``useExtrinsicGuess`` (at least
-    4 points), then Levenberg–Marquardt on the reprojection error through the full lens model
-    (lucent's own implementation). Other ``flags`` (OpenCV's P3P, EPnP, IPPE, …) raise
-    ``ValueError``.
+    """The pose of a known object from its image, as ``cv2.solvePnP``. With
+    ``SOLVEPNP_ITERATIVE`` (the default): a closed-form start (the plane's homography for
+    coplanar points, at least 4; the direct linear transform otherwise, at least 6), or ``rvec``,
+    ``tvec`` with ``useExtrinsicGuess`` (at least 4 points), then Levenberg–Marquardt on the
+    reprojection error through the full lens model. The other ``flags`` are OpenCV's
+    non-iterative methods, on the pixels taken through the lens's inverse and without a refinement
+    in pixels (:func:`solve_pnp_generic`; lucent's own implementations), numbered as in OpenCV 5:
+    ``SOLVEPNP_EPNP``, ``SOLVEPNP_P3P`` and
+    ``SOLVEPNP_AP3P`` (exactly 4 points), ``SOLVEPNP_IPPE`` (points on a plane),
+    ``SOLVEPNP_IPPE_SQUARE`` (a square's corners in OpenCV's order) and ``SOLVEPNP_SQPNP`` (at
+    least 3 points).
 
     Parameters
     ----------
@@ -1010,19 +1052,67 @@ def _pnp_guess(rvec, tvec, useExtrinsicGuess):
     return (tuple(float(v) for v in rv), tuple(float(v) for v in tv))
 
 
+def solve_pnp_generic(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvecs=None, tvecs=None, useExtrinsicGuess=False,
+                      flags=SOLVEPNP_ITERATIVE, rvec=None, tvec=None, reprojectionError=None):
+    """Every pose a method finds, best first, as ``cv2.solvePnPGeneric``: one for
+    ``SOLVEPNP_ITERATIVE``, EPnP, P3P/AP3P (the fourth point choosing among the three's poses) and
+    SQPnP (its global minimum of the object-space error); two for IPPE and IPPE_SQUARE (a plane's
+    two poses). The closed-form methods (``scan::calib::pnp``'s ``epnp``, ``p3p``, ``ippe``,
+    ``sqpnp``; lucent's own implementations) run on the pixels taken exactly through the lens's
+    inverse (OpenCV's ``undistortPoints`` stops after 5 fixed-point steps) and are not refined in
+    pixels; :func:`solve_pnp_refine_lm` refines any of them. IPPE's homography is the
+    Hartley-normalised direct linear transform (OpenCV's is Harker and O'Leary's; they agree on
+    exact data). ``rvecs``, ``tvecs`` and ``reprojectionError`` are OpenCV's output arguments and
+    are ignored.
+
+    Returns
+    -------
+    (retval, rvecs, tvecs, reprojectionError)
+        The number of poses, tuples of (3, 1) Rodrigues vectors and translations, and an (n, 1)
+        array of each pose's RMS reprojection error as OpenCV defines it (over the 2N coordinates,
+        pixels). Bad input and configurations with no pose raise ``ValueError``.
+    """
+    flags = _check_flags(flags)
+    k, d = _camera_args(cameraMatrix, distCoeffs)
+    obj, img = _pnp_points(objectPoints, imagePoints)
+    guess = _pnp_guess(rvec, tvec, useExtrinsicGuess) if flags == SOLVEPNP_ITERATIVE else None
+    poses = _lucent.solve_pnp_generic_flat(obj, img, k, d, flags, guess)
+    rv = tuple(_np.asarray(r, dtype=float).reshape(3, 1) for r, _, _ in poses)
+    tv = tuple(_np.asarray(t, dtype=float).reshape(3, 1) for _, t, _ in poses)
+    err = _np.asarray([e / _np.sqrt(2.0) for _, _, e in poses], dtype=float).reshape(-1, 1)
+    return len(poses), rv, tv, err
+
+
+def solve_pnp_refine_lm(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec, tvec, criteria=None):
+    """A pose refined from ``rvec``, ``tvec`` by Levenberg–Marquardt on the reprojection error
+    through the full lens, as ``cv2.solvePnPRefineLM`` (at least 4 points; lucent iterates to
+    convergence, so ``criteria`` is ignored).
+
+    Returns
+    -------
+    (rvec, tvec)
+        (3, 1) arrays.
+    """
+    _, r, t = solve_pnp(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec, tvec, useExtrinsicGuess=True)
+    return r, t
+
+
 def _solve_pnp_ransac_with(solver, object_points, image_points, lens, rvec, tvec, useExtrinsicGuess, iterationsCount,
-                           reprojectionError, confidence, flags):
+                           reprojectionError, confidence, flags, generic=None):
     """The argument handling of :func:`solve_pnp_ransac` and :func:`lucent.fisheye.solve_pnp_ransac`."""
-    if flags != SOLVEPNP_ITERATIVE:
-        raise ValueError(f"flags: only SOLVEPNP_ITERATIVE (0) is implemented, got {flags}")
-    obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
-    img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    flags = _check_flags(flags)
+    obj, img = _pnp_points(object_points, image_points)
     k, d = lens
-    out = solver([float(v) for v in obj.ravel()], [float(v) for v in img.ravel()], k, d,
-                 _pnp_guess(rvec, tvec, useExtrinsicGuess), int(iterationsCount), float(reprojectionError), float(confidence))
+    out = solver(obj, img, k, d, _pnp_guess(rvec, tvec, useExtrinsicGuess), int(iterationsCount), float(reprojectionError), float(confidence))
     if out is None:
         return False, None, None, None
     r, t, inliers, _ = out
+    if flags != SOLVEPNP_ITERATIVE:
+        # The final pose by the method asked for on the inliers (EPnP for P3P and AP3P, as OpenCV).
+        method = SOLVEPNP_EPNP if flags in (SOLVEPNP_P3P, SOLVEPNP_AP3P) else flags
+        sub_obj = [v for i in inliers for v in obj[3 * i:3 * i + 3]]
+        sub_img = [v for i in inliers for v in img[2 * i:2 * i + 2]]
+        r, t, _ = (generic or _pinhole_generic(lens))(sub_obj, sub_img, method)[0]
     return (True, _np.asarray(r, dtype=float).reshape(3, 1), _np.asarray(t, dtype=float).reshape(3, 1),
             _np.asarray(inliers, dtype=_np.int32).reshape(-1, 1))
 
@@ -1036,7 +1126,9 @@ def solve_pnp_ransac(object_points, image_points, camera_matrix, dist_coeffs, rv
     ``reprojectionError`` pixels through the full lens kept, at most ``iterationsCount`` sets
     and no more than ``confidence`` asks, then the pose refined on its inliers. OpenCV poses its
     sets of five with EPnP; on the same data both find the same inliers and, refined on them, the
-    same pose.
+    same pose. With other ``flags`` the final pose on the inliers is that method's
+    (:func:`solve_pnp_generic`; EPnP for ``SOLVEPNP_P3P`` and ``SOLVEPNP_AP3P``, as OpenCV); the
+    hypotheses stay lucent's.
 
     Returns (retval, rvec, tvec, inliers) as OpenCV: True, the (3, 1) Rodrigues vector and
     translation, and the inliers' indices as an (M, 1) int32 array; (False, None, None, None) when

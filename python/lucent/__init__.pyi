@@ -87,10 +87,26 @@ def stereo_calibrate(object_points: Sequence[npt.ArrayLike], image_points1: Sequ
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(rms, K1, D1, K2, D2, R, T, E, F) of two cameras from one planar target (cv2.stereoCalibrate; flags 0 fits everything; CALIB_USE_EXTRINSIC_GUESS starts from R, T)."""
 SOLVEPNP_ITERATIVE: int
+SOLVEPNP_EPNP: int
+SOLVEPNP_P3P: int
+SOLVEPNP_AP3P: int
+SOLVEPNP_IPPE: int
+SOLVEPNP_IPPE_SQUARE: int
+SOLVEPNP_SQPNP: int
+def solve_pnp_generic(objectPoints: npt.ArrayLike, imagePoints: npt.ArrayLike, cameraMatrix: npt.ArrayLike,
+                      distCoeffs: Optional[npt.ArrayLike], rvecs: Any = None, tvecs: Any = None, useExtrinsicGuess: bool = False,
+                      flags: int = 0, rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,
+                      reprojectionError: Any = None
+                      ) -> Tuple[int, Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...], npt.NDArray[np.float64]]:
+    """(count, rvecs, tvecs, reprojectionError) of every pose a SOLVEPNP_* method finds, best first (cv2.solvePnPGeneric)."""
+def solve_pnp_refine_lm(objectPoints: npt.ArrayLike, imagePoints: npt.ArrayLike, cameraMatrix: npt.ArrayLike,
+                        distCoeffs: Optional[npt.ArrayLike], rvec: npt.ArrayLike, tvec: npt.ArrayLike, criteria: Any = None
+                        ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(rvec, tvec) refined by Levenberg-Marquardt on the reprojection error (cv2.solvePnPRefineLM)."""
 def solve_pnp(object_points: npt.ArrayLike, image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
               dist_coeffs: Optional[npt.ArrayLike], rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,
               useExtrinsicGuess: bool = False, flags: int = 0) -> Tuple[bool, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """(True, rvec, tvec) of a known object seen by a calibrated camera (cv2.solvePnP, iterative; useExtrinsicGuess starts from rvec, tvec)."""
+    """(True, rvec, tvec) of a known object seen by a calibrated camera (cv2.solvePnP; flags: SOLVEPNP_ITERATIVE (useExtrinsicGuess starts from rvec, tvec), EPNP, P3P, AP3P, IPPE, IPPE_SQUARE, SQPNP)."""
 def solve_pnp_ransac(object_points: npt.ArrayLike, image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
                      dist_coeffs: Optional[npt.ArrayLike], rvec: Optional[npt.ArrayLike] = None, tvec: Optional[npt.ArrayLike] = None,
                      useExtrinsicGuess: bool = False, iterationsCount: int = 100, reprojectionError: float = 8.0,

@@ -250,7 +250,7 @@ def solve_pnp(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tv
     camera transform.
     """
     return _solve_pnp_with(_lucent.fisheye_solve_pnp_flat, objectPoints, imagePoints, _lens(cameraMatrix, distCoeffs), rvec,
-                           tvec, useExtrinsicGuess, flags)
+                           tvec, useExtrinsicGuess, flags, _pinhole_generic_of(cameraMatrix, distCoeffs))
 
 
 def solve_pnp_ransac(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tvec=None, useExtrinsicGuess=False,
@@ -265,7 +265,27 @@ def solve_pnp_ransac(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=N
     """
     return _solve_pnp_ransac_with(_lucent.fisheye_solve_pnp_ransac_flat, objectPoints, imagePoints,
                                   _lens(cameraMatrix, distCoeffs), rvec, tvec, useExtrinsicGuess, iterationsCount,
-                                  reprojectionError, confidence, flags)
+                                  reprojectionError, confidence, flags, _pinhole_generic_of(cameraMatrix, distCoeffs))
+
+
+def _pinhole_generic_of(K, D):
+    """OpenCV's non-iterative ``SOLVEPNP_*`` methods for a fisheye camera: the pixels through the
+    lens's inverse to those of the distortion-free pinhole camera with K's fx, fy, cx, cy (the
+    skew left out), then :func:`lucent.solve_pnp_generic`'s solver there, as OpenCV's
+    ``fisheye::solvePnP`` (``undistortPoints`` with P = K, then ``solvePnP``)."""
+    k = _np.asarray(K, dtype=float).reshape(3, 3)
+    pin = [k[0, 0], 0.0, k[0, 2], 0.0, k[1, 1], k[1, 2], 0.0, 0.0, 1.0]
+
+    def solve(obj, img, flags):
+        x = undistort_points(_np.asarray(img, dtype=float).reshape(-1, 1, 2), K, D).reshape(-1, 2)
+        bad = ~_np.isfinite(x).all(axis=1)
+        if bad.any():
+            i = int(_np.flatnonzero(bad)[0])
+            raise ValueError(f"image point {i} has no ray: it lies beyond the range where the lens's θ_d increases")
+        px = _np.c_[pin[0] * x[:, 0] + pin[2], pin[4] * x[:, 1] + pin[5]]
+        return _lucent.solve_pnp_generic_flat(obj, [float(v) for v in px.ravel()], pin, [], int(flags))
+    return solve
+
 
 
 def undistort_image(distorted, K, D, Knew=None, new_size=None):

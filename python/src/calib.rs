@@ -189,6 +189,22 @@ pub fn solve_pnp_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec
     Ok(([pose.rvec[0], pose.rvec[1], pose.rvec[2]], [pose.t[0], pose.t[1], pose.t[2]], rms))
 }
 
+/// `cv2.solvePnPGeneric`: the poses of OpenCV's method `flag` (`scan::calib::pnp::Method`), best
+/// first, each as (Rodrigues vector, translation, RMS reprojection error in pixels); `guess` is
+/// used by `SOLVEPNP_ITERATIVE` only.
+#[pyfunction]
+#[pyo3(signature = (object, pixels, k, dist, flag, guess=None))]
+#[allow(clippy::type_complexity)]
+pub fn solve_pnp_generic_flat(object: Vec<f64>, pixels: Vec<f64>, k: Vec<f64>, dist: Vec<f64>, flag: i64, guess: Option<([f64; 3], [f64; 3])>) -> PyResult<Vec<([f64; 3], [f64; 3], f64)>> {
+    let lens = lens_of(&k, &dist, "camera_matrix", "dist_coeffs")?;
+    let method = scan::calib::pnp::Method::from_opencv(flag).ok_or_else(|| value(format!("flags: {flag} is none of OpenCV 5's SOLVEPNP_* methods (0-6)")))?;
+    let obj: Vec<[f64; 3]> = object.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let px: Vec<[f64; 2]> = pixels.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let guess = guess.map(|(r, t)| scan::calib::model::Pose { rvec: r.into(), t: t.into() });
+    let poses = scan::calib::pnp::solve_pnp_generic(&obj, &px, &lens, method, guess).map_err(|e| value(format!("{e:#}")))?;
+    Ok(poses.into_iter().map(|(p, rms)| ([p.rvec[0], p.rvec[1], p.rvec[2]], [p.t[0], p.t[1], p.t[2]], rms)).collect())
+}
+
 /// `lucent scan calibrate` on capture folders: the calibration JSON it writes.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]

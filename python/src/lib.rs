@@ -45,6 +45,7 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calib::undistort_rectify_map_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::triangulate_points_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::solve_pnp_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(calib::solve_pnp_generic_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::solve_pnp_ransac_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_camera_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::fisheye_project_flat, m)?)?;

@@ -14,15 +14,159 @@
 //!   central-difference derivatives, until the step or the relative decrease of the squared error
 //!   falls below 10⁻¹⁴, at most 200 iterations.
 
+//!
+//! OpenCV's other methods are [`solve_pnp_generic`] with a [`Method`]: EPnP (`epnp`), P3P on
+//! three points with a fourth to choose among its poses (`p3p`), SQPnP (`sqpnp`) and IPPE for
+//! points on a plane (`ippe`). Like OpenCV's, they run on the pixels taken through the lens's
+//! inverse and return their own closed-form or globally optimal pose without a refinement in
+//! pixels; [`solve_pnp_from`] refines any of them (OpenCV's `solvePnPRefineLM`).
+
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod epnp;
+mod ippe;
+mod p3p;
+mod sqpnp;
+
 use anyhow::{bail, Result};
 use nalgebra::{DMatrix, Matrix3, Matrix6, SVector, Vector3, Vector6};
+use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
 
 use super::homography::{fit_homography, Point2};
 use super::model::{nearest_rotation, Lens, Pose};
 use super::zhang::pose_from_homography;
+
+/// OpenCV's `SolvePnPMethod`s, with OpenCV 5's numbers ([`Method::from_opencv`]; OpenCV 4
+/// numbered AP3P 5, IPPE 6, IPPE_SQUARE 7 and SQPNP 8, with DLS 3 and UPnP 4 falling back to
+/// EPnP).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// `SOLVEPNP_ITERATIVE` (0): closed-form start, then Levenberg–Marquardt in pixels.
+    Iterative,
+    /// `SOLVEPNP_EPNP` (1).
+    Epnp,
+    /// `SOLVEPNP_P3P` (2) and `SOLVEPNP_AP3P` (3): exactly 4 points, the first three posed,
+    /// the fourth choosing among their poses.
+    P3p,
+    /// `SOLVEPNP_IPPE` (4): points on a plane, at least 4.
+    Ippe,
+    /// `SOLVEPNP_IPPE_SQUARE` (5): the corners of a square of side s, (−s/2, s/2, 0),
+    /// (s/2, s/2, 0), (s/2, −s/2, 0), (−s/2, −s/2, 0) in that order.
+    IppeSquare,
+    /// `SOLVEPNP_SQPNP` (6): at least 3 points.
+    Sqpnp,
+}
+
+impl Method {
+    /// The method of OpenCV's flag value; None for a value OpenCV does not define.
+    pub fn from_opencv(flag: i64) -> Option<Method> {
+        Some(match flag {
+            0 => Method::Iterative,
+            1 => Method::Epnp,
+            2 | 3 => Method::P3p,
+            4 => Method::Ippe,
+            5 => Method::IppeSquare,
+            6 => Method::Sqpnp,
+            _ => return None,
+        })
+    }
+}
+
+/// The poses of [`Method`] `method` for the points `obj` seen at pixels `px` by `lens`, each with
+/// its RMS reprojection error (pixels, through the full lens), best first, as OpenCV's
+/// `solvePnPGeneric` (IPPE returns its two poses; the others one). `guess` is used by
+/// `Method::Iterative` only (OpenCV's `useExtrinsicGuess`). Errors are one line: too few points,
+/// a layout the method does not take, non-finite values, a pixel the lens's inverse does not
+/// reach, or no pose.
+pub fn solve_pnp_generic(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, method: Method, guess: Option<Pose>) -> Result<Vec<(Pose, f64)>> {
+    if method == Method::Iterative {
+        return Ok(vec![solve_pnp_from(obj, px, lens, guess)?]);
+    }
+    if obj.len() != px.len() {
+        bail!("{} object points but {} image points", obj.len(), px.len());
+    }
+    if obj.iter().flatten().chain(px.iter().flatten()).any(|v| !v.is_finite()) {
+        bail!("object and image points must be finite");
+    }
+    let least = if method == Method::Sqpnp { 3 } else { 4 };
+    if obj.len() < least {
+        bail!("a pose by {method:?} needs at least {least} points, got {}", obj.len());
+    }
+    let x: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::from(*p)).collect();
+    let m = normalised(px, lens)?;
+    let poses: Vec<(Matrix3<f64>, Vector3<f64>)> = match method {
+        Method::Iterative => unreachable!(),
+        Method::Epnp => epnp::epnp(&x, &m, lens.fx, lens.fy).into_iter().collect(),
+        Method::P3p => {
+            if x.len() != 4 {
+                bail!("P3P takes exactly 4 points (3 posed, the fourth choosing), got {}", x.len());
+            }
+            let cands = p3p::p3p(&[x[0], x[1], x[2]], &[m[0], m[1], m[2]]);
+            // The pose whose projection of the fourth point lies nearest its pixel.
+            let err4 = |(r, t): &(Matrix3<f64>, Vector3<f64>)| {
+                let c = r * x[3] + t;
+                let (du, dv) = (lens.fx * (c[0] / c[2] - m[3][0]), lens.fy * (c[1] / c[2] - m[3][1]));
+                if c[2] > 0.0 { du * du + dv * dv } else { f64::INFINITY }
+            };
+            cands.into_iter().min_by(|a, b| err4(a).total_cmp(&err4(b))).into_iter().collect()
+        }
+        Method::Ippe | Method::IppeSquare => {
+            if method == Method::IppeSquare {
+                if x.len() != 4 {
+                    bail!("IPPE_SQUARE takes exactly the 4 corners of a square, got {} points", x.len());
+                }
+                let s = x[1][0] - x[0][0];
+                let want = [[-s / 2.0, s / 2.0], [s / 2.0, s / 2.0], [s / 2.0, -s / 2.0], [-s / 2.0, -s / 2.0]];
+                let tol = 1e-9 * s.abs().max(1e-300);
+                if !(s > 0.0) || x.iter().zip(want).any(|(p, w)| (p[0] - w[0]).abs() > tol || (p[1] - w[1]).abs() > tol || p[2].abs() > tol) {
+                    bail!("IPPE_SQUARE: the object points must be the corners of a square, (-s/2, s/2, 0), (s/2, s/2, 0), (s/2, -s/2, 0), (-s/2, -s/2, 0) with s > 0");
+                }
+            }
+            if !coplanar(&x) {
+                bail!("IPPE needs object points on one plane");
+            }
+            ippe::ippe(&x, &m).ok_or_else(|| anyhow::anyhow!("the points determine no homography (collinear?)"))?
+        }
+        Method::Sqpnp => {
+            let start = closed_form_start(&x, &m).ok().map(|p| p.r());
+            sqpnp::sqpnp(&x, &m, start).into_iter().collect()
+        }
+    };
+    let mut out: Vec<(Pose, f64)> = poses
+        .into_iter()
+        .map(|(r, t)| {
+            let pose = Pose::from_rt(&r, t);
+            (pose, (sq_error(&x, px, lens, &pose) / px.len() as f64).sqrt())
+        })
+        .collect();
+    if out.is_empty() {
+        bail!("{method:?} found no pose (degenerate configuration)");
+    }
+    out.sort_by(|a, b| a.1.total_cmp(&b.1));
+    Ok(out)
+}
+
+/// The pixels taken through the lens's inverse to normalised coordinates ((x/z, y/z) of their
+/// rays): exactly (Newton's method), where OpenCV's `undistortPoints` stops after 5 fixed-point
+/// steps.
+fn normalised(px: &[Point2], lens: &Lens) -> Result<Vec<Point2>> {
+    let [k1, k2, p1, p2, k3] = lens.dist;
+    let [k4, k5, k6] = lens.rational;
+    let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: lens.prism, tau_rad: lens.tilt };
+    let intr = Intrinsics { fx: lens.fx, fy: lens.fy, cx: lens.cx, cy: lens.cy };
+    let cam = OpenCv::unchecked(intr, d, Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?)?;
+    px.iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let (x, y, ok) = cam.undistort((q[0] - lens.cx) / lens.fx, (q[1] - lens.cy) / lens.fy);
+            if !ok {
+                bail!("image point {i} ({}, {}) has no ray through the lens's inverse", q[0], q[1]);
+            }
+            Ok([x, y])
+        })
+        .collect()
+}
 
 /// The pose (object → camera) of the points `obj` seen at pixels `px` by `lens`, and the RMS
 /// reprojection error (pixels). Errors are one line: too few points, points and pixels of
