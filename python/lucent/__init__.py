@@ -727,8 +727,11 @@ def find_chessboard_corners(image, pattern_size):
     -------
     (found, corners)
         ``found`` a bool; ``corners`` a (cols·rows, 1, 2) float32 array of pixel positions (OpenCV
-        convention, integers at pixel centres), row by row from the corner nearest the image's
-        top-left, or None when no such lattice is found. The array goes as it is into
+        convention, integers at pixel centres), row by row in OpenCV's handedness (rows run left
+        to right when the next row lies below, turned with the board), from the corner at the
+        black outer square where the board's ends differ in colour (cols + rows odd), as OpenCV
+        returns them, otherwise from the end nearer the image's top-left; None when no such
+        lattice is found. The array goes as it is into
         ``cv2.calibrateCamera`` or :func:`calibrate_camera`.
     """
     cols, rows = _pair(pattern_size, "pattern_size", 3)

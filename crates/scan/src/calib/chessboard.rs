@@ -17,16 +17,26 @@
 //!    steps of it and taken when a candidate lies within 0.3 of the local step. The board is found
 //!    when the lattice spans exactly cols × rows (either way round) with at most 3 holes (filled by
 //!    the prediction and then refined).
-//! 4. **Ordering.** Row-major with `cols` corners per row, as OpenCV's `findChessboardCorners`.
-//!    A board with an even × even or odd × odd square count looks the same rotated by 180°, so
-//!    the origin is fixed by a rule: of the labelings with `cols` corners per row, the one whose
-//!    corner 0 is nearest the image's top-left (smallest x + y) is taken.
+//! 4. **Ordering.** Row-major with `cols` corners per row, as OpenCV's `findChessboardCorners`,
+//!    with OpenCV's handedness: (p[cols−1] − p[0]) × (p[cols] − p[cols−1]) > 0 in pixels (rows run
+//!    left to right when the next row lies below, turned with the board), which every view of the
+//!    board's front shares, so that two cameras label the same physical corners alike. Where the
+//!    board's two ends differ in colour (an odd number of inner corners in all, e.g. 9 × 6),
+//!    corner 0 is the end whose outer square is dark, as OpenCV's detector returns it on the
+//!    photographs checked (sourishg/stereo-calibration, amoghesturi/Camera-Calibration, the
+//!    13 1920 × 1080 views of docs/scanning.md: every one). A board with an even × even or
+//!    odd × odd square count looks the same rotated by 180°, and there corner 0 is the end nearest
+//!    the image's top-left (smallest x + y).
 //! 5. **Refinement** as OpenCV's `cornerSubPix`: in a window around the estimate q every
 //!    gradient g at p is orthogonal to q − p at the true corner, so q solves
 //!    (Σ w g gᵀ) q = Σ w g gᵀ p (Gaussian weights w), iterated with bilinearly interpolated
 //!    central-difference gradients of the image blurred by σ = 1 px until the step is below 10⁻³ px.
 //!    An ideal X-junction is point-symmetric about its centre whatever the angle between its
 //!    lines, so the fixed point is the centre up to interpolation error.
+//! 6. **Scale.** The scales above are fixed in pixels (σ = 2, a ring of 5 px); where the image
+//!    gives no board, its halves (2 × 2 means) are searched down to 160 px on the short side and
+//!    the corners found there are refined in the full image (5-Mpixel photographs of squares of
+//!    75–120 px, or a board enlarged twice, are found at a coarser level).
 //!
 //! Pixel convention: OpenCV's (integer coordinates at pixel centres).
 
@@ -71,6 +81,20 @@ impl GrayImage {
         let c = self.px(ix, iy + 1) as f64;
         let d = self.px(ix + 1, iy + 1) as f64;
         (a * (1.0 - ax) + b * ax) * (1.0 - ay) + (c * (1.0 - ax) + d * ax) * ay
+    }
+
+    /// The image at half the resolution: each pixel the mean of a 2 × 2 block (an odd last row or
+    /// column is dropped).
+    pub fn half(&self) -> GrayImage {
+        let (w, h) = (self.width / 2, self.height / 2);
+        let mut data = Vec::with_capacity(w * h);
+        for y in 0..h {
+            let (r0, r1) = (&self.data[2 * y * self.width..], &self.data[(2 * y + 1) * self.width..]);
+            for x in 0..w {
+                data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
+            }
+        }
+        GrayImage { width: w, height: h, data }
     }
 
     /// Gaussian blur of standard deviation `sigma` pixels (separable, kernel ±3σ, clamped border).
@@ -363,11 +387,13 @@ fn predict(cands: &[Candidate], at: &BTreeMap<(i32, i32), usize>, q: (i32, i32))
     (p[0].is_finite() && p[1].is_finite()).then_some((p, step))
 }
 
-/// Row-major ordering with `cols` per row; corner 0 nearest the image's top-left.
-fn order(grid: &BTreeMap<(i32, i32), Point2>, cols: usize, rows: usize) -> Vec<Point2> {
+/// Row-major ordering with `cols` per row, OpenCV's handedness, and corner 0 by the module's
+/// rule (step 4): the dark outer square where the board's colours tell its ends apart, otherwise
+/// nearest the image's top-left. `smooth` is the image the colours are read from.
+fn order(grid: &BTreeMap<(i32, i32), Point2>, cols: usize, rows: usize, smooth: &GrayImage) -> Vec<Point2> {
     let (_, imax, _, _) = extent(grid.keys());
     let ni = (imax + 1) as usize;
-    let mut best: Option<(f64, f64, Vec<Point2>)> = None;
+    let mut labelings: Vec<Vec<Point2>> = Vec::with_capacity(8);
     for transpose in [false, true] {
         if (ni == cols) == transpose && cols != rows {
             continue;
@@ -382,15 +408,76 @@ fn order(grid: &BTreeMap<(i32, i32), Point2>, cols: usize, rows: usize) -> Vec<P
                         v.push(grid[&if transpose { (r2, c2) } else { (c2, r2) }]);
                     }
                 }
-                let key = v[0][0] + v[0][1];
-                let tie = v[1][1] - v[1][0];
-                if best.as_ref().map_or(true, |b| key < b.0 - 1e-9 || (key < b.0 + 1e-9 && tie < b.1)) {
-                    best = Some((key, tie, v));
-                }
+                labelings.push(v);
             }
         }
     }
-    best.unwrap().2
+    // OpenCV's handedness: (p[cols−1] − p[0]) × (p[cols] − p[cols−1]) > 0 (rows run left to right
+    // when the next row lies below), the same for every view of the board's front.
+    if rows > 1 && cols > 1 {
+        let hand = |v: &Vec<Point2>| {
+            let (p0, p1, p2) = (v[0], v[cols - 1], v[cols]);
+            (p1[0] - p0[0]) * (p2[1] - p1[1]) - (p1[1] - p0[1]) * (p2[0] - p1[0])
+        };
+        labelings.retain(|v| hand(v) > 0.0);
+    }
+    // The colour of the square outside corner 0 where the board's ends differ in colour (cols +
+    // rows odd) and the image shows it by more than half the board's contrast: the dark one first.
+    if rows > 1 && cols > 1 && (cols + rows) % 2 == 1 {
+        let outer = |v: &Vec<Point2>| {
+            let (p0, a, d) = (v[0], sub(v[1], v[0]), sub(v[cols], v[0]));
+            square_level(smooth, [p0[0] - 0.5 * (a[0] + d[0]), p0[1] - 0.5 * (a[1] + d[1])], a, d)
+        };
+        let levels: Vec<Option<f64>> = labelings.iter().map(outer).collect();
+        if let Some(levels) = levels.iter().copied().collect::<Option<Vec<f64>>>() {
+            let (lo, hi) = levels.iter().fold((f64::MAX, f64::MIN), |(a, b), &l| (a.min(l), b.max(l)));
+            let v = &labelings[0];
+            let (a, d) = (sub(v[1], v[0]), sub(v[cols], v[0]));
+            // Two adjacent inner squares give the board's contrast.
+            let centre = |p: Point2| [p[0] + 0.5 * (a[0] + d[0]), p[1] + 0.5 * (a[1] + d[1])];
+            let contrast = match (square_level(smooth, centre(v[0]), a, d), square_level(smooth, centre(v[1]), a, d)) {
+                (Some(x), Some(y)) => (x - y).abs(),
+                _ => 0.0,
+            };
+            if hi - lo > 0.5 * contrast && contrast > 0.0 {
+                let mid = 0.5 * (lo + hi);
+                let keep: Vec<bool> = levels.iter().map(|&l| l < mid).collect();
+                let mut k = keep.iter();
+                labelings.retain(|_| *k.next().unwrap());
+            }
+        }
+    }
+    // Of what is left, corner 0 nearest the image's top-left (smallest x + y).
+    let mut best: Option<(f64, f64, Vec<Point2>)> = None;
+    for v in labelings {
+        let key = v[0][0] + v[0][1];
+        let tie = v[1][1] - v[1][0];
+        if best.as_ref().map_or(true, |b| key < b.0 - 1e-9 || (key < b.0 + 1e-9 && tie < b.1)) {
+            best = Some((key, tie, v));
+        }
+    }
+    best.expect("a lattice has a labeling of either handedness").2
+}
+
+fn sub(a: Point2, b: Point2) -> Point2 {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+/// The mean grey level over the middle of the square centred at `c` with edge vectors `a`, `d`
+/// (a 5 × 5 grid over its central half); None when that part leaves the image.
+fn square_level(img: &GrayImage, c: Point2, a: Point2, d: Point2) -> Option<f64> {
+    let mut sum = 0.0;
+    for i in -2..=2 {
+        for j in -2..=2 {
+            let (u, v) = (i as f64 / 8.0, j as f64 / 8.0);
+            let (x, y) = (c[0] + u * a[0] + v * d[0], c[1] + u * a[1] + v * d[1]);
+            if !(x >= 0.0 && y >= 0.0 && x <= (img.width - 1) as f64 && y <= (img.height - 1) as f64) {
+                return None;
+            }
+            sum += img.bilinear(x, y);
+        }
+    }
+    Some(sum / 25.0)
 }
 
 /// Sub-pixel refinement of `corners` (OpenCV `cornerSubPix`) on the image blurred by σ = 1 px
@@ -451,14 +538,42 @@ fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, ite
 }
 
 /// Find the `cols` × `rows` inner corners of a chessboard, row-major, refined to sub-pixel
-/// accuracy; None when no such lattice is found.
+/// accuracy; None when no such lattice is found. Where the image itself gives none, its halves
+/// are searched in turn (2 × 2 means, down to 160 pixels on the short side: the detector's
+/// scales are fixed in pixels, so large or soft squares are found at a coarser level) and the
+/// corners found there are refined again in the full image.
 pub fn find_chessboard(img: &GrayImage, cols: usize, rows: usize) -> Option<Vec<Point2>> {
+    if let Some(c) = find_at_scale(img, cols, rows) {
+        return Some(c);
+    }
+    let mut level = img.clone();
+    let mut scale = 1.0;
+    while level.width.min(level.height) >= 320 {
+        level = level.half();
+        scale *= 2.0;
+        if let Some(c) = find_at_scale(&level, cols, rows) {
+            // A pixel centre x of the half image lies at 2x + 0.5 in the full one.
+            let mut corners: Vec<Point2> = c.iter().map(|p| [scale * p[0] + 0.5 * (scale - 1.0), scale * p[1] + 0.5 * (scale - 1.0)]).collect();
+            refine(img, &mut corners, cols, rows);
+            return Some(corners);
+        }
+    }
+    None
+}
+
+/// [`find_chessboard`] at the image's own scale.
+fn find_at_scale(img: &GrayImage, cols: usize, rows: usize) -> Option<Vec<Point2>> {
     let smooth = img.blur(2.0);
     let mut cands = candidates(&smooth);
     cands.sort_by(|a, b| b.response.total_cmp(&a.response));
     let grid = cands.iter().take(40).enumerate().find_map(|(s, _)| grow(&cands, s, cols, rows))?;
-    let mut corners = order(&grid, cols, rows);
-    // Window: at most a third of the smallest corner spacing, 3…11 px.
+    let mut corners = order(&grid, cols, rows, &smooth);
+    refine(img, &mut corners, cols, rows);
+    Some(corners)
+}
+
+/// Sub-pixel refinement with a window of a third of the smallest corner spacing, 3…11 px.
+fn refine(img: &GrayImage, corners: &mut [Point2], cols: usize, rows: usize) {
     let mut spacing = f64::MAX;
     for r in 0..rows {
         for c in 0..cols {
@@ -472,8 +587,7 @@ pub fn find_chessboard(img: &GrayImage, cols: usize, rows: usize) -> Option<Vec<
         }
     }
     let half = ((spacing / 3.0).floor() as usize).clamp(3, 11);
-    corner_subpix(img, &mut corners, half, 40, 1e-3);
-    Some(corners)
+    corner_subpix(img, corners, half, 40, 1e-3);
 }
 
 /// [`find_chessboard`] with the error "board not found (capture NAME)".

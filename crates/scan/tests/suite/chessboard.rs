@@ -8,7 +8,14 @@ use scan::calib::homography::apply;
 /// (board → pixels, OpenCV convention), each pixel the mean of n × n samples (box filter),
 /// black squares 30, white 200, white margin of one square, background 90.
 fn render_board(h: &Matrix3<f64>, w: usize, ht: usize, n: usize) -> GrayImage {
+    render_board_sized(h, w, ht, n, 9, 7)
+}
+
+/// [`render_board`] with `cols` × `rows` inner corners: squares from −1 to `cols` × −1 to
+/// `rows`, the square outside inner corner (0, 0) black.
+fn render_board_sized(h: &Matrix3<f64>, w: usize, ht: usize, n: usize, cols: usize, rows: usize) -> GrayImage {
     let hi = h.try_inverse().unwrap();
+    let (cw, rw) = (cols as f64, rows as f64);
     let mut data = vec![0f32; w * ht];
     for y in 0..ht {
         for x in 0..w {
@@ -18,10 +25,9 @@ fn render_board(h: &Matrix3<f64>, w: usize, ht: usize, n: usize) -> GrayImage {
                     let px = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64;
                     let py = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64;
                     let b = apply(&hi, [px, py]);
-                    // Board coordinates: inner corner (0, 0) at the origin, squares from −1 to 9 × −1 to 7.
-                    let v = if b[0] < -2.0 || b[0] > 10.0 || b[1] < -2.0 || b[1] > 8.0 {
+                    let v = if b[0] < -2.0 || b[0] > cw + 1.0 || b[1] < -2.0 || b[1] > rw + 1.0 {
                         90.0
-                    } else if b[0] < -1.0 || b[0] > 9.0 || b[1] < -1.0 || b[1] > 7.0 {
+                    } else if b[0] < -1.0 || b[0] > cw || b[1] < -1.0 || b[1] > rw {
                         200.0
                     } else if (b[0].floor() as i64 + b[1].floor() as i64).rem_euclid(2) == 0 {
                         30.0
@@ -35,6 +41,15 @@ fn render_board(h: &Matrix3<f64>, w: usize, ht: usize, n: usize) -> GrayImage {
         }
     }
     GrayImage { width: w, height: ht, data }
+}
+
+/// A board turned by `deg` about the point (cx, cy) of the image, with a little perspective:
+/// board (0, 0) at the centre minus half the board, `sq` pixels a square.
+fn turned(deg: f64, sq: f64, cx: f64, cy: f64, cols: usize, rows: usize) -> Matrix3<f64> {
+    let (s, c) = deg.to_radians().sin_cos();
+    let centre = Matrix3::new(1.0, 0.0, -(cols as f64 - 1.0) / 2.0, 0.0, 1.0, -(rows as f64 - 1.0) / 2.0, 0.0, 0.0, 1.0);
+    let persp = Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.015, -0.01, 1.0);
+    Matrix3::new(c * sq, -s * sq, cx, s * sq, c * sq, cy, 0.0, 0.0, 1.0) * persp * centre
 }
 
 #[test]
@@ -72,4 +87,54 @@ fn a_blank_image_is_a_clean_board_not_found() {
     // A board with other corner counts than asked is not taken for the asked one.
     let h = Matrix3::new(30.0, 0.0, 100.0, 0.0, 30.0, 80.0, 0.0, 0.0, 1.0);
     assert!(find_chessboard(&render_board(&h, 480, 400, 4), 8, 7).is_none());
+}
+
+/// OpenCV's labeling, whatever the board's turn in the image: rows run so that
+/// (p[cols−1] − p[0]) × (p[cols] − p[cols−1]) > 0 (the same for every view of the board's
+/// front, so two cameras label the same physical corners alike); on a 9 × 6 board, whose ends
+/// differ in colour, corner 0 is always the corner at the black outer square, board (0, 0), as
+/// OpenCV returns it; on the 9 × 7 board, which looks the same turned by 180°, corner 0 is the end
+/// nearer the image's top-left. Turns of 0° to 330° in steps of 30°, each within 0.1 px.
+#[test]
+fn corner_order_follows_opencv_at_every_turn_of_the_board() {
+    for (cols, rows) in [(9usize, 6usize), (9, 7)] {
+        for k in 0..12 {
+            let deg = 30.0 * k as f64 + 7.0;
+            let h = turned(deg, 34.0, 320.0, 240.0, cols, rows);
+            let img = render_board_sized(&h, 640, 480, 4, cols, rows);
+            let f = find_chessboard(&img, cols, rows).unwrap_or_else(|| panic!("{cols}×{rows} at {deg}°: not found"));
+            let (p0, p1, p2) = (f[0], f[cols - 1], f[cols]);
+            let cross = (p1[0] - p0[0]) * (p2[1] - p1[1]) - (p1[1] - p0[1]) * (p2[0] - p1[0]);
+            assert!(cross > 0.0, "{cols}×{rows} at {deg}°: handedness {cross}");
+            // Which board corner is corner 0, and is the labeling the board's own or turned 180°?
+            let own: Vec<[f64; 2]> = (0..cols * rows).map(|i| apply(&h, [(i % cols) as f64, (i / cols) as f64])).collect();
+            let turned180: Vec<[f64; 2]> = own.iter().rev().copied().collect();
+            let err = |t: &[[f64; 2]]| f.iter().zip(t).map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()).fold(0.0, f64::max);
+            let (e_own, e_turned) = (err(&own), err(&turned180));
+            if (cols + rows) % 2 == 1 {
+                assert!(e_own < 0.1, "{cols}×{rows} at {deg}°: corner 0 is not the black-square corner (own {e_own}, turned {e_turned})");
+            } else {
+                let start = |t: &[[f64; 2]]| t[0][0] + t[0][1];
+                let want = if start(&own) < start(&turned180) { &own } else { &turned180 };
+                assert!(err(want) < 0.1, "{cols}×{rows} at {deg}°: corner 0 not the end nearer the top-left");
+            }
+        }
+    }
+}
+
+/// A 9 × 6 board of 150-pixel squares with edges blurred by σ = 5 px in a 2000 × 1500 image
+/// (the scale of a 5-Mpixel photograph) is found, through the half-resolution levels, and its
+/// corners refined in the full image lie within 0.2 px of the truth.
+#[test]
+fn a_board_of_large_soft_squares_is_found_at_a_coarser_level() {
+    let h = turned(12.0, 150.0, 1000.0, 750.0, 9, 6);
+    let img = render_board_sized(&h, 2000, 1500, 1, 9, 6).blur(5.0);
+    let f = find_chessboard(&img, 9, 6).expect("board found");
+    let worst = (0..54)
+        .map(|i| {
+            let t = apply(&h, [(i % 9) as f64, (i / 9) as f64]);
+            ((f[i][0] - t[0]).powi(2) + (f[i][1] - t[1]).powi(2)).sqrt()
+        })
+        .fold(0.0, f64::max);
+    assert!(worst < 0.2, "worst corner error {worst} px");
 }
