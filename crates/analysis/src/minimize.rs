@@ -37,7 +37,7 @@ struct BoxObjective<F> {
     /// Weight of the squared distance outside the unit box.
     penalty: f64,
     cache: RefCell<HashMap<Vec<u64>, f64>>,
-    error: RefCell<Option<anyhow::Error>>,
+    error: Rc<RefCell<Option<anyhow::Error>>>,
 }
 
 impl<F: FnMut(&[f64]) -> Result<f64>> BoxObjective<F> {
@@ -114,7 +114,7 @@ pub fn nelder_mead_box(
         hi: hi.to_vec(),
         penalty: 0.0,
         cache: RefCell::new(HashMap::new()),
-        error: RefCell::new(None),
+        error: Rc::new(RefCell::new(None)),
     };
     let u0: Vec<f64> = (0..n).map(|i| ((x0[i] - lo[i]) / (hi[i] - lo[i])).clamp(0.0, 1.0)).collect();
     let mut simplex = vec![u0.clone()];
@@ -137,13 +137,19 @@ pub fn nelder_mead_box(
     let solver = NelderMead::new(simplex)
         .with_sd_tolerance(f_tol.max(0.0))
         .map_err(|e| anyhow::anyhow!("Nelder–Mead: {e}"))?;
+    // The first evaluation error, kept outside the executor, which drops the problem when it
+    // stops on an error.
+    let first_error = problem.error.clone();
     let run = Executor::new(problem, solver)
         .configure(|state| state.max_iters(max_iterations as u64))
         .add_observer(History(history.clone()), ObserverMode::Always)
         .run();
     let result = match run {
         Ok(r) => r,
-        Err(e) => bail!("Nelder–Mead: {e}"),
+        Err(e) => match first_error.borrow_mut().take() {
+            Some(cause) => return Err(cause),
+            None => bail!("Nelder–Mead: {e}"),
+        },
     };
     let problem = result.problem.problem.as_ref().context("Nelder–Mead lost its problem")?;
     if let Some(e) = problem.error.borrow_mut().take() {

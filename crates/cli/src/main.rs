@@ -39,7 +39,29 @@ enum Command {
     Scan(cmd::scan::Args),
 }
 
+/// Standard output that cannot be written (a closed pipe, as in `lucent mie … | head -1`, or a
+/// full disk) makes `println!` panic; this hook turns that into the exit of a command whose
+/// output was cut: silently with status 141 (128 + SIGPIPE, as a process the pipe's signal ends)
+/// for a closed pipe, with one line and status 1 otherwise. Other panics keep the default report.
+fn exit_quietly_when_stdout_fails() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let msg = payload.downcast_ref::<String>().map(String::as_str).or_else(|| payload.downcast_ref::<&str>().copied()).unwrap_or("");
+        if let Some(reason) = msg.strip_prefix("failed printing to stdout: ") {
+            if reason.contains("Broken pipe") {
+                std::process::exit(141);
+            }
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "lucent: error: writing to standard output: {reason}");
+            std::process::exit(1);
+        }
+        default(info);
+    }));
+}
+
 fn main() {
+    exit_quietly_when_stdout_fails();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {

@@ -113,6 +113,22 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     result
 }
 
+/// Checks before any work that [`write_atomic`] can write `path`: its temporary file is created
+/// in the destination's folder and removed again, so that a command with several outputs does
+/// not replace the first and then fail on a later one that cannot be written (a read-only
+/// folder, /proc). The error names the path and the system's reason.
+pub fn check_writable(path: &Path) -> Result<()> {
+    let tmp = temp_path(path)?;
+    match std::fs::OpenOptions::new().write(true).create(true).truncate(true).open(&tmp) {
+        Ok(f) => {
+            drop(f);
+            let _ = std::fs::remove_file(&tmp);
+            Ok(())
+        }
+        Err(e) => bail!("{}: cannot write there: {e}", path.display()),
+    }
+}
+
 fn temp_path(path: &Path) -> Result<PathBuf> {
     let name = path
         .file_name()

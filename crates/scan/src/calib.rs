@@ -94,6 +94,7 @@ impl ProcamCalibration {
                     bail!("{name}: the projector is {}x{} in the calibration, {w}x{h} given", c.projector.width, c.projector.height);
                 }
             }
+            c.check().map_err(|e| anyhow!("{name}: {e}"))?;
             return Ok(c);
         }
         use render::load::calibration::{filestorage_node, Node};
@@ -150,14 +151,47 @@ impl ProcamCalibration {
         let t = matrix(&["translation", "T"], 3, 1)?;
         let rotation = [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]];
         render::camera::Extrinsics::from_rt(rotation, [t[0], t[1], t[2]]).map_err(|e| anyhow!("{name}: roration: {e}"))?;
-        Ok(ProcamCalibration {
+        let c = ProcamCalibration {
             camera: device(&matrix(&["cam_int"], 3, 3)?, dist("cam_dist")?, camera_size, "cam_int", rms)?,
             projector: device(&matrix(&["proj_int"], 3, 3)?, dist("proj_dist")?, projector, "proj_int", rms)?,
             rotation,
             translation: [t[0], t[1], t[2]],
             rms_px: rms,
             captures: Vec::new(),
-        })
+        };
+        c.check().map_err(|e| anyhow!("{name}: {e}"))?;
+        Ok(c)
+    }
+
+    /// Checks what the commands that read a calibration rely on: each device's size, focal
+    /// lengths (> 0) and principal point (within 10 image widths), its distortion one of OpenCV's
+    /// lengths and invertible over its image (`render::camera::OpenCv::new`), the rotation a rotation
+    /// (orthonormal within 10⁻⁶, determinant +1) and the translation finite and not zero (two
+    /// devices at one centre triangulate and rectify nothing). The error names the field.
+    pub fn check(&self) -> anyhow::Result<()> {
+        use anyhow::{anyhow, bail};
+        use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
+        let identity = Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        for (field, d) in [("camera", &self.camera), ("projector", &self.projector)] {
+            if d.width == 0 || d.height == 0 {
+                bail!("{field}: size {}x{} has no pixels", d.width, d.height);
+            }
+            if !(d.fx > 0.0 && d.fy > 0.0 && d.fx.is_finite() && d.fy.is_finite()) {
+                bail!("{field}: fx, fy must be positive focal lengths in pixels, got {}, {}", d.fx, d.fy);
+            }
+            let dist = Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("{field}.distortion: {e}"))?;
+            OpenCv::new(Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, dist, identity, d.width, d.height).map_err(|e| anyhow!("{field}: {e}"))?;
+        }
+        Extrinsics::from_rt(self.rotation, self.translation).map_err(|e| anyhow!("rotation: {e}"))?;
+        let t = self.translation;
+        let norm = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+        if !norm.is_finite() {
+            bail!("translation {t:?}: its length is not a finite number");
+        }
+        if norm == 0.0 {
+            bail!("translation is zero: the two devices share a centre, which leaves nothing to triangulate or rectify");
+        }
+        Ok(())
     }
 }
 

@@ -293,34 +293,53 @@ fn run_reflectance(a: ReflectanceArgs) -> Result<()> {
 #[allow(clippy::type_complexity)]
 fn read_line_csv(text: &str, file: &str) -> Result<(Vec<f64>, Vec<f64>, Option<Vec<f64>>)> {
     // Reuse the radial reader by renaming the position column.
-    let mut lines = text.lines();
+    let mut lines = text.lines().enumerate();
     let mut rebuilt = String::new();
-    let mut found = false;
-    for l in lines.by_ref() {
+    let mut col = None;
+    for (_, l) in lines.by_ref() {
         if l.trim().is_empty() || l.trim_start().starts_with('#') {
             rebuilt.push('\n');
             continue;
         }
         let h: Vec<&str> = l.split(',').map(str::trim).collect();
-        if !h.contains(&"x_mm") {
+        let Some(i) = h.iter().position(|c| *c == "x_mm") else {
             bail!("{file}: missing column x_mm (header: {l})");
-        }
+        };
         rebuilt.push_str(&h.iter().map(|c| if *c == "x_mm" { "r_mm" } else { c }).collect::<Vec<_>>().join(","));
         rebuilt.push('\n');
-        found = true;
+        col = Some(i);
         break;
     }
-    if !found {
+    let Some(col) = col else {
         bail!("{file}: empty file (expected a header x_mm,reflectance)");
+    };
+    // Positions may be negative, and the radial reader takes distances ≥ 0: check x here (finite,
+    // increasing, in the file's own numbers), then shift the column so that its smallest value is
+    // 1 mm for the reader, and back.
+    let rows: Vec<(usize, &str)> = lines.collect();
+    let mut xs: Vec<f64> = Vec::new();
+    for (i, row) in &rows {
+        if row.trim().is_empty() || row.trim_start().starts_with('#') {
+            continue;
+        }
+        let cell = row.split(',').nth(col).map(str::trim).unwrap_or("");
+        let x: f64 = cell.parse().map_err(|_| anyhow::anyhow!("{file}: line {}: column x_mm: `{cell}` is not a number", i + 1))?;
+        if !x.is_finite() || x.abs() > 1e6 {
+            bail!("{file}: line {}: column x_mm: {x} mm is not a position on a sample", i + 1);
+        }
+        if let Some(&prev) = xs.last() {
+            if x <= prev {
+                bail!("{file}: line {}: column x_mm: {x} does not increase (previous {prev})", i + 1);
+            }
+        }
+        xs.push(x);
     }
-    // Positions may be negative: shift them for the reader, then shift back.
-    let rows: Vec<&str> = lines.collect();
-    let shift = 1e6;
-    for row in rows {
+    let shift = 1.0 - xs.first().copied().unwrap_or(0.0);
+    for (_, row) in rows {
         let mut f: Vec<String> = row.split(',').map(|s| s.trim().to_string()).collect();
         if !row.trim().is_empty() && !row.trim_start().starts_with('#') {
-            if let Ok(x) = f[0].parse::<f64>() {
-                f[0] = format!("{}", x + shift);
+            if let Some(Ok(x)) = f.get(col).map(|c| c.parse::<f64>()) {
+                f[col] = format!("{}", x + shift);
             }
         }
         rebuilt.push_str(&f.join(","));

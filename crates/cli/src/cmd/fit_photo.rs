@@ -42,7 +42,7 @@ pub struct Args {
     #[arg(long, value_name = "PHOTO", requires = "photo")]
     pub repeat: Vec<PathBuf>,
     /// A capture folder of `graycode_NN.png` photographs (as `lucent scan decode` reads) …
-    #[arg(long, value_name = "DIR", conflicts_with = "photo")]
+    #[arg(long, value_name = "DIR", conflicts_with = "photo", requires = "patterns")]
     pub capture: Option<PathBuf>,
     /// … and the folder of the `pattern_NN.png` images shown (`lucent scan patterns`).
     #[arg(long, value_name = "DIR", requires = "capture")]
@@ -181,6 +181,11 @@ fn capture_frames(dir: &Path) -> Result<Vec<(usize, PathBuf)>> {
         bail!("{}: no graycode_NN.png frames and no other PNG/JPEG files", dir.display());
     }
     out.sort();
+    // Frame k pairs with pattern k: a missing frame would shift nothing but silently leave its
+    // pattern out, so the numbers must run 0, 1, 2, … without a gap.
+    if let Some(k) = out.iter().enumerate().find(|(i, (n, _))| i != n).map(|(i, _)| i) {
+        bail!("{}: frame {k} is missing (graycode_{k:02}.png); the frames must run 0, 1, 2, … without a gap", dir.display());
+    }
     Ok(out)
 }
 

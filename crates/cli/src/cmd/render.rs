@@ -293,7 +293,7 @@ pub(crate) fn check_parent_dir(path: &Path, option: &str) -> Result<()> {
     if path.is_dir() {
         bail!("{option} {}: is a folder", path.display());
     }
-    Ok(())
+    render::image_io::check_writable(path).with_context(|| option.to_string())
 }
 
 /// Write the film's image to every output; returns their absolute paths and what each holds.
@@ -448,7 +448,12 @@ pub fn run(args: Args) -> Result<()> {
         (None, None, None) => (w0, h0),
     };
     if width as u64 * height as u64 > 1 << 28 {
-        bail!("--width × --height = {width}×{height} pixels is too large");
+        let from = match (width_arg, height_arg, &resumed) {
+            (None, None, Some(_)) => "the resumed checkpoint's".to_string(),
+            (None, None, None) => format!("{scene_name}: [camera] width × height ="),
+            _ => "--width × --height =".to_string(),
+        };
+        bail!("{from} {width}×{height} pixels is too large (at most 2^28 pixels)");
     }
     scene.set_resolution(width, height);
     // Integrator: the flags, else the checkpoint being resumed, else the scene file's.

@@ -168,6 +168,7 @@ pub fn run(args: Args) -> Result<()> {
     })?;
     let result = match args.threads {
         Some(0) => bail!("--threads: must be at least 1"),
+        Some(n) if n > 4096 => bail!("--threads: at most 4096, got {n}"),
         Some(t) => rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build()

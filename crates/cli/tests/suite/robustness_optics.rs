@@ -269,3 +269,32 @@ fn fit_particles_names_the_right_culprit() {
     );
     assert!(!err.contains("beads.csv"), "{err}");
 }
+
+/// Standard output that cannot be written ends the command without a panic: a full disk
+/// (/dev/full) in one line naming standard output with status 1, a closed pipe with status 141
+/// (as a process ended by SIGPIPE) and nothing on standard error.
+#[test]
+fn unwritable_standard_output_is_not_a_panic() {
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
+    if let Ok(full) = full {
+        let out = Command::new(env!("CARGO_BIN_EXE_lucent")).args(["mie", "--x", "1", "--m", "1.33", "--json"]).stdout(full).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains("writing to standard output") && !err.contains("panicked"), "{err}");
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lucent"))
+        .args(["mie", "--x", "1", "--m", "1.33", "--angles-deg", "0:180:0.001"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read one byte, then close the pipe while lucent is still writing.
+    use std::io::Read;
+    let mut first = [0u8; 1];
+    child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(141), "{err}");
+}

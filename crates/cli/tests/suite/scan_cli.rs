@@ -954,3 +954,40 @@ fn calibrate_stereo_and_rectify_a_fisheye_pair() {
     assert!(e.contains("--alpha") && e.contains("fisheye"), "{e}");
     assert!(!s.path("x.png").exists());
 }
+
+/// Calibrations that the commands cannot use are refused on one line naming the field, before any
+/// output is written: a rotation that is not one, a zero or overflowing translation, a focal
+/// length of 0, a principal point far outside the image, a distortion that does not invert over
+/// the image; and a failing second output leaves the first one's earlier file as it was.
+#[test]
+fn unusable_calibrations_and_outputs_are_refused_before_any_work() {
+    let s = Scratch::new("scan-bad-calib");
+    let good = synthetic_calibration();
+    let cap0 = sample_capture(0);
+    let cases: Vec<(&str, Box<dyn Fn(&mut scan::calib::ProcamCalibration)>)> = vec![
+        ("rotation", Box::new(|c| c.rotation[2] = [0.0, 0.0, 0.0])),
+        ("rotation", Box::new(|c| c.rotation = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]])),
+        ("translation is zero", Box::new(|c| c.translation = [0.0; 3])),
+        ("translation", Box::new(|c| c.translation = [1e300, 0.0, 0.0])),
+        ("camera: fx", Box::new(|c| c.camera.fx = 0.0)),
+        ("projector: principal point", Box::new(|c| c.projector.cx = 1e300)),
+        ("camera: distortion is not invertible", Box::new(|c| c.camera.distortion[0] = -50.0)),
+    ];
+    for (needle, edit) in cases {
+        let mut c = good.clone();
+        edit(&mut c);
+        std::fs::write(s.path("c.json"), serde_json::to_string(&c).unwrap()).unwrap();
+        let e = fails_on_one_line(&["scan", "reconstruct", cap0.to_str().unwrap(), "--calibration", &s.arg("c.json"), "--out", &s.arg("o.ply")]);
+        assert!(e.contains("c.json") && e.contains(needle), "{needle}: {e}");
+        assert!(!s.path("o.ply").exists());
+    }
+    // Thresholds beyond 8-bit levels.
+    let e = fails_on_one_line(&["scan", "decode", cap0.to_str().unwrap(), "--projector", "1024x768", "--black-threshold", "1000"]);
+    assert!(e.contains("--black-threshold"), "{e}");
+    // A second output that cannot be written: refused before the first is replaced.
+    std::fs::write(s.path("keep.ply"), b"earlier").unwrap();
+    std::fs::write(s.path("c.json"), serde_json::to_string(&good).unwrap()).unwrap();
+    let e = fails_on_one_line(&["scan", "reconstruct", cap0.to_str().unwrap(), "--calibration", &s.arg("c.json"), "--out", &s.arg("keep.ply"), "--mesh", &s.arg("nowhere/m.ply")]);
+    assert!(e.contains("m.ply"), "{e}");
+    assert_eq!(std::fs::read(s.path("keep.ply")).unwrap(), b"earlier");
+}

@@ -292,6 +292,10 @@ impl OpenCv {
         if width == 0 || height == 0 {
             bail!("resolution must be at least 1×1, got {width}×{height}");
         }
+        let span = 10.0 * width.max(height) as f64;
+        if !(cx.abs() <= span && cy.abs() <= span) {
+            bail!("principal point ({cx}, {cy}) lies far outside the {width}×{height} image (more than 10 image widths)");
+        }
         let cam = OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() };
         if !distortion.is_zero() {
             cam.check_invertible(width, height)?;

@@ -40,10 +40,10 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_name = "S")]
     pub step: u32,
     /// A pixel is lit where white − black exceeds this (8-bit grey levels).
-    #[arg(long, default_value_t = 40, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 40, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub black_threshold: i32,
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
-    #[arg(long, default_value_t = 5, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 5, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub white_threshold: i32,
     /// Half-size of the local-homography window around each corner (camera pixels; 23 = 47×47).
     #[arg(long, default_value_t = 23, value_name = "PX")]
@@ -139,6 +139,7 @@ pub(super) fn check_outputs(out: Option<&std::path::Path>, opencv_out: Option<&s
         if !dir.is_dir() {
             bail!("{}: cannot write there: {} is not a folder", o.display(), dir.display());
         }
+        render::image_io::check_writable(o)?;
     }
     Ok(yaml)
 }

@@ -22,10 +22,10 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_name = "S")]
     pub step: u32,
     /// A pixel is lit where white − black exceeds this (8-bit grey levels).
-    #[arg(long, default_value_t = 40, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 40, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub black_threshold: i32,
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
-    #[arg(long, default_value_t = 5, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 5, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub white_threshold: i32,
     /// Integer decoding only (block centres), no sub-pixel refinement from stripe edges.
     #[arg(long)]

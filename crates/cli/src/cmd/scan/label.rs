@@ -99,11 +99,48 @@ pub struct Args {
     pub json: bool,
 }
 
+/// The numeric flags' ranges, and the projector pattern's presence, before any work.
+fn check_flags(args: &Args) -> Result<()> {
+    if !(args.max_edge_px >= 0.05 && args.max_edge_px <= 1000.0) {
+        bail!("--max-edge-px: the longest projected micropolygon edge must lie in 0.05…1000 pixels, got {}", args.max_edge_px);
+    }
+    if !(args.smoothing_px >= 0.0 && args.smoothing_px <= 100.0) {
+        bail!("--smoothing-px: a Gaussian's σ in 0…100 pixels, got {}", args.smoothing_px);
+    }
+    if !(args.marker_fraction > 0.0 && args.marker_fraction < 1.0) {
+        bail!("--marker-fraction: a fraction of the gradient's 99th percentile in (0, 1), got {}", args.marker_fraction);
+    }
+    if !(args.spread_de > 0.0 && args.spread_de.is_finite()) {
+        bail!("--spread-de: a positive colour difference ΔE*ab, got {}", args.spread_de);
+    }
+    if args.max_labels == 0 || args.labels == Some(0) {
+        bail!("--labels, --max-labels: at least 1 label");
+    }
+    if args.overlay_scale == 0 {
+        bail!("--overlay-scale: a shrink factor of at least 1");
+    }
+    if args.surface_smoothing > 10_000 {
+        bail!("--surface-smoothing: at most 10000 passes, got {}", args.surface_smoothing);
+    }
+    if let Some(d) = args.board_distance {
+        if !(d > 0.0 && d.is_finite()) {
+            bail!("--board-distance: a positive distance, got {d}");
+        }
+    }
+    if let Some(p) = &args.projector_pattern {
+        if args.scene.is_none() {
+            bail!("--projector-pattern: the projector's image of the scene; give --scene too");
+        }
+        render::image_io::read_image(p).with_context(|| format!("--projector-pattern {}", p.display()))?;
+    }
+    Ok(())
+}
+
 fn check_ext(path: &Path, ext: &str, what: &str) -> Result<()> {
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)) {
         bail!("{}: {what} is written as .{ext}", path.display());
     }
-    Ok(())
+    render::image_io::check_writable(path)
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -114,6 +151,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(o) = &args.overlay {
         check_ext(o, "png", "the overlay")?;
     }
+    check_flags(&args)?;
     let t0 = Instant::now();
     let calib = ProcamCalibration::read(&args.calibration, args.projector)?;
     let capture_pose = |i: usize, flag: &str| -> Result<BoardPose> {

@@ -76,6 +76,10 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     if w == 0 || h == 0 {
         return Err(format!("projector size must be at least 1x1, got {s}"));
     }
+    // Gray codes of more than 2^14 columns or rows would be 15-bit; no projector has them.
+    if w > 16384 || h > 16384 {
+        return Err(format!("projector size {s} is beyond 16384x16384 pixels"));
+    }
     Ok((w, h))
 }
 

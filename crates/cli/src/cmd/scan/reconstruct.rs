@@ -36,10 +36,10 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_name = "S")]
     pub step: u32,
     /// A pixel is lit where white − black exceeds this (8-bit grey levels).
-    #[arg(long, default_value_t = 40, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 40, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub black_threshold: i32,
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
-    #[arg(long, default_value_t = 5, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 5, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub white_threshold: i32,
     /// Integer decoding only (block centres), no sub-pixel refinement from stripe edges.
     #[arg(long)]
@@ -64,13 +64,16 @@ fn check_ply(path: &std::path::Path) -> Result<()> {
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply")) {
         bail!("{}: point clouds and meshes are written as .ply", path.display());
     }
-    Ok(())
+    render::image_io::check_writable(path)
 }
 
 pub fn run(args: Args) -> Result<()> {
     check_ply(&args.out)?;
     if let Some(m) = &args.mesh {
         check_ply(m)?;
+    }
+    if args.fill_holes > 64 {
+        bail!("--fill-holes: at most 64 pixels (a hole's radius), got {}", args.fill_holes);
     }
     if !(args.max_edge > 0.0 && args.max_edge.is_finite()) {
         bail!("--max-edge must be a positive number of pixels, got {}", args.max_edge);

@@ -56,6 +56,10 @@ pub fn run(args: Args) -> Result<()> {
         if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
             bail!("{}: the rectified images are written as PNG (.png)", out.display());
         }
+        render::image_io::check_writable(out)?;
+    }
+    if args.out_left == args.out_right {
+        bail!("--out-left, --out-right: both name {}; the two images need two files", args.out_left.display());
     }
     let text = std::fs::read_to_string(&args.calibration).with_context(|| format!("{}: cannot read", args.calibration.display()))?;
     if FisheyeStereoCalibration::is_fisheye(&text) {

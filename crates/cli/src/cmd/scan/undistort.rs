@@ -28,8 +28,15 @@ pub fn run(args: Args) -> Result<()> {
     if calib.fisheye.is_some() {
         bail!("{}: a fisheye camera; scan undistort takes OpenCV's pinhole model (lucent.fisheye.init_undistort_rectify_map gives the fisheye's maps)", args.camera.display());
     }
+    render::image_io::check_writable(&args.out).context("--out")?;
     let size = calib.width.zip(calib.height);
-    scan::calib::undistort::undistort_photo(&args.image, &calib.intrinsics, &calib.distortion, size, &args.out).with_context(|| format!("camera {}", args.camera.display()))?;
+    let (k, d) = (calib.intrinsics, calib.distortion);
+    scan::calib::undistort::remap_photo(&args.image, size, &args.out, |w, h| {
+        // The lens must be one whose distortion inverts over the whole photograph.
+        let identity = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        render::camera::OpenCv::new(k, d, identity, w as u32, h as u32).with_context(|| format!("camera {}", args.camera.display()))?;
+        Ok(scan::calib::undistort::undistort_map(&k, &d, &k, w, h))
+    })?;
     println!("wrote {}", args.out.display());
     Ok(())
 }
