@@ -331,6 +331,8 @@ def milk(fat_percent: float, protein_percent: float = MILK_PROTEIN_PERCENT, pres
 def _count(name: str, v) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, _np.integer)) or v < 0:
         raise ValueError(f"{name}: must be a whole number ≥ 0, got {v!r}")
+    if v > 2**63 - 1:
+        raise ValueError(f"{name}: {v} is beyond 2^63 - 1")
     return int(v)
 
 
@@ -694,13 +696,29 @@ def _pair(v, name, least):
         raise ValueError(f"{name}: expected two whole numbers, got {v!r}") from None
     if a < least or b < least:
         raise ValueError(f"{name}: each must be at least {least}, got ({a}, {b})")
+    if a > 2**31 - 1 or b > 2**31 - 1:
+        raise ValueError(f"{name}: ({a}, {b}) is beyond 2^31 - 1")
     return a, b
+
+
+#: The most pixels an image, map or remapped image may have (as ``Scene.render``): 2^28.
+MAX_PIXELS = 1 << 28
+
+
+def _image_size(v, name):
+    """A (width, height) of at least 1 × 1 and at most :data:`MAX_PIXELS` pixels, or ValueError."""
+    w, h = _pair(v, name, 1)
+    if w * h > MAX_PIXELS:
+        raise ValueError(f"{name}: {w}×{h} pixels is too large (at most 2^28)")
+    return w, h
 
 
 def _grey_levels(image):
     """An 8-bit grey or BGR image (OpenCV's luma weights) as flat grey levels, width and height;
     ValueError for another shape or an image under 8 × 8 pixels."""
     a = _np.asarray(image)
+    if a.dtype != _np.uint8:
+        raise ValueError(f"image: expected 8-bit grey levels (uint8), as cv2.findChessboardCorners, got {a.dtype}")
     if a.ndim == 3 and a.shape[2] in (3, 4):
         a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
     elif a.ndim != 2:
@@ -976,10 +994,24 @@ SOLVEPNP_IPPE_SQUARE = 5
 SOLVEPNP_SQPNP = 6
 
 
+def _points(v, dim, name):
+    """An (N, dim) float array from (N, dim), (N, 1, dim) or (1, N, dim), as OpenCV takes point
+    lists; other shapes (a transposed (dim, N) list included) are a ValueError naming ``name``."""
+    a = _np.asarray(v)
+    if a.dtype == object or _np.iscomplexobj(a) or not (_np.issubdtype(a.dtype, _np.number) or a.dtype == bool):
+        raise ValueError(f"{name}: expected real numbers, got an array of {a.dtype}")
+    a = a.astype(float)
+    if a.ndim == 2 and a.shape[1] == dim:
+        return a
+    if a.ndim == 3 and a.shape[2] == dim and 1 in a.shape[:2]:
+        return a.reshape(-1, dim)
+    raise ValueError(f"{name}: expected an (N, {dim}) or (N, 1, {dim}) array of points, got shape {a.shape}")
+
+
 def _pnp_points(object_points, image_points):
     """Object and image points as flat float lists (N × 3 and N × 2)."""
-    obj = _np.asarray(object_points, dtype=float).reshape(-1, 3)
-    img = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    obj = _points(object_points, 3, "objectPoints")
+    img = _points(image_points, 2, "imagePoints")
     return [float(v) for v in obj.ravel()], [float(v) for v in img.ravel()]
 
 
@@ -1106,7 +1138,8 @@ def _solve_pnp_ransac_with(solver, object_points, image_points, lens, rvec, tvec
     flags = _check_flags(flags)
     obj, img = _pnp_points(object_points, image_points)
     k, d = lens
-    out = solver(obj, img, k, d, _pnp_guess(rvec, tvec, useExtrinsicGuess), int(iterationsCount), float(reprojectionError), float(confidence))
+    out = solver(obj, img, k, d, _pnp_guess(rvec, tvec, useExtrinsicGuess), _count("iterationsCount", iterationsCount),
+                 float(reprojectionError), float(confidence))
     if out is None:
         return False, None, None, None
     r, t, inliers, _ = out
@@ -1174,6 +1207,8 @@ def stereo_rectify(camera_matrix1, dist_coeffs1, camera_matrix2, dist_coeffs2, i
     each camera's rotation into the rectified frame, their 3×4 projections (P2 carries the
     baseline), the 4×4 disparity-to-depth matrix and each image's rectangle of valid pixels.
     """
+    if not (_np.isfinite(float(alpha)) and (float(alpha) == -1.0 or 0.0 <= float(alpha) <= 1.0)):
+        raise ValueError(f"alpha: -1 (the default scale) or a number in [0, 1], got {alpha!r}")
     flags = int(flags)
     if flags & ~CALIB_ZERO_DISPARITY:
         raise ValueError(f"flags: only CALIB_ZERO_DISPARITY ({CALIB_ZERO_DISPARITY}) or 0, got {flags}")
@@ -1233,7 +1268,7 @@ def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix,
     if r.shape != (3, 3):
         raise ValueError(f"R: expected a 3×3 matrix, got shape {r.shape}")
     p = _left_3x3(camera_matrix if new_camera_matrix is None else new_camera_matrix, "new_camera_matrix")
-    w, h = _pair(size, "size", 1)
+    w, h = _image_size(size, "size")
     mx, my = _lucent.undistort_rectify_map_flat(k, d, [float(v) for v in r.ravel()], [float(v) for v in p.ravel()], w, h)
     return _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy(), _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
 
@@ -1255,9 +1290,9 @@ def triangulate_points(proj_matr1, proj_matr2, proj_points1, proj_points2):
         a = _np.asarray(v, dtype=float)
         if a.ndim == 2 and a.shape[0] == 2:  # OpenCV's 2×N (a 2×2 array too)
             a = a.T
-        a = a.reshape(-1, 2) if a.size % 2 == 0 else None
-        if a is None:
-            raise ValueError(f"{name}: expected 2×N pixels")
+        a = _points(a, 2, name)
+        if not _np.isfinite(a).all():
+            raise ValueError(f"{name}: pixels must be finite")
         return a
     a, b = pts(proj_points1, "proj_points1"), pts(proj_points2, "proj_points2")
     if len(a) != len(b):
@@ -1290,6 +1325,7 @@ def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
     if a.dtype != _np.uint8 or a.ndim not in (2, 3):
         raise ValueError(f"src: expected an (H, W) or (H, W, C) uint8 array, got {a.dtype} of shape {a.shape}")
     h, w = a.shape[:2]
+    _image_size((w, h), "src")
     c = 1 if a.ndim == 2 else a.shape[2]
     k, d = _camera_args(camera_matrix, dist_coeffs)
     k_new = None if new_camera_matrix is None else _camera_args(new_camera_matrix, None)[0]
@@ -1367,7 +1403,7 @@ def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -
         OpenCV pixel coordinates (integers at pixel centres); NaN for points at or behind the
         camera.
     """
-    p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    p = _points(object_points, 3, "object_points")
     k, d = _camera_args(camera_matrix, dist_coeffs)
     r, t = _pose_args(rvec, tvec)
     out = _lucent.project_points_flat([float(v) for v in p.ravel()], r, t, k, d)
@@ -1391,7 +1427,7 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
     (N, 2) float array
         NaN where the inverse does not converge.
     """
-    q = _np.asarray(image_points, dtype=float).reshape(-1, 2)
+    q = _points(image_points, 2, "image_points")
     k, d = _camera_args(camera_matrix, dist_coeffs)
     out = _lucent.undistort_points_flat([float(v) for v in q.ravel()], k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as _np
 
 # The package's helpers; this module is imported at the end of lucent/__init__.py.
-from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
+from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _image_size, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
                _rodrigues, _solve_pnp_ransac_with, _solve_pnp_with)
 
 __all__ = [
@@ -172,7 +172,7 @@ def init_undistort_rectify_map(K, D, R, P, size, m1type=CV_32FC1):
     """
     if int(m1type) != CV_32FC1:
         raise ValueError(f"m1type: only CV_32FC1 ({CV_32FC1}) float maps, got {m1type}")
-    w, h = _pair(size, "size", 1)
+    w, h = _image_size(size, "size")
     p = _left_3x3(K if P is None else P, "P")
     k, d = _lens(K, D)
     flat = _lucent.fisheye_undistort_rectify_map_flat(k, d, [float(v) for v in _rotation(R).ravel()],
@@ -308,7 +308,7 @@ def undistort_image(distorted, K, D, Knew=None, new_size=None):
         raise ValueError(f"distorted: expected an (H, W) or (H, W, C) uint8 array, got {a.dtype} of shape {a.shape}")
     h, w = a.shape[:2]
     c = 1 if a.ndim == 2 else a.shape[2]
-    ow, oh = (w, h) if new_size is None else _pair(new_size, "new_size", 1)
+    ow, oh = (w, h) if new_size is None else _image_size(new_size, "new_size")
     mx, my = init_undistort_rectify_map(K, D, None, K if Knew is None else Knew, (ow, oh))
     m = _np.stack([mx.ravel(), my.ravel()], axis=1).astype(float)
     out = _lucent.remap_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, [float(v) for v in m.ravel()])

@@ -677,3 +677,34 @@ def test_rectification_agrees_with_live_opencv():
     _, _, p1, p2, _, _, _ = lucent.stereo_rectify(RECT_K1, RECT_D1, RECT_K2, RECT_D2, (640, 480), rot, t)
     ours, theirs = lucent.triangulate_points(p1, p2, pts1, pts2), cv2.triangulatePoints(p1, p2, pts1, pts2)
     assert np.abs(ours[:3] / ours[3] - theirs[:3] / theirs[3]).max() < 1e-8 * np.abs(theirs[:3] / theirs[3]).max()
+
+
+def test_bad_point_lists_and_sizes_are_value_errors():
+    """Refused on one line naming the argument, where a panic, an abort or a silent reshape
+    would otherwise follow: RANSAC on fewer than 4 points, a closed-form method on points at one
+    spot or on one line, a transposed (3, N) point list, maps or images beyond 2^28 pixels, a
+    non-8-bit image for the chessboard finder, a NaN alpha."""
+    obj = np.random.default_rng(3).uniform(-50, 50, (8, 3))
+    px = lucent.project_points(obj, np.array([0.1, 0.2, 0.0]), np.array([0.0, 0.0, 500.0]), K, DIST)
+    for n in (0, 2):
+        with pytest.raises(ValueError, match="at least 4"):
+            lucent.solve_pnp_ransac(obj[:n], px[:n], K, DIST)
+    with pytest.raises(ValueError, match="one line or at one point"):
+        lucent.solve_pnp(np.zeros((6, 3)), np.full((6, 2), 100.0), K, None, flags=lucent.SOLVEPNP_SQPNP)
+    line = np.c_[np.arange(6.0) * 30, np.zeros(6), np.zeros(6)]
+    with pytest.raises(ValueError, match="one line"):
+        lucent.solve_pnp(line, px[:6], K, None, flags=lucent.SOLVEPNP_EPNP)
+    with pytest.raises(ValueError, match="objectPoints"):
+        lucent.solve_pnp(obj.T, px, K, DIST)
+    with pytest.raises(ValueError, match="object_points"):
+        lucent.project_points(obj[:4].T, np.zeros(3), np.array([0.0, 0.0, 500.0]), K, DIST)
+    with pytest.raises(ValueError, match="too large"):
+        lucent.init_undistort_rectify_map(K, DIST, None, K, (100000, 100000))
+    with pytest.raises(ValueError, match="beyond"):
+        lucent.init_undistort_rectify_map(K, DIST, None, K, (10**10, 1))
+    with pytest.raises(ValueError, match="uint8"):
+        lucent.find_chessboard_corners(np.zeros((480, 640)), (9, 6))
+    with pytest.raises(ValueError, match="alpha"):
+        lucent.stereo_rectify(K, DIST, K, DIST, (640, 480), np.eye(3), np.array([-50.0, 0, 0]), alpha=float("nan"))
+    with pytest.raises(ValueError, match="finite"):
+        lucent.triangulate_points(np.eye(3, 4), np.eye(3, 4), [[np.nan], [200.0]], [[300.0], [200.0]])

@@ -288,6 +288,10 @@ pub fn validate(settings: &SlabSettings) -> Result<()> {
     if settings.photons == 0 {
         bail!("photons must be at least 1");
     }
+    // 10^12 packets take days on a workstation; more is a mistyped count, not a simulation.
+    if settings.photons > 1_000_000_000_000 {
+        bail!("photons must be at most 10^12, got {}", settings.photons);
+    }
     if settings.max_steps_per_photon == 0 {
         bail!("max-steps-per-photon must be at least 1");
     }

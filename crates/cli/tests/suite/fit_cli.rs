@@ -144,6 +144,23 @@ fn oblique_reads_a_line_profile_and_reports_sigma_s_prime() {
     assert!(j["sigma_s_prime_ci_per_mm"].as_array().unwrap().len() == 2);
     let (ok, _, err) = lucent(&["fit", "oblique", p.to_str().unwrap(), "--eta", "1.33", "--incidence-deg", "0"]);
     assert!(!ok && err.contains("incidence-deg"), "{err}");
+    // The same profile with the position column last gives the same fit; positions that do not
+    // increase are named in the file's own numbers.
+    let swapped: String = text
+        .lines()
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            format!("{},{},{}\n", c[1], c[2], c[0])
+        })
+        .collect();
+    let q = tmp("line-swapped.csv", &swapped);
+    let (ok, out2, err) = lucent(&["fit", "oblique", q.to_str().unwrap(), "--eta", "1.33", "--incidence-deg", "40", "--json"]);
+    assert!(ok, "{err}");
+    let j2: serde_json::Value = serde_json::from_str(&out2).unwrap();
+    assert!((j2["delta_x_mm"].as_f64().unwrap() / j["delta_x_mm"].as_f64().unwrap() - 1.0).abs() < 1e-9, "{out2}");
+    let r = tmp("line-back.csv", "x_mm,reflectance\n3,0.1\n2,0.2\n");
+    let (ok, _, err) = lucent(&["fit", "oblique", r.to_str().unwrap(), "--eta", "1.33", "--incidence-deg", "40"]);
+    assert!(!ok && err.contains("line 3") && err.contains("2 does not increase (previous 3)"), "{err}");
 }
 
 #[test]

@@ -61,4 +61,12 @@ fn fit_photo_refuses_bad_input_with_one_line() {
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--edge-px", "-1", "-q"], "--edge-px must be a whole number");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--max-background", "2", "-q"], "--max-background must lie in [0, 1]");
     fails_with(&dir, &["fit", "photo", "scene.toml", "--photo", "photo.png", "--fit-roughness", "-q"], "--fit-roughness: no label is `plastic`");
+    // A capture needs its patterns, and its frames must run without a gap (frame k pairs with
+    // pattern k).
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--capture", ".", "-q"], "--patterns");
+    std::fs::create_dir_all(dir.path("cap")).unwrap();
+    for k in [0, 1, 3] {
+        std::fs::copy(dir.path("photo.png"), dir.path(&format!("cap/graycode_{k:02}.png"))).unwrap();
+    }
+    fails_with(&dir, &["fit", "photo", "scene.toml", "--capture", "cap", "--patterns", "cap", "-q"], "frame 2 is missing");
 }

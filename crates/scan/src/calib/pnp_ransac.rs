@@ -85,6 +85,14 @@ pub fn solve_pnp_ransac(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Opt
     if !(settings.threshold_px > 0.0) || !(settings.confidence > 0.0 && settings.confidence < 1.0) || settings.iterations == 0 {
         bail!("RANSAC needs a positive threshold, a confidence in (0, 1) and at least one iteration; got {} px, {}, {}", settings.threshold_px, settings.confidence, settings.iterations);
     }
+    if n < 4 {
+        bail!("a RANSAC pose needs at least 4 points, got {n}");
+    }
+    if let Some(g) = &guess {
+        if g.rvec.iter().chain(g.t.iter()).any(|v| !v.is_finite()) {
+            bail!("the pose guess must be finite");
+        }
+    }
     let x: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::from(*p)).collect();
     let m = if coplanar(&x) { 4 } else { 6 };
     if n < m {

@@ -59,6 +59,18 @@ pub enum Method {
 }
 
 impl Method {
+    /// OpenCV's name of the method.
+    pub fn opencv_name(self) -> &'static str {
+        match self {
+            Method::Iterative => "SOLVEPNP_ITERATIVE",
+            Method::Epnp => "SOLVEPNP_EPNP",
+            Method::P3p => "SOLVEPNP_P3P",
+            Method::Ippe => "SOLVEPNP_IPPE",
+            Method::IppeSquare => "SOLVEPNP_IPPE_SQUARE",
+            Method::Sqpnp => "SOLVEPNP_SQPNP",
+        }
+    }
+
     /// The method of OpenCV's flag value; None for a value OpenCV does not define.
     pub fn from_opencv(flag: i64) -> Option<Method> {
         Some(match flag {
@@ -91,9 +103,12 @@ pub fn solve_pnp_generic(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, method: M
     }
     let least = if method == Method::Sqpnp { 3 } else { 4 };
     if obj.len() < least {
-        bail!("a pose by {method:?} needs at least {least} points, got {}", obj.len());
+        bail!("a pose by {} needs at least {least} points, got {}", method.opencv_name(), obj.len());
     }
     let x: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::from(*p)).collect();
+    if spread_rank(&x) < 2 {
+        bail!("the object points lie on one line or at one point, which fixes no pose");
+    }
     let m = normalised(px, lens)?;
     let poses: Vec<(Matrix3<f64>, Vector3<f64>)> = match method {
         Method::Iterative => unreachable!(),
@@ -141,7 +156,7 @@ pub fn solve_pnp_generic(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, method: M
         })
         .collect();
     if out.is_empty() {
-        bail!("{method:?} found no pose (degenerate configuration)");
+        bail!("{} found no pose (degenerate configuration)", method.opencv_name());
     }
     out.sort_by(|a, b| a.1.total_cmp(&b.1));
     Ok(out)
@@ -232,6 +247,22 @@ fn closed_form_start(x: &[Vector3<f64>], norm: &[Point2]) -> Result<Pose> {
     })
 }
 
+/// The number of directions (0–3) in which the points spread by more than 10⁻⁹ of their
+/// largest spread: 0 for coincident points, 1 for points on a line.
+fn spread_rank(x: &[Vector3<f64>]) -> usize {
+    let c = x.iter().sum::<Vector3<f64>>() / x.len() as f64;
+    let mut cov = Matrix3::zeros();
+    for p in x {
+        cov += (p - c) * (p - c).transpose();
+    }
+    let s = cov.symmetric_eigenvalues().map(|v| v.max(0.0).sqrt());
+    let top = s.max();
+    if !(top > 0.0) {
+        return 0;
+    }
+    s.iter().filter(|&&v| v > 1e-9 * top).count()
+}
+
 /// Whether the points lie on one plane (the test that chooses the closed-form start).
 pub(crate) fn coplanar(x: &[Vector3<f64>]) -> bool {
     plane_frame(x).is_some()
@@ -240,6 +271,9 @@ pub(crate) fn coplanar(x: &[Vector3<f64>]) -> bool {
 /// The centroid and an orthonormal frame (columns e₁, e₂, n) of coplanar points; None when they
 /// are not coplanar.
 fn plane_frame(x: &[Vector3<f64>]) -> Option<(Vector3<f64>, Matrix3<f64>)> {
+    if x.len() < 3 {
+        return None;
+    }
     let c = x.iter().sum::<Vector3<f64>>() / x.len() as f64;
     let m = DMatrix::from_fn(x.len(), 3, |i, j| x[i][j] - c[j]);
     let svd = m.svd(false, true);
