@@ -107,18 +107,31 @@ impl Scene {
     fn render<'py>(
         &mut self,
         py: Python<'py>,
-        spp: Option<u64>,
+        spp: Option<i64>,
         seed: u64,
         integrator: Option<&str>,
-        width: Option<u64>,
-        height: Option<u64>,
-        max_depth: Option<u64>,
-        rr_depth: Option<u32>,
-        threads: Option<u64>,
+        width: Option<i64>,
+        height: Option<i64>,
+        max_depth: Option<i64>,
+        rr_depth: Option<i64>,
+        threads: Option<i64>,
         time_s: Option<f64>,
         progress: Option<PyObject>,
     ) -> PyResult<Bound<'py, PyArray3<f32>>> {
         // ---- Arguments, checked as `lucent render` checks its flags. ----
+        // Counts arrive as signed integers, so that a negative one is refused by name.
+        let whole = |name: &str, v: Option<i64>| -> PyResult<Option<u64>> {
+            match v {
+                Some(x) if x < 0 => Err(value(format!("{name} must be a whole number ≥ 0, got {x}"))),
+                Some(x) => Ok(Some(x as u64)),
+                None => Ok(None),
+            }
+        };
+        let (spp, width, height, max_depth, threads) = (whole("spp", spp)?, whole("width", width)?, whole("height", height)?, whole("max_depth", max_depth)?, whole("threads", threads)?);
+        let rr_depth = match whole("rr_depth", rr_depth)? {
+            Some(x) => Some(u32::try_from(x).map_err(|_| value(format!("rr_depth must be at most {}, got {x}", u32::MAX)))?),
+            None => None,
+        };
         let spp = at_least_one("spp", spp)?;
         if spp.is_some() && time_s.is_some() {
             return Err(value("give spp or time_s, not both"));
