@@ -12,10 +12,11 @@
 //! orientation (Arun, Huang & Blostein 1987), and the case with the smallest mean reprojection
 //! error in pixels wins.
 //!
-//! The control points' order (principal axes by decreasing variance), the β's signs, the
-//! five steps and the choice by mean pixel error follow the paper's reference code, which OpenCV
-//! uses; for points on a plane the fourth control point coincides with the centroid, whose
-//! weights the pseudo-inverse then sets to 0 (OpenCV's `CV_SVD` inversion).
+//! The control points' order (principal axes by decreasing variance) and signs (those of the
+//! one-sided Jacobi SVD, [`principal_axes`]), the β's signs, the five steps and the choice by
+//! mean pixel error follow the paper's reference code, which OpenCV uses, so that the poses agree
+//! with OpenCV's to rounding; for points on a plane the fourth control point coincides with the
+//! centroid, whose weights the pseudo-inverse then sets to 0 (OpenCV's `CV_SVD` inversion).
 
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3, Vector4};
 
@@ -39,11 +40,10 @@ pub(super) fn epnp(x: &[Vector3<f64>], m: &[Point2], fx: f64, fy: f64) -> Option
         let d = p - c0;
         cov += d * d.transpose();
     }
-    let svd = cov.svd(true, false);
-    let u = svd.u?;
+    let (sv, u) = principal_axes(&cov)?;
     let mut cw = [c0; 4];
     for k in 1..4 {
-        cw[k] = c0 + u.column(k - 1) * (svd.singular_values[k - 1] / n as f64).sqrt();
+        cw[k] = c0 + u.column(k - 1) * (sv[k - 1] / n as f64).sqrt();
     }
     // Barycentric coordinates: X − c0 = Σ_k α_k (c_k − c0), α_0 = 1 − Σ α_k.
     let cc = Matrix3::from_columns(&[cw[1] - c0, cw[2] - c0, cw[3] - c0]);
@@ -66,10 +66,11 @@ pub(super) fn epnp(x: &[Vector3<f64>], m: &[Point2], fx: f64, fy: f64) -> Option
         }
     }
     let mtm = mm.transpose() * &mm;
-    let eig = mtm.svd(true, false);
-    let ue = eig.u?;
+    let eig = nalgebra::SymmetricEigen::new(mtm);
+    let mut order: Vec<usize> = (0..12).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     // v[0] has the smallest eigenvalue, v[3] the fourth smallest.
-    let v: [SVector<f64, 12>; 4] = std::array::from_fn(|k| SVector::<f64, 12>::from_iterator(ue.column(11 - k).iter().copied()));
+    let v: [SVector<f64, 12>; 4] = std::array::from_fn(|k| SVector::<f64, 12>::from_iterator(eig.eigenvectors.column(order[k]).iter().copied()));
     let l = l_6x10(&v);
     let rho = SVector::<f64, 6>::from_fn(|r, _| {
         let (a, b) = PAIRS[r];
@@ -88,6 +89,68 @@ pub(super) fn epnp(x: &[Vector3<f64>], m: &[Point2], fx: f64, fy: f64) -> Option
         }
     }
     best.map(|(_, r, t)| (r, t))
+}
+
+/// The singular values (descending) and left singular vectors (columns) of the symmetric 3 × 3
+/// `a`, by the one-sided Jacobi method (Hestenes 1958; Demmel & Veselić 1992): the columns of `a`
+/// are rotated pairwise, in the order (0, 1), (0, 2), (1, 2), until every pair is orthogonal to
+/// 10 ε, each rotation the one that diagonalises the pair's 2 × 2 Gram matrix with c ≥ 0 when
+/// the first column is the longer and s ≥ 0 otherwise; the columns' lengths are the singular
+/// values, the normalised columns the vectors, sorted by decreasing value. With noisy points the
+/// EPnP pose depends on the control points' signs by about the noise (a few milliradians), and
+/// this is the method and the sign convention of OpenCV's SVD, with which the poses then agree
+/// to 10⁻¹⁴ (`python/tests/test_calib.py`).
+fn principal_axes(a: &Matrix3<f64>) -> Option<([f64; 3], Matrix3<f64>)> {
+    // Rows of `at` are the columns of `a`.
+    let mut at = [a.column(0).into_owned(), a.column(1).into_owned(), a.column(2).into_owned()];
+    let mut w: [f64; 3] = std::array::from_fn(|i| at[i].norm_squared());
+    let eps = 10.0 * f64::EPSILON;
+    for _ in 0..30 {
+        let mut changed = false;
+        for (i, j) in [(0usize, 1usize), (0, 2), (1, 2)] {
+            let (wa, wb) = (w[i], w[j]);
+            let p = at[i].dot(&at[j]);
+            if p.abs() <= eps * (wa * wb).sqrt() {
+                continue;
+            }
+            let p2 = 2.0 * p;
+            let beta = wa - wb;
+            let gamma = p2.hypot(beta);
+            let (c, s) = if beta < 0.0 {
+                let s = ((gamma - beta) * 0.5 / gamma).sqrt();
+                (p2 / (gamma * s * 2.0), s)
+            } else {
+                let c = ((gamma + beta) / (gamma * 2.0)).sqrt();
+                (c, p2 / (gamma * c * 2.0))
+            };
+            let (ai, aj) = (at[i], at[j]);
+            at[i] = ai * c + aj * s;
+            at[j] = aj * c - ai * s;
+            w[i] = at[i].norm_squared();
+            w[j] = at[j].norm_squared();
+            changed = true;
+        }
+        if !changed {
+            break;
+        }
+    }
+    let mut sv: [f64; 3] = std::array::from_fn(|i| at[i].norm());
+    // Selection sort by decreasing value (the first of equal values stays first).
+    for i in 0..2 {
+        let mut j = i;
+        for k in i + 1..3 {
+            if sv[j] < sv[k] {
+                j = k;
+            }
+        }
+        if i != j {
+            sv.swap(i, j);
+            at.swap(i, j);
+        }
+    }
+    let cols: Vec<Vector3<f64>> = (0..3).map(|i| if sv[i] > 0.0 { at[i] / sv[i] } else { Vector3::zeros() }).collect();
+    let u = Matrix3::from_columns(&cols);
+    u.iter().all(|v| v.is_finite()).then_some((sv, u))
 }
 
 /// The 6 × 10 matrix L with L β̄ = ρ, β̄ = (β₁², β₁β₂, β₂², β₁β₃, β₂β₃, β₃², β₁β₄, β₂β₄, β₃β₄, β₄²)
