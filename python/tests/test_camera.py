@@ -44,6 +44,20 @@ def test_undistort_points_inverts_the_projection():
     assert np.abs(got - want).max() < 1e-11
 
 
+def test_undistort_points_has_no_ray_beyond_the_lens_fold():
+    """With k1 = −2 the radial map r(1 − 2r²) reaches at most 0.272 (at r = 0.408); a pixel at
+    distorted radius 0.5 has no ray (NaN), where Newton's method would find the root on the folded
+    branch (r = 0.885, which the lens maps mirrored through the centre); one at radius 0.25 has
+    its ray on the monotone branch."""
+    k = np.array([[800.0, 0, 320], [0, 800, 240], [0, 0, 1]])
+    d = [-2.0, 0, 0, 0]
+    out = lucent.undistort_points([[0.0, 0.0], [320 + 160.0, 240 + 120.0]], k, d)
+    assert np.isnan(out[0]).all()
+    x, y = out[1]
+    r = np.hypot(x, y)
+    assert r < 1 / np.sqrt(6) and abs(r * (1 - 2 * r * r) - 0.25) < 1e-12
+
+
 def test_fewer_coefficients_and_bad_input():
     # Five coefficients: the classic model; no coefficients: the pinhole.
     pin = lucent.project_points(POINTS, RVEC, TVEC, K)

@@ -95,6 +95,19 @@ pub fn tilt_matrix(tau_x_rad: f64, tau_y_rad: f64) -> [[f64; 3]; 3] {
 }
 
 impl Distortion {
+    /// Whether the radial part of the map, r ↦ r·g(r²) with g = (1 + k1 s + k2 s² + k3 s³) /
+    /// (1 + k4 s + k5 s² + k6 s³), is positive and increasing at s = r² (the monotone branch).
+    pub fn radial_increasing(&self, s: f64) -> bool {
+        let [k1, k2, k3, k4, k5, k6] = self.k;
+        let n = 1.0 + s * (k1 + s * (k2 + s * k3));
+        let dn = k1 + s * (2.0 * k2 + 3.0 * s * k3);
+        let m = 1.0 + s * (k4 + s * (k5 + s * k6));
+        let dm = k4 + s * (2.0 * k5 + 3.0 * s * k6);
+        let g = n / m;
+        let dg = (dn * m - n * dm) / (m * m);
+        g > 0.0 && g + 2.0 * s * dg > 0.0
+    }
+
     /// From OpenCV's coefficient vector (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, τx,
     /// τy]]]]): 0, 4, 5, 8, 12 or 14 entries, τ in radians.
     pub fn from_opencv(c: &[f64]) -> Result<Distortion> {
@@ -383,7 +396,8 @@ impl OpenCv {
 
     /// Undistorted normalised coordinates (x′, y′) of distorted ones ((u − cx)/fx, (v − cy)/fy):
     /// the tilt inverted exactly, then Newton's method on the rest, and whether its residual
-    /// (before the tilt, in pixels of fx, fy) fell below [`INVERSE_TOLERANCE_PX`].
+    /// (before the tilt, in pixels of fx, fy) fell below [`INVERSE_TOLERANCE_PX`] at a point where
+    /// the distortion keeps the plane's orientation (a root on a folded branch is refused).
     pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64, bool) {
         let Intrinsics { fx, fy, .. } = self.intrinsics;
         let d = &self.distortion;
@@ -401,7 +415,12 @@ impl OpenCv {
         let mut e2 = resid2(a, b);
         for _ in 0..100 {
             if e2 < tol2 {
-                return (x, y, true);
+                // A root where the distortion folds the plane over (its Jacobian's determinant
+                // not positive, or the radial map r·g(r²) not increasing there) is no ray of this
+                // pixel: e.g. a pixel beyond the largest radius that r(1 + k1 r² + …) reaches,
+                // whose root on the far branch the lens maps mirrored through the centre.
+                let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                return (x, y, det > 0.0 && d.radial_increasing(x * x + y * y));
             }
             let (rx, ry) = (a - xd, b - yd);
             let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
