@@ -623,6 +623,8 @@ def compare(a, b, mask=None, *, color_correct: Union[None, bool, str] = None, sa
     if x.shape != y.shape:
         raise ValueError(f"b: image is {y.shape[1]}×{y.shape[0]} but a is {x.shape[1]}×{x.shape[0]}")
     h, w = x.shape[:2]
+    if h == 0 or w == 0:
+        raise ValueError(f"a, b: empty images ({w}×{h})")
     flat = lambda v: _np.ascontiguousarray(v, dtype=_np.float32).ravel()
     mask_image = mask_flags = None
     if mask is not None:
@@ -631,6 +633,8 @@ def compare(a, b, mask=None, *, color_correct: Union[None, bool, str] = None, sa
             mask_flags = [bool(v) for v in mk.ravel()]
         elif mk.shape == (h, w, 3):
             mask_image = flat(_real("mask", mk))
+        elif mk.shape == (h, w):
+            raise ValueError(f"mask: an ({h}, {w}) mask must be a bool array, got {mk.dtype}")
         else:
             raise ValueError(f"mask: expected an ({h}, {w}) bool array or an ({h}, {w}, 3) image, got shape {mk.shape}")
     if color_correct is True:
@@ -642,11 +646,17 @@ def compare(a, b, mask=None, *, color_correct: Union[None, bool, str] = None, sa
     return Result(_lucent.compare(flat(x), flat(y), w, h, mask_image, mask_flags, color_correct, float(saturation)))
 
 
-def _camera_args(camera_matrix, dist_coeffs):
+def _camera_args(camera_matrix, dist_coeffs, name="camera_matrix", dist_name="dist_coeffs"):
+    """A camera matrix (row-major, 9 floats: finite, fx, fy > 0, last row 0, 0, 1) and its
+    distortion coefficients (finite), or ValueError naming the argument."""
     k = _np.asarray(camera_matrix, dtype=float)
     if k.shape != (3, 3):
-        raise ValueError(f"camera_matrix: expected a 3×3 matrix, got shape {k.shape}")
+        raise ValueError(f"{name}: expected a 3×3 matrix, got shape {k.shape}")
+    if not _np.isfinite(k).all() or not (k[0, 0] > 0 and k[1, 1] > 0) or tuple(k[2]) != (0.0, 0.0, 1.0) or k[1, 0] != 0:
+        raise ValueError(f"{name}: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with finite fx, fy > 0, got {k.tolist()}")
     d = _np.asarray([] if dist_coeffs is None else dist_coeffs, dtype=float).ravel()
+    if not _np.isfinite(d).all():
+        raise ValueError(f"{dist_name}: the coefficients must be finite")
     return [float(v) for v in k.ravel()], [float(v) for v in d]
 
 
@@ -971,7 +981,8 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     if flags & (CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC):
         if camera_matrix1 is None or camera_matrix2 is None:
             raise ValueError("camera_matrix1, camera_matrix2: CALIB_USE_INTRINSIC_GUESS and CALIB_FIX_INTRINSIC need both cameras")
-        guess = (_camera_args(camera_matrix1, dist_coeffs1), _camera_args(camera_matrix2, dist_coeffs2))
+        guess = (_camera_args(camera_matrix1, dist_coeffs1, "camera_matrix1", "dist_coeffs1"),
+                 _camera_args(camera_matrix2, dist_coeffs2, "camera_matrix2", "dist_coeffs2"))
     rms, c1, d1, c2, d2, r, t = _lucent.stereo_calibrate_flat(
         [float(v) for v in obj.ravel()], [[float(v) for v in p.ravel()] for p in img1], [[float(v) for v in p.ravel()] for p in img2],
         w, h, guess, bool(flags & CALIB_FIX_INTRINSIC), _lens_flags(flags, guess is not None), _held(flags, guess is not None),
@@ -1212,8 +1223,8 @@ def stereo_rectify(camera_matrix1, dist_coeffs1, camera_matrix2, dist_coeffs2, i
     flags = int(flags)
     if flags & ~CALIB_ZERO_DISPARITY:
         raise ValueError(f"flags: only CALIB_ZERO_DISPARITY ({CALIB_ZERO_DISPARITY}) or 0, got {flags}")
-    k1, d1 = _camera_args(camera_matrix1, dist_coeffs1)
-    k2, d2 = _camera_args(camera_matrix2, dist_coeffs2)
+    k1, d1 = _camera_args(camera_matrix1, dist_coeffs1, "camera_matrix1", "dist_coeffs1")
+    k2, d2 = _camera_args(camera_matrix2, dist_coeffs2, "camera_matrix2", "dist_coeffs2")
     r = _np.asarray(R, dtype=float)
     if r.size == 3:
         r = _rodrigues(r.ravel())
@@ -1328,7 +1339,7 @@ def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
     _image_size((w, h), "src")
     c = 1 if a.ndim == 2 else a.shape[2]
     k, d = _camera_args(camera_matrix, dist_coeffs)
-    k_new = None if new_camera_matrix is None else _camera_args(new_camera_matrix, None)[0]
+    k_new = None if new_camera_matrix is None else _camera_args(new_camera_matrix, None, "new_camera_matrix")[0]
     out = _lucent.undistort_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, k, d, k_new)
     return _np.frombuffer(out, dtype=_np.uint8).reshape(a.shape).copy()
 
@@ -1364,6 +1375,8 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
     flags = int(flags)
     if flags & ~_CALIB_FLAGS:
         raise ValueError(f"flags: only CALIB_ZERO_TANGENT_DIST, CALIB_FIX_K3, CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL are supported, got {flags}")
+    if isinstance(captures, (str, bytes, _os.PathLike)):
+        raise ValueError(f"captures: expected a list of capture folders, got the single path {captures!r}")
     pw, ph = _pair(projector_size, "projector_size", 1)
     cols, rows = _pair(pattern_size, "pattern_size", 3)
     bits = (bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
