@@ -238,7 +238,8 @@ def stereo_rectify(K1, D1, K2, D2, imageSize, R, tvec, flags=CALIB_ZERO_DISPARIT
 def solve_pnp(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvec=None, tvec=None, useExtrinsicGuess=False,
               flags=SOLVEPNP_ITERATIVE, criteria=None):
     """The pose of a known object from its image in a fisheye camera, as ``cv2.fisheye.solvePnP``
-    (``SOLVEPNP_ITERATIVE``): the pixels taken through the lens's inverse to the pixels of the
+    (``SOLVEPNP_ITERATIVE``, or OpenCV 5's other ``flags`` as :func:`lucent.solve_pnp` takes
+    them): the pixels taken through the lens's inverse to the pixels of the
     distortion-free pinhole camera with K's fx, fy, cx, cy, then :func:`lucent.solve_pnp`'s
     closed-form start (or ``rvec``, ``tvec`` with ``useExtrinsicGuess``) and
     Levenberg–Marquardt there, as OpenCV does (its ``undistortPoints`` with P = K, then
