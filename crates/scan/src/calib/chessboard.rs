@@ -419,7 +419,10 @@ fn order(grid: &BTreeMap<(i32, i32), Point2>, cols: usize, rows: usize, smooth: 
             let (p0, p1, p2) = (v[0], v[cols - 1], v[cols]);
             (p1[0] - p0[0]) * (p2[1] - p1[1]) - (p1[1] - p0[1]) * (p2[0] - p1[0])
         };
-        labelings.retain(|v| hand(v) > 0.0);
+        // (A lattice with no labeling of either sign, degenerate, keeps them all.)
+        if labelings.iter().any(|v| hand(v) > 0.0) {
+            labelings.retain(|v| hand(v) > 0.0);
+        }
     }
     // The colour of the square outside corner 0 where the board's ends differ in colour (cols +
     // rows odd) and the image shows it by more than half the board's contrast: the dark one first.

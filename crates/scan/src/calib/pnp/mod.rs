@@ -1,6 +1,6 @@
-//! The pose of a known object from its image in a calibrated camera (OpenCV's `solvePnP` with
-//! `SOLVEPNP_ITERATIVE`): a closed-form start, then Levenberg–Marquardt on the reprojection error
-//! in pixels through the full lens model.
+//! The pose of a known object from its image in a calibrated camera (OpenCV's `solvePnP`). With
+//! `SOLVEPNP_ITERATIVE` ([`solve_pnp`], [`solve_pnp_from`]): a closed-form start, then
+//! Levenberg–Marquardt on the reprojection error in pixels through the full lens model.
 //!
 //! - **Start.** The pixels are taken to normalised coordinates with the camera matrix alone (the
 //!   distortion is left to the refinement). Coplanar points (the smallest singular value of the
@@ -13,7 +13,6 @@
 //! - **Refinement.** Levenberg–Marquardt over the Rodrigues vector and the translation, with
 //!   central-difference derivatives, until the step or the relative decrease of the squared error
 //!   falls below 10⁻¹⁴, at most 200 iterations.
-
 //!
 //! OpenCV's other methods are [`solve_pnp_generic`] with a [`Method`]: EPnP (`epnp`), P3P on
 //! three points with a fourth to choose among its poses (`p3p`), SQPnP (`sqpnp`) and IPPE for
