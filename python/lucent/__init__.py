@@ -1438,7 +1438,8 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
     Returns
     -------
     (N, 2) float array
-        NaN where the inverse does not converge.
+        NaN where the inverse does not converge or the pixel has no ray (beyond the radius where
+        the lens folds over, e.g. r(1 + k1 r²) at its largest for k1 < 0).
     """
     q = _points(image_points, 2, "image_points")
     k, d = _camera_args(camera_matrix, dist_coeffs)
