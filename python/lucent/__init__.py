@@ -1167,12 +1167,12 @@ def _solve_pnp_ransac_with(solver, object_points, image_points, lens, rvec, tvec
 def solve_pnp_ransac(object_points, image_points, camera_matrix, dist_coeffs, rvec=None, tvec=None, useExtrinsicGuess=False,
                      iterationsCount=100, reprojectionError=8.0, confidence=0.99, flags=SOLVEPNP_ITERATIVE):
     """The pose of a known object from correspondences of which some are wrong, as
-    ``cv2.solvePnPRansac`` (``SOLVEPNP_ITERATIVE``; ``scan::calib::pnp_ransac``): random minimal
-    sets (4 points on a plane, 6 off it; a fixed seed, so calls repeat) posed by
-    :func:`solve_pnp`'s solver, the pose with the most correspondences reprojecting within
-    ``reprojectionError`` pixels through the full lens kept, at most ``iterationsCount`` sets
-    and no more than ``confidence`` asks, then the pose refined on its inliers. OpenCV poses its
-    sets of five with EPnP; on the same data both find the same inliers and, refined on them, the
+    ``cv2.solvePnPRansac`` (``scan::calib::pnp_ransac``): random sets of five points (a fixed
+    seed, so calls repeat) posed by EPnP, as OpenCV draws them (with ``useExtrinsicGuess``, sets
+    of 4 coplanar or 6 points refined from the guess), the pose with the most correspondences
+    reprojecting within ``reprojectionError`` pixels through the full lens kept, at most
+    ``iterationsCount`` sets and no more than ``confidence`` asks, then the pose refined on its
+    inliers; on the same data lucent and OpenCV find the same inliers and, refined on them, the
     same pose. With other ``flags`` the final pose on the inliers is that method's
     (:func:`solve_pnp_generic`; EPnP for ``SOLVEPNP_P3P`` and ``SOLVEPNP_AP3P``, as OpenCV); the
     hypotheses stay lucent's.

@@ -1,11 +1,10 @@
 //! The pose of a known object from correspondences of which some are wrong (OpenCV's
 //! `solvePnPRansac` with `SOLVEPNP_ITERATIVE`; Fischler & Bolles, CACM 24(6), 1981).
 //!
-//! - **Hypotheses.** Minimal sets drawn at random (a fixed seed, so a call is repeatable): four
-//!   points when all the object's points lie on one plane (the plane's homography), six
-//!   otherwise (the direct linear transform), each posed by [`super::pnp::solve_pnp`] (its
-//!   closed-form start and Levenberg–Marquardt on the set) or, with a guess, refined from it.
-//!   OpenCV poses its sets of five with EPnP; both give a pose that the inlier count then judges.
+//! - **Hypotheses.** Sets drawn at random (a fixed seed, so a call is repeatable): five points
+//!   posed by EPnP on their rays, as OpenCV draws them; with a guess (or fewer than five points
+//!   with a ray), four points when all the object's points lie on one plane, six otherwise, each
+//!   refined from the guess by [`super::pnp::solve_pnp_from`].
 //! - **Inliers.** A correspondence is an inlier of a pose when its reprojection through the full
 //!   lens lies within `threshold_px` of its pixel (OpenCV's `reprojectionError`). The pose with
 //!   the most inliers wins (ties: the smaller sum of their squared errors).
@@ -94,7 +93,20 @@ pub fn solve_pnp_ransac(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Opt
         }
     }
     let x: Vec<Vector3<f64>> = obj.iter().map(|p| Vector3::from(*p)).collect();
-    let m = if coplanar(&x) { 4 } else { 6 };
+    // Without a guess, hypotheses from EPnP on sets of five, as OpenCV draws them (on the pixels
+    // through the lens's inverse; a pixel without a ray is never drawn); with one, or fewer than
+    // five points with a ray, from the iterative solver on 4 coplanar or 6 points, refined from
+    // the guess.
+    let rays = super::pnp::normalised_each(px, lens)?;
+    let drawable: Vec<usize> = (0..n).filter(|&i| rays[i].is_some()).collect();
+    let by_epnp = guess.is_none() && drawable.len() >= 5;
+    let m = if by_epnp {
+        5
+    } else if coplanar(&x) {
+        4
+    } else {
+        6
+    };
     if n < m {
         bail!("a RANSAC pose needs at least {m} points here ({}), got {n}", if m == 4 { "coplanar" } else { "off one plane" });
     }
@@ -107,20 +119,30 @@ pub fn solve_pnp_ransac(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Opt
     let (mut so, mut sp) = (Vec::with_capacity(m), Vec::with_capacity(m));
     while k < limit {
         k += 1;
-        // m distinct indices.
+        // m distinct indices (of the drawable points for EPnP).
+        let pool = if by_epnp { drawable.len() } else { n };
         for i in 0..m {
             set[i] = loop {
-                let j = ((rng.next_f64() * n as f64) as usize).min(n - 1);
+                let j = ((rng.next_f64() * pool as f64) as usize).min(pool - 1);
+                let j = if by_epnp { drawable[j] } else { j };
                 if !set[..i].contains(&j) {
                     break j;
                 }
             };
         }
-        so.clear();
-        sp.clear();
-        so.extend(set.iter().map(|&i| obj[i]));
-        sp.extend(set.iter().map(|&i| px[i]));
-        let Ok((pose, _)) = solve_pnp_from(&so, &sp, lens, guess) else { continue };
+        let pose = if by_epnp {
+            let xs: Vec<Vector3<f64>> = set.iter().map(|&i| x[i]).collect();
+            let ms: Vec<Point2> = set.iter().map(|&i| rays[i].expect("drawn from the points with a ray")).collect();
+            let Some(p) = super::pnp::epnp_pose(&xs, &ms, lens.fx, lens.fy) else { continue };
+            p
+        } else {
+            so.clear();
+            sp.clear();
+            so.extend(set.iter().map(|&i| obj[i]));
+            sp.extend(set.iter().map(|&i| px[i]));
+            let Ok((p, _)) = solve_pnp_from(&so, &sp, lens, guess) else { continue };
+            p
+        };
         let e = sq_errors(obj, px, lens, &pose);
         let inl: Vec<usize> = (0..n).filter(|&i| e[i] <= t2).collect();
         let ss: f64 = inl.iter().map(|&i| e[i]).sum();

@@ -165,21 +165,33 @@ pub fn solve_pnp_generic(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, method: M
 /// rays): exactly (Newton's method), where OpenCV's `undistortPoints` stops after 5 fixed-point
 /// steps.
 fn normalised(px: &[Point2], lens: &Lens) -> Result<Vec<Point2>> {
+    normalised_each(px, lens)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, m)| m.ok_or_else(|| anyhow::anyhow!("image point {i} ({}, {}) has no ray through the lens's inverse", px[i][0], px[i][1])))
+        .collect()
+}
+
+/// [`normalised`] point by point: None for a pixel without a ray.
+pub(crate) fn normalised_each(px: &[Point2], lens: &Lens) -> Result<Vec<Option<Point2>>> {
     let [k1, k2, p1, p2, k3] = lens.dist;
     let [k4, k5, k6] = lens.rational;
     let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: lens.prism, tau_rad: lens.tilt };
     let intr = Intrinsics { fx: lens.fx, fy: lens.fy, cx: lens.cx, cy: lens.cy };
     let cam = OpenCv::unchecked(intr, d, Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?)?;
-    px.iter()
-        .enumerate()
-        .map(|(i, q)| {
+    Ok(px
+        .iter()
+        .map(|q| {
             let (x, y, ok) = cam.undistort((q[0] - lens.cx) / lens.fx, (q[1] - lens.cy) / lens.fy);
-            if !ok {
-                bail!("image point {i} ({}, {}) has no ray through the lens's inverse", q[0], q[1]);
-            }
-            Ok([x, y])
+            ok.then_some([x, y])
         })
-        .collect()
+        .collect())
+}
+
+/// EPnP's pose ([`Method::Epnp`]) of object points `x` at normalised coordinates `m`, the
+/// equations weighed by `fx`, `fy`; None when they determine none.
+pub(crate) fn epnp_pose(x: &[Vector3<f64>], m: &[Point2], fx: f64, fy: f64) -> Option<Pose> {
+    epnp::epnp(x, m, fx, fy).map(|(r, t)| Pose::from_rt(&r, t))
 }
 
 /// The pose (object → camera) of the points `obj` seen at pixels `px` by `lens`, and the RMS
