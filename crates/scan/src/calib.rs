@@ -171,7 +171,7 @@ impl ProcamCalibration {
     pub fn check(&self) -> anyhow::Result<()> {
         use anyhow::{anyhow, bail};
         use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
-        let identity = Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        let identity = Extrinsics::identity();
         for (field, d) in [("camera", &self.camera), ("projector", &self.projector)] {
             if d.width == 0 || d.height == 0 {
                 bail!("{field}: size {}x{} has no pixels", d.width, d.height);
@@ -399,7 +399,7 @@ pub(crate) fn usable(fx: f64, fy: f64, cx: f64, cy: f64, dist: &[f64], width: u3
     };
     let check = || -> anyhow::Result<()> {
         let d = render::camera::Distortion::from_opencv(dist)?;
-        let id = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        let id = render::camera::Extrinsics::identity();
         render::camera::OpenCv::new(render::camera::Intrinsics { fx, fy, cx, cy }, d, id, width, height)?;
         Ok(())
     };

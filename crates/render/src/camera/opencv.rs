@@ -211,6 +211,11 @@ pub struct Extrinsics {
 }
 
 impl Extrinsics {
+    /// The identity: camera frame = world frame.
+    pub fn identity() -> Extrinsics {
+        Extrinsics { r: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], t_m: [0.0; 3] }
+    }
+
     /// From R and t (m); R must be a rotation (orthonormal within 1e-6, determinant +1).
     pub fn from_rt(r: [[f64; 3]; 3], t_m: [f64; 3]) -> Result<Extrinsics> {
         if r.iter().flatten().chain(t_m.iter()).any(|x| !x.is_finite()) {

@@ -39,12 +39,16 @@ impl Lens {
         Matrix3::new(self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0)
     }
 
-    /// Pixel position of a point in device coordinates (x right, y down, z forward).
-    pub fn project(&self, x: &Vector3<f64>) -> Point2 {
+    /// The lens's distortion in the renderer's form.
+    pub fn distortion(&self) -> Distortion {
         let [k1, k2, p1, p2, k3] = self.dist;
         let [k4, k5, k6] = self.rational;
-        let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: self.prism, tau_rad: self.tilt };
-        let (u, v) = d.distort(x[0] / x[2], x[1] / x[2]);
+        Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: self.prism, tau_rad: self.tilt }
+    }
+
+    /// Pixel position of a point in device coordinates (x right, y down, z forward).
+    pub fn project(&self, x: &Vector3<f64>) -> Point2 {
+        let (u, v) = self.distortion().distort(x[0] / x[2], x[1] / x[2]);
         [self.fx * u + self.cx, self.fy * v + self.cy]
     }
 

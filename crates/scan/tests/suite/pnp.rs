@@ -162,18 +162,15 @@ fn methods_agree_on_noisy_pixels_and_sqpnp_is_a_minimum() {
         }
         // SQPnP's objective, on the pixels through the lens's inverse.
         let (pose, _) = solve_pnp_generic(&obj, &px, &l, Method::Sqpnp, None).unwrap()[0];
+        let cam = render::camera::OpenCv::unchecked(
+            render::camera::Intrinsics { fx: l.fx, fy: l.fy, cx: l.cx, cy: l.cy },
+            l.distortion(),
+            render::camera::Extrinsics::identity(),
+        )
+        .unwrap();
         let norm: Vec<Vector3<f64>> = px
             .iter()
             .map(|q| {
-                let c = scan::calib::model::Pose::identity();
-                let _ = c;
-                let d = render::camera::Distortion { k: [l.dist[0], l.dist[1], l.dist[4], 0.0, 0.0, 0.0], p: [l.dist[2], l.dist[3]], s: [0.0; 4], tau_rad: [0.0; 2] };
-                let cam = render::camera::OpenCv::unchecked(
-                    render::camera::Intrinsics { fx: l.fx, fy: l.fy, cx: l.cx, cy: l.cy },
-                    d,
-                    render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]).unwrap(),
-                )
-                .unwrap();
                 let (x, y, ok) = cam.undistort((q[0] - l.cx) / l.fx, (q[1] - l.cy) / l.fy);
                 assert!(ok);
                 Vector3::new(x, y, 1.0)

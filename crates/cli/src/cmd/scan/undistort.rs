@@ -33,7 +33,7 @@ pub fn run(args: Args) -> Result<()> {
     let (k, d) = (calib.intrinsics, calib.distortion);
     scan::calib::undistort::remap_photo(&args.image, size, &args.out, |w, h| {
         // The lens must be one whose distortion inverts over the whole photograph.
-        let identity = render::camera::Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?;
+        let identity = render::camera::Extrinsics::identity();
         render::camera::OpenCv::new(k, d, identity, w as u32, h as u32).with_context(|| format!("camera {}", args.camera.display()))?;
         Ok(scan::calib::undistort::undistort_map(&k, &d, &k, w, h))
     })?;

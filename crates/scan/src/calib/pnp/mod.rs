@@ -30,7 +30,7 @@ mod sqpnp;
 
 use anyhow::{bail, Result};
 use nalgebra::{DMatrix, Matrix3, Matrix6, SVector, Vector3, Vector6};
-use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
+use render::camera::{Extrinsics, Intrinsics, OpenCv};
 
 use super::homography::{fit_homography, Point2};
 use super::model::{nearest_rotation, Lens, Pose};
@@ -174,11 +174,8 @@ fn normalised(px: &[Point2], lens: &Lens) -> Result<Vec<Point2>> {
 
 /// [`normalised`] point by point: None for a pixel without a ray.
 pub(crate) fn normalised_each(px: &[Point2], lens: &Lens) -> Result<Vec<Option<Point2>>> {
-    let [k1, k2, p1, p2, k3] = lens.dist;
-    let [k4, k5, k6] = lens.rational;
-    let d = Distortion { k: [k1, k2, k3, k4, k5, k6], p: [p1, p2], s: lens.prism, tau_rad: lens.tilt };
     let intr = Intrinsics { fx: lens.fx, fy: lens.fy, cx: lens.cx, cy: lens.cy };
-    let cam = OpenCv::unchecked(intr, d, Extrinsics::from_rt([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])?)?;
+    let cam = OpenCv::unchecked(intr, lens.distortion(), Extrinsics::identity())?;
     Ok(px
         .iter()
         .map(|q| {
