@@ -736,7 +736,12 @@ def _grey_levels(image):
     h, w = a.shape
     if h < 8 or w < 8:
         raise ValueError(f"image: at least 8×8 pixels, got {w}×{h}")
-    return [float(v) for v in _np.asarray(a, dtype=_np.float32).ravel()], w, h
+    return _np.ascontiguousarray(a, dtype=_np.float32).reshape(-1), w, h
+
+
+def _flat64(a) -> _np.ndarray:
+    """A contiguous flat float64 copy or view of ``a``, as the extension's flat arguments take it."""
+    return _np.ascontiguousarray(a, dtype=_np.float64).reshape(-1)
 
 
 def find_chessboard_corners(image, pattern_size):
@@ -1308,8 +1313,7 @@ def triangulate_points(proj_matr1, proj_matr2, proj_points1, proj_points2):
     a, b = pts(proj_points1, "proj_points1"), pts(proj_points2, "proj_points2")
     if len(a) != len(b):
         raise ValueError(f"proj_points1, proj_points2: {len(a)} and {len(b)} points")
-    h = _lucent.triangulate_points_flat([float(v) for v in p1.ravel()], [float(v) for v in p2.ravel()],
-                                        [float(v) for v in a.ravel()], [float(v) for v in b.ravel()])
+    h = _lucent.triangulate_points_flat([float(v) for v in p1.ravel()], [float(v) for v in p2.ravel()], _flat64(a), _flat64(b))
     return _np.asarray(h, dtype=float).reshape(-1, 4).T
 
 
@@ -1419,7 +1423,7 @@ def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -
     p = _points(object_points, 3, "object_points")
     k, d = _camera_args(camera_matrix, dist_coeffs)
     r, t = _pose_args(rvec, tvec)
-    out = _lucent.project_points_flat([float(v) for v in p.ravel()], r, t, k, d)
+    out = _lucent.project_points_flat(_flat64(p), r, t, k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
 
 
@@ -1443,7 +1447,7 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
     """
     q = _points(image_points, 2, "image_points")
     k, d = _camera_args(camera_matrix, dist_coeffs)
-    out = _lucent.undistort_points_flat([float(v) for v in q.ravel()], k, d)
+    out = _lucent.undistort_points_flat(_flat64(q), k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
 
 

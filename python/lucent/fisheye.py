@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as _np
 
 # The package's helpers; this module is imported at the end of lucent/__init__.py.
-from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _image_size, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
+from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _flat64, _image_size, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
                _rodrigues, _solve_pnp_ransac_with, _solve_pnp_with)
 
 __all__ = [
@@ -114,7 +114,7 @@ def project_points(object_points, rvec, tvec, K, D, alpha=None) -> _np.ndarray:
     p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
     k, d = _lens(K, D, alpha)
     r, t = _pose_args(rvec, tvec)
-    out = _lucent.fisheye_project_flat([float(v) for v in p.ravel()], r, t, k, d)
+    out = _lucent.fisheye_project_flat(_flat64(p), r, t, k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
 
 
@@ -125,7 +125,7 @@ def distort_points(undistorted, K, D, alpha=None) -> _np.ndarray:
     """
     q = _np.asarray(undistorted, dtype=float).reshape(-1, 2)
     k, d = _lens(K, D, alpha)
-    return _np.asarray(_lucent.fisheye_distort_flat([float(v) for v in q.ravel()], k, d), dtype=float).reshape(-1, 2)
+    return _np.asarray(_lucent.fisheye_distort_flat(_flat64(q), k, d), dtype=float).reshape(-1, 2)
 
 
 def _rotation(R):
@@ -150,7 +150,7 @@ def undistort_points(distorted, K, D, R=None, P=None) -> _np.ndarray:
     """
     q = _np.asarray(distorted, dtype=float).reshape(-1, 2)
     k, d = _lens(K, D)
-    x = _np.asarray(_lucent.fisheye_undistort_flat([float(v) for v in q.ravel()], k, d), dtype=float).reshape(-1, 2)
+    x = _np.asarray(_lucent.fisheye_undistort_flat(_flat64(q), k, d), dtype=float).reshape(-1, 2)
     if R is None and P is None:
         return x
     m = _rotation(R)
@@ -312,7 +312,7 @@ def undistort_image(distorted, K, D, Knew=None, new_size=None):
     ow, oh = (w, h) if new_size is None else _image_size(new_size, "new_size")
     mx, my = init_undistort_rectify_map(K, D, None, K if Knew is None else Knew, (ow, oh))
     m = _np.stack([mx.ravel(), my.ravel()], axis=1).astype(float)
-    out = _lucent.remap_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, [float(v) for v in m.ravel()])
+    out = _lucent.remap_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, _flat64(m))
     return _np.frombuffer(out, dtype=_np.uint8).reshape((oh, ow) + a.shape[2:]).copy()
 
 

@@ -3,6 +3,7 @@
 //! crate's corner and disc finders, Zhang's closed form and Levenberg–Marquardt; docs/scanning.md).
 
 use crate::errors::{value, OrPy};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use scan::calib::bundle::Free;
 use scan::calib::camera::calibrate_camera_guided;
@@ -12,7 +13,8 @@ use scan::calib::chessboard::{find_chessboard, GrayImage};
 /// top-left) of a chessboard in a grey image of `width` × `height` levels (row-major), refined
 /// to sub-pixel; None when no such lattice is found.
 #[pyfunction]
-pub fn find_chessboard_flat(grey: Vec<f32>, width: usize, height: usize, cols: usize, rows: usize) -> PyResult<Option<Vec<f64>>> {
+pub fn find_chessboard_flat(py: Python<'_>, grey: PyReadonlyArray1<'_, f32>, width: usize, height: usize, cols: usize, rows: usize) -> PyResult<Option<Vec<f64>>> {
+    let grey = grey.as_slice()?.to_vec();
     if grey.len() != width * height || width < 8 || height < 8 {
         return Err(value(format!("image: expected {width}×{height} grey levels (at least 8×8), got {}", grey.len())));
     }
@@ -20,15 +22,16 @@ pub fn find_chessboard_flat(grey: Vec<f32>, width: usize, height: usize, cols: u
         return Err(value(format!("pattern_size: the board needs at least 3×3 inner corners, got {cols}×{rows}")));
     }
     let img = GrayImage { width, height, data: grey };
-    Ok(find_chessboard(&img, cols, rows).map(|c| c.into_iter().flatten().collect()))
+    Ok(py.allow_threads(|| find_chessboard(&img, cols, rows)).map(|c| c.into_iter().flatten().collect()))
 }
 
 /// The discs of a `cols` × `rows` circle grid (flat u, v in the order of OpenCV's object points,
 /// `scan::markers::grid`) in a grey image of `width` × `height` 8-bit codes (row-major, taken as
 /// they are); None when no such grid is found.
 #[pyfunction]
-pub fn find_circles_grid_flat(py: Python<'_>, grey: Vec<f32>, width: usize, height: usize, cols: usize, rows: usize, asymmetric: bool) -> PyResult<Option<Vec<f64>>> {
+pub fn find_circles_grid_flat(py: Python<'_>, grey: PyReadonlyArray1<'_, f32>, width: usize, height: usize, cols: usize, rows: usize, asymmetric: bool) -> PyResult<Option<Vec<f64>>> {
     use scan::markers::grid::{find_circles_grid, GridKind};
+    let grey = grey.as_slice()?;
     if grey.len() != width * height || width < 8 || height < 8 {
         return Err(value(format!("image: expected {width}×{height} grey levels (at least 8×8), got {}", grey.len())));
     }
@@ -311,7 +314,8 @@ pub fn undistort_rectify_map_flat(py: Python<'_>, k: Vec<f64>, d: Vec<f64>, r: V
 /// projection matrices and the points' pixels in the two views (flat u, v), each point's
 /// homogeneous coordinates (flat x, y, z, w; unit length, w ≥ 0).
 #[pyfunction]
-pub fn triangulate_points_flat(p1: Vec<f64>, p2: Vec<f64>, a: Vec<f64>, b: Vec<f64>) -> PyResult<Vec<f64>> {
+pub fn triangulate_points_flat<'py>(py: Python<'py>, p1: Vec<f64>, p2: Vec<f64>, a: PyReadonlyArray1<'py, f64>, b: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (a, b) = (a.as_slice()?, b.as_slice()?);
     if p1.len() != 12 || p2.len() != 12 || !p1.iter().chain(&p2).all(|v| v.is_finite()) {
         return Err(value("projMatr1, projMatr2: expected finite 3×4 matrices"));
     }
@@ -319,7 +323,8 @@ pub fn triangulate_points_flat(p1: Vec<f64>, p2: Vec<f64>, a: Vec<f64>, b: Vec<f
         return Err(value(format!("projPoints1, projPoints2: {} and {} points", a.len() / 2, b.len() / 2)));
     }
     let (m1, m2) = (nalgebra::Matrix3x4::from_row_slice(&p1), nalgebra::Matrix3x4::from_row_slice(&p2));
-    Ok(a.chunks_exact(2).zip(b.chunks_exact(2)).flat_map(|(x, y)| scan::triangulate::triangulate_dlt(&m1, &m2, [x[0], x[1]], [y[0], y[1]])).collect())
+    let xyzw: Vec<f64> = a.chunks_exact(2).zip(b.chunks_exact(2)).flat_map(|(x, y)| scan::triangulate::triangulate_dlt(&m1, &m2, [x[0], x[1]], [y[0], y[1]])).collect();
+    Ok(xyzw.into_pyarray(py))
 }
 
 /// `cv2.solvePnPRansac` (`SOLVEPNP_ITERATIVE`): the Rodrigues vector, the translation, the inlier

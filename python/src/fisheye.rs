@@ -4,6 +4,7 @@
 
 use crate::errors::{value, OrPy};
 use nalgebra::Vector3;
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use scan::calib::fisheye::{calibrate_fisheye, FisheyeHold, FisheyeLens};
 use scan::calib::model::Pose;
@@ -15,47 +16,53 @@ fn lens(k: [f64; 9], d: [f64; 4]) -> PyResult<FisheyeLens> {
 /// Pixels (flat u, v) of flat points (x, y, z) through the pose (Rodrigues vector, translation)
 /// and the lens `k` (row-major 3×3, K₀₁ = skew·fx), `d` (k1…k4); NaN at or behind the camera.
 #[pyfunction]
-pub fn fisheye_project_flat(points: Vec<f64>, rvec: [f64; 3], tvec: [f64; 3], k: [f64; 9], d: [f64; 4]) -> PyResult<Vec<f64>> {
+pub fn fisheye_project_flat<'py>(py: Python<'py>, points: PyReadonlyArray1<'py, f64>, rvec: [f64; 3], tvec: [f64; 3], k: [f64; 9], d: [f64; 4]) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let points = points.as_slice()?;
     let l = lens(k, d)?;
     if points.iter().chain(rvec.iter()).chain(tvec.iter()).any(|x| !x.is_finite()) {
         return Err(value("object_points, rvec, tvec: must be finite"));
     }
     let pose = Pose { rvec: Vector3::from(rvec), t: Vector3::from(tvec) };
-    Ok(points
+    let uv: Vec<f64> = points
         .chunks_exact(3)
         .flat_map(|p| {
             let c = pose.apply(&Vector3::new(p[0], p[1], p[2]));
             l.project([c[0], c[1], c[2]])
         })
-        .collect())
+        .collect();
+    Ok(uv.into_pyarray(py))
 }
 
 /// Pixels (flat u, v) of flat undistorted normalised coordinates (x/z, y/z).
 #[pyfunction]
-pub fn fisheye_distort_flat(points: Vec<f64>, k: [f64; 9], d: [f64; 4]) -> PyResult<Vec<f64>> {
+pub fn fisheye_distort_flat<'py>(py: Python<'py>, points: PyReadonlyArray1<'py, f64>, k: [f64; 9], d: [f64; 4]) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let l = lens(k, d)?;
-    Ok(points
+    let uv: Vec<f64> = points
+        .as_slice()?
         .chunks_exact(2)
         .flat_map(|p| {
             let (xd, yd) = l.distort(p[0], p[1]);
             l.to_pixel(xd, yd)
         })
-        .collect())
+        .collect();
+    Ok(uv.into_pyarray(py))
 }
 
 /// Undistorted normalised coordinates (flat x/z, y/z) of flat pixels (u, v); NaN where the ray
 /// would lie beyond the range over which θ_d increases.
 #[pyfunction]
-pub fn fisheye_undistort_flat(pixels: Vec<f64>, k: [f64; 9], d: [f64; 4]) -> PyResult<Vec<f64>> {
+pub fn fisheye_undistort_flat<'py>(py: Python<'py>, pixels: PyReadonlyArray1<'py, f64>, k: [f64; 9], d: [f64; 4]) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let l = lens(k, d)?;
     let tm = l.theta_max();
-    Ok(pixels
+    let xy: Vec<f64> = pixels
+        .as_slice()?
         .chunks_exact(2)
         .flat_map(|q| {
             let (xd, yd) = l.normalise(q[0], q[1]);
             l.undistort(xd, yd, tm).map_or([f64::NAN; 2], |(x, y)| [x, y])
         })
-        .collect())
+        .collect();
+    Ok(xy.into_pyarray(py))
 }
 
 /// Calibrate a fisheye camera from one planar target (flat x, y, z = 0) in several views (flat
@@ -86,7 +93,8 @@ pub fn fisheye_calibrate_flat(
 /// bilinearly at the flat source positions `map` (x, y per output pixel; black outside or at NaN),
 /// as `cv2.remap` with INTER_LINEAR and a black constant border (`scan::calib::undistort`).
 #[pyfunction]
-pub fn remap_flat(py: Python<'_>, image: &[u8], width: usize, height: usize, channels: usize, map: Vec<f64>) -> PyResult<Py<pyo3::types::PyBytes>> {
+pub fn remap_flat(py: Python<'_>, image: &[u8], width: usize, height: usize, channels: usize, map: PyReadonlyArray1<'_, f64>) -> PyResult<Py<pyo3::types::PyBytes>> {
+    let map = map.as_slice()?;
     if image.len() != width * height * channels || channels == 0 {
         return Err(value(format!("src: expected {width}×{height}×{channels} values, got {}", image.len())));
     }
@@ -250,12 +258,12 @@ pub fn fisheye_solve_pnp_ransac_flat(object: Vec<f64>, pixels: Vec<f64>, k: [f64
 /// fisheye lens `k`, `d`; NaN where a pixel's ray lies at or behind the camera's plane
 /// (`scan::calib::fisheye::rectify::undistort_rectify_map_fisheye`).
 #[pyfunction]
-pub fn fisheye_undistort_rectify_map_flat(k: [f64; 9], d: [f64; 4], r: [f64; 9], p: [f64; 9], w: usize, h: usize) -> PyResult<Vec<f64>> {
+pub fn fisheye_undistort_rectify_map_flat<'py>(py: Python<'py>, k: [f64; 9], d: [f64; 4], r: [f64; 9], p: [f64; 9], w: usize, h: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let l = lens(k, d)?;
     if !r.iter().chain(p.iter()).all(|v| v.is_finite()) {
         return Err(value("R, P: must be finite"));
     }
     let (rm, pm) = (nalgebra::Matrix3::from_row_slice(&r), nalgebra::Matrix3::from_row_slice(&p));
-    let map = scan::calib::fisheye::rectify::undistort_rectify_map_fisheye(&l, &rm, &pm, w, h).map_err(|e| value(format!("R, P: {e:#}")))?;
-    Ok(map.into_iter().flatten().collect())
+    let map = py.allow_threads(|| scan::calib::fisheye::rectify::undistort_rectify_map_fisheye(&l, &rm, &pm, w, h)).map_err(|e| value(format!("R, P: {e:#}")))?;
+    Ok(map.into_iter().flatten().collect::<Vec<f64>>().into_pyarray(py))
 }

@@ -97,6 +97,18 @@ impl GrayImage {
         GrayImage { width: w, height: h, data }
     }
 
+    /// The `width` × `height` pixels from (x0, y0) on, read with the image's clamped border (so a
+    /// crop reaching beyond the image repeats its edge, as [`GrayImage::blur`] does).
+    pub fn crop_clamped(&self, x0: isize, y0: isize, width: usize, height: usize) -> GrayImage {
+        let mut data = Vec::with_capacity(width * height);
+        for y in 0..height as isize {
+            for x in 0..width as isize {
+                data.push(self.px(x0 + x, y0 + y));
+            }
+        }
+        GrayImage { width, height, data }
+    }
+
     /// Gaussian blur of standard deviation `sigma` pixels (separable, kernel ±3σ, clamped border).
     pub fn blur(&self, sigma: f64) -> GrayImage {
         let r = (3.0 * sigma).ceil() as isize;
@@ -104,22 +116,34 @@ impl GrayImage {
         let sum: f32 = k.iter().sum();
         let k: Vec<f32> = k.iter().map(|v| v / sum).collect();
         let (w, h) = (self.width, self.height);
-        // Horizontal pass: taps in the order −r…r (clamped at the borders), each row on its own.
+        // Horizontal pass: each pixel sums its taps in the order −r…r (clamped at the borders);
+        // in the interior the taps run in the outer loop, so that the inner one is a vectorisable
+        // multiply-add along the row with the same order of additions per pixel.
         let mut tmp = vec![0f32; w * h];
+        let ri = r as usize;
         for (y, row_out) in tmp.chunks_exact_mut(w).enumerate() {
             let row = &self.data[y * w..(y + 1) * w];
-            for (x, o) in row_out.iter_mut().enumerate() {
+            let clamped = |x: usize| -> f32 {
                 let mut s = 0.0;
-                if x as isize >= r && (x as isize) + r < w as isize {
-                    for (j, kv) in k.iter().enumerate() {
-                        s += kv * row[x + j - r as usize];
-                    }
-                } else {
-                    for (off, kv) in (-r..=r).zip(&k) {
-                        s += kv * row[(x as isize + off).clamp(0, w as isize - 1) as usize];
+                for (off, kv) in (-r..=r).zip(&k) {
+                    s += kv * row[(x as isize + off).clamp(0, w as isize - 1) as usize];
+                }
+                s
+            };
+            if w > 2 * ri {
+                for (j, &kv) in k.iter().enumerate() {
+                    let src = &row[j..j + w - 2 * ri];
+                    for (o, &v) in row_out[ri..w - ri].iter_mut().zip(src) {
+                        *o += kv * v;
                     }
                 }
-                *o = s;
+                for x in (0..ri).chain(w - ri..w) {
+                    row_out[x] = clamped(x);
+                }
+            } else {
+                for (x, o) in row_out.iter_mut().enumerate() {
+                    *o = clamped(x);
+                }
             }
         }
         // Vertical pass: the same taps, accumulated a row at a time (the same sums per pixel).
@@ -487,9 +511,31 @@ fn square_level(img: &GrayImage, c: Point2, a: Point2, d: Point2) -> Option<f64>
 /// (which makes the bilinearly interpolated gradients nearly isotropic: on the synthetic board of
 /// the `chessboard` tests the worst error drops from 0.087 to 0.034 px): window half-size `half` pixels,
 /// until the step is below `eps` px or after `iterations` steps. A corner that would leave its
-/// window keeps its start position.
+/// window keeps its start position, as does one whose iterate strays more than 2 `half` from it.
+///
+/// The blurred image and its gradients are needed only near the corners: where the corners'
+/// windows cover less than the image, each corner is refined in a crop around it wide enough
+/// that every value an iterate within 2 `half` of its start reads equals the whole image's
+/// (`corner_subpix_in_crops_is_exact`).
 pub fn corner_subpix(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
-    corner_subpix_inner(&img.blur(1.0), corners, half, iterations, eps);
+    // Reads reach 2·half (the iterate) + half (the window) + 1 (bilinear) + 1 (central difference)
+    // + 3 (the blur's support) + 1 (rounding of the crop's centre) from a corner's start.
+    let margin = 3 * half + 6;
+    let side = 2 * margin + 1;
+    if corners.len() * side * side >= img.width * img.height {
+        corner_subpix_inner(&img.blur(1.0), corners, half, iterations, eps);
+        return;
+    }
+    for c in corners.iter_mut() {
+        if !(c[0].is_finite() && c[1].is_finite()) {
+            continue;
+        }
+        let (x0, y0) = (c[0].round() as isize - margin as isize, c[1].round() as isize - margin as isize);
+        let crop = img.crop_clamped(x0, y0, side, side);
+        let mut local = [[c[0] - x0 as f64, c[1] - y0 as f64]];
+        corner_subpix_inner(&crop.blur(1.0), &mut local, half, iterations, eps);
+        *c = [local[0][0] + x0 as f64, local[0][1] + y0 as f64];
+    }
 }
 
 fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
@@ -508,7 +554,11 @@ fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, ite
     for c in corners.iter_mut() {
         let start = *c;
         let mut q = *c;
+        let stray = 2.0 * half as f64;
         for _ in 0..iterations {
+            if (q[0] - start[0]).abs() > stray || (q[1] - start[1]).abs() > stray {
+                break;
+            }
             let (mut a, mut b, mut d, mut bx, mut by) = (0.0, 0.0, 0.0, 0.0, 0.0);
             for dy in -hw..=hw {
                 for dx in -hw..=hw {

@@ -138,3 +138,63 @@ fn a_board_of_large_soft_squares_is_found_at_a_coarser_level() {
         .fold(0.0, f64::max);
     assert!(worst < 0.2, "worst corner error {worst} px");
 }
+
+/// The separable blur's vectorised interior gives the same bits as summing each pixel's taps
+/// in order with clamped indices, on images wider and narrower than the kernel.
+#[test]
+fn blur_equals_the_clamped_tap_sum_bit_for_bit() {
+    let mut state = 12345u64;
+    let mut rnd = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 40) % 256) as f32
+    };
+    for &(w, h, sigma) in &[(37usize, 23usize, 2.0f64), (5, 9, 2.0), (64, 3, 1.0), (13, 13, 1.0)] {
+        let img = GrayImage { width: w, height: h, data: (0..w * h).map(|_| rnd()).collect() };
+        let r = (3.0 * sigma).ceil() as isize;
+        let k: Vec<f32> = (-r..=r).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+        let sum: f32 = k.iter().sum();
+        let k: Vec<f32> = k.iter().map(|v| v / sum).collect();
+        let at = |x: isize, y: isize| img.data[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize];
+        let out = img.blur(sigma);
+        for y in 0..h as isize {
+            for x in 0..w as isize {
+                let mut v = 0f32;
+                for (oy, ky) in (-r..=r).zip(&k) {
+                    let mut s = 0f32;
+                    for (ox, kx) in (-r..=r).zip(&k) {
+                        s += kx * at(x + ox, y + oy);
+                    }
+                    v += ky * s;
+                }
+                assert_eq!(out.data[y as usize * w + x as usize].to_bits(), v.to_bits(), "{w}×{h} σ {sigma} at ({x}, {y})");
+            }
+        }
+    }
+}
+
+/// Refining a few corners (each in a crop around it) gives what refining them in the whole
+/// blurred image gives (the same corners repeated until their windows cover the image), to
+/// 1e-9 px, near the border too.
+#[test]
+fn corner_subpix_in_crops_is_exact() {
+    let h = turned(7.0, 120.0, 1000.0, 740.0, 9, 6);
+    let img = render_board_sized(&h, 2000, 1500, 4, 9, 6).blur(1.5);
+    let truth: Vec<[f64; 2]> = (0..6).flat_map(|r| (0..9).map(move |c| [c as f64, r as f64])).map(|b| apply(&h, b)).collect();
+    // Starts off by up to 1.7 px; one corner near the image's edge (its crop reaches beyond it).
+    let mut few: Vec<[f64; 2]> = truth.iter().step_by(7).enumerate().map(|(i, p)| [p[0] + 1.7 * ((i % 3) as f64 - 1.0), p[1] - 1.1 * ((i % 2) as f64)]).collect();
+    few.push([3.0, 5.0]);
+    let half = 11;
+    let side = 2 * (3 * half + 6) + 1;
+    let copies = (2000 * 1500) / (few.len() * side * side) + 1;
+    let mut many: Vec<[f64; 2]> = (0..copies).flat_map(|_| few.iter().copied()).collect();
+    assert!(many.len() * side * side >= 2000 * 1500);
+    scan::calib::chessboard::corner_subpix(&img, &mut few, half, 40, 1e-3);
+    scan::calib::chessboard::corner_subpix(&img, &mut many, half, 40, 1e-3);
+    for (i, (a, b)) in few.iter().zip(&many).enumerate() {
+        assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9, "corner {i}: crop {a:?}, whole image {b:?}");
+    }
+    // And the refinement did its work: the board's corners within 0.05 px of the truth.
+    for (a, t) in few.iter().zip(truth.iter().step_by(7)) {
+        assert!(((a[0] - t[0]).powi(2) + (a[1] - t[1]).powi(2)).sqrt() < 0.05, "{a:?} against {t:?}");
+    }
+}
