@@ -165,7 +165,9 @@ impl ProcamCalibration {
 
     /// Checks what the commands that read a calibration rely on: each device's size, focal
     /// lengths (> 0) and principal point (within 10 image widths), its distortion one of OpenCV's
-    /// lengths and invertible over its image (`render::camera::OpenCv::new`), the rotation a rotation
+    /// lengths and invertible over at least half of its image (a lens fitted to a board in the
+    /// image's centre may fold beyond it; the commands skip those pixels, and
+    /// [`ProcamCalibration::lens_warnings`] says so), the rotation a rotation
     /// (orthonormal within 10⁻⁶, determinant +1) and the translation finite and not zero (two
     /// devices at one centre triangulate and rectify nothing). The error names the field.
     pub fn check(&self) -> anyhow::Result<()> {
@@ -180,7 +182,13 @@ impl ProcamCalibration {
                 bail!("{field}: fx, fy must be positive focal lengths in pixels, got {}, {}", d.fx, d.fy);
             }
             let dist = Distortion::from_opencv(&d.distortion).map_err(|e| anyhow!("{field}.distortion: {e}"))?;
-            OpenCv::new(Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, dist, identity, d.width, d.height).map_err(|e| anyhow!("{field}: {e}"))?;
+            let cam = OpenCv::with_size(Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, dist, identity, d.width, d.height).map_err(|e| anyhow!("{field}: {e}"))?;
+            if let Err(e) = cam.check_invertible(d.width, d.height) {
+                let share = ray_share(&cam, d.width, d.height);
+                if share < 0.5 {
+                    bail!("{field}: {e:#}; only {:.0} % of its pixels have a ray", 100.0 * share);
+                }
+            }
         }
         Extrinsics::from_rt(self.rotation, self.translation).map_err(|e| anyhow!("rotation: {e}"))?;
         let t = self.translation;
@@ -195,7 +203,39 @@ impl ProcamCalibration {
     }
 }
 
+/// The share of a 33 × 33 grid of pixel positions over the image (its edges included) whose
+/// undistortion converges on the lens's unfolded branch (`OpenCv::undistort`).
+fn ray_share(cam: &render::camera::OpenCv, width: u32, height: u32) -> f64 {
+    let k = cam.intrinsics;
+    let n = 32;
+    let mut ok = 0;
+    for a in 0..=n {
+        for b in 0..=n {
+            let u = -0.5 + width as f64 * a as f64 / n as f64;
+            let v = -0.5 + height as f64 * b as f64 / n as f64;
+            ok += cam.undistort((u - k.cx) / k.fx, (v - k.cy) / k.fy).2 as usize;
+        }
+    }
+    ok as f64 / ((n + 1) * (n + 1)) as f64
+}
+
 impl ProcamCalibration {
+    /// One line per device whose distortion does not map a ray to every pixel of its image
+    /// (`render::camera::OpenCv::check_invertible`): pixels beyond the fold have no ray, and
+    /// triangulation, rectification and labelling skip them. Empty for a usable calibration.
+    pub fn lens_warnings(&self) -> Vec<String> {
+        use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
+        let mut out = Vec::new();
+        for (field, d) in [("camera", &self.camera), ("projector", &self.projector)] {
+            let Ok(dist) = Distortion::from_opencv(&d.distortion) else { continue };
+            let Ok(cam) = OpenCv::with_size(Intrinsics { fx: d.fx, fy: d.fy, cx: d.cx, cy: d.cy }, dist, Extrinsics::identity(), d.width, d.height) else { continue };
+            if let Err(e) = cam.check_invertible(d.width, d.height) {
+                out.push(format!("{field}: {e:#}; the pixels beyond it have no ray and are skipped (the views the lens was fitted to do not reach there)"));
+            }
+        }
+        out
+    }
+
     /// This calibration as OpenCV FileStorage (XML, or YAML when `yaml`), with procam-calibration's
     /// node names so that tools written for its `calibration_result.xml` read it: `img_shape`,
     /// `rms`, `cam_int`, `cam_dist`, `proj_int`, `proj_dist`, `roration` (its spelling),

@@ -238,6 +238,27 @@ fn reconstruct_a_rendered_plane_through_the_command() {
     }
     let e = fails_on_one_line(&["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("calib.json"), "--projector", "64x48", "--out", &s.arg("p2.ply")]);
     assert!(e.contains("128x96") && e.contains("64x48"), "{e}");
+    // A camera lens that folds inside the image (r(1 + k1 r²) peaks at r_d = 0.3, the corners
+    // lie at 0.5, as a fit to a board in the image's centre can give): one warning, and the
+    // pixels beyond the fold are skipped, every other lit pixel triangulated.
+    let mut folded = calib.clone();
+    folded.camera.distortion = vec![-1.0 / (3.0 * 0.45 * 0.45), 0.0, 0.0, 0.0, 0.0];
+    std::fs::write(s.path("folded.json"), serde_json::to_string(&folded).unwrap()).unwrap();
+    let out = lucent().args(["scan", "reconstruct", &s.arg("cap"), "--calibration", &s.arg("folded.json"), "--out", &s.arg("f.ply"), "--json"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.lines().count() == 1 && err.contains("warning") && err.contains("folded.json") && err.contains("no ray"), "{err}");
+    let f: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let fold = {
+        use render::camera::{Distortion, Extrinsics, Intrinsics, OpenCv};
+        let k = &folded.camera;
+        OpenCv::unchecked(Intrinsics { fx: k.fx, fy: k.fy, cx: k.cx, cy: k.cy }, Distortion::from_opencv(&k.distortion).unwrap(), Extrinsics::identity()).unwrap()
+    };
+    let with_ray = (0..160 * 120).filter(|&i| proj_px[i].is_some() && fold.undistort((((i % 160) as f64) - 79.5) / 200.0, (((i / 160) as f64) - 59.5) / 200.0).2).count();
+    assert!(with_ray < lit * 8 / 10 && with_ray > lit / 2, "{with_ray} of {lit}");
+    // (Triangulation's own fold test, a radial walk, may drop a few more at the fold's edge.)
+    let points = f["points"].as_u64().unwrap() as usize;
+    assert!(points <= with_ray && points + with_ray / 500 >= with_ray, "{points} points, {with_ray} lit pixels with a ray");
     let broken = procam_calibration_filestorage(&calib, false).replace("<rows>3</rows>\n  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n    1.7", "<rows>2</rows>\n  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n    1.7");
     let broken = broken.replacen("0.00000000000000000e0 1.00000000000000000e0</data></proj_int>", "</data></proj_int>", 1);
     std::fs::write(s.path("broken.xml"), broken).unwrap();

@@ -300,6 +300,14 @@ impl OpenCv {
     /// the full map positive over a grid covering that disc, and Newton's inverse converging at a
     /// 33×33 grid of image positions including the borders.
     pub fn new(intrinsics: Intrinsics, distortion: Distortion, extrinsics: Extrinsics, width: u32, height: u32) -> Result<OpenCv> {
+        let cam = OpenCv::with_size(intrinsics, distortion, extrinsics, width, height)?;
+        cam.check_invertible(width, height)?;
+        Ok(cam)
+    }
+
+    /// [`OpenCv::new`] without the invertibility check: for point-wise use with a known image size
+    /// (triangulation), where [`OpenCv::undistort`] reports per point whether a ray exists.
+    pub fn with_size(intrinsics: Intrinsics, distortion: Distortion, extrinsics: Extrinsics, width: u32, height: u32) -> Result<OpenCv> {
         let Intrinsics { fx, fy, cx, cy } = intrinsics;
         if !(fx > 0.0 && fy > 0.0 && fx.is_finite() && fy.is_finite()) {
             bail!("focal lengths fx, fy must be positive pixels, got {fx}, {fy}");
@@ -314,11 +322,7 @@ impl OpenCv {
         if !(cx.abs() <= span && cy.abs() <= span) {
             bail!("principal point ({cx}, {cy}) lies far outside the {width}×{height} image (more than 10 image widths)");
         }
-        let cam = OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() };
-        if !distortion.is_zero() {
-            cam.check_invertible(width, height)?;
-        }
-        Ok(cam)
+        Ok(OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() })
     }
 
     /// A camera without the invertibility check of [`OpenCv::new`], for point-wise use (OpenCV's
@@ -332,9 +336,14 @@ impl OpenCv {
         Ok(OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() })
     }
 
-    fn check_invertible(&self, width: u32, height: u32) -> Result<()> {
+    /// Whether the distortion maps a ray to every pixel of a `width` × `height` image ([`OpenCv::new`]'s
+    /// check); the error says where it fails.
+    pub fn check_invertible(&self, width: u32, height: u32) -> Result<()> {
         let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
         let d = &self.distortion;
+        if d.is_zero() {
+            return Ok(());
+        }
         let (u0, u1, v0, v1) = (-0.5, width as f64 - 0.5, -0.5, height as f64 - 0.5);
         // The corners' distance from the axis before the tilt.
         let mut rd_max = 0.0f64;
@@ -348,19 +357,31 @@ impl OpenCv {
         // tangential terms); it must increase and keep a positive denominator all the way.
         let (rm2, [s1, s2, s3, s4]) = (rd_max * rd_max, d.s);
         let prism = (s1.abs() + s3.abs()) * rm2 + (s2.abs() + s4.abs()) * rm2 * rm2;
-        let target = rd_max * 1.05 + 2.0 * (d.p[0].abs() + d.p[1].abs()) * rm2 + prism;
+        let margin = 2.0 * (d.p[0].abs() + d.p[1].abs()) * rm2 + prism;
+        // It must pass `need`; the disc checked below reaches on to `want` or to the fold.
+        let (need, want) = (rd_max * 1.001 + margin, rd_max * 1.05 + margin);
         let dr = (rd_max / 4000.0).max(1e-6);
         let mut r = 0.0f64;
+        let mut reached = 0.0f64;
         loop {
             let (f, g, m) = d.radial(r * r);
+            let slope = f + 2.0 * r * r * g;
+            if reached >= need && !(m > 0.0 && slope > 0.0) {
+                r -= dr;
+                break;
+            }
             if !(m > 0.0) {
                 bail!("distortion is not invertible inside the image: the rational denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ reaches 0 at r = {r:.4} (the image corners are at r = {rd_max:.4})");
             }
-            let slope = f + 2.0 * r * r * g;
             if !(slope > 0.0) {
-                bail!("distortion is not invertible inside the image: the radial map r·(1 + k1 r² + …) turns back at r = {r:.4} (normalised), before the image corners at r = {rd_max:.4}");
+                bail!(
+                    "distortion is not invertible inside the image: the radial map r ↦ r·(1 + k1 r² + …)/(1 + k4 r² + …) turns back at undistorted r = {r:.4}, where the distorted radius is {:.4}, short of the image corners' distorted radius {rd_max:.4}{}",
+                    r * f,
+                    if margin > 0.0 { format!(" (+ {margin:.4} for the tangential and prism terms)") } else { String::new() }
+                );
             }
-            if r * f >= target {
+            reached = r * f;
+            if reached >= want {
                 break;
             }
             r += dr;

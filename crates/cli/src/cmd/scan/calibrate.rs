@@ -186,6 +186,9 @@ pub fn run(args: Args) -> Result<()> {
     let result = calibrate_dirs(&args.captures, &rig, &opts, &|| progress.inc());
     progress.finish();
     let (calib, _) = result?;
+    for w in calib.lens_warnings() {
+        eprintln!("lucent: warning: {w}");
+    }
     let text = serde_json::to_string_pretty(&calib)?;
     if write_outputs(&text, args.out.as_deref(), args.opencv_out.as_deref(), || calib.to_filestorage(opencv_yaml), args.json)? {
         return Ok(());
@@ -215,7 +218,7 @@ pub fn run(args: Args) -> Result<()> {
     let t = calib.translation;
     let r = &calib.rotation;
     let angle = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
-    println!("camera → projector: rotation {angle:.3}°, T ({:.3}, {:.3}, {:.3}) squares·{} = |T| {:.3}", t[0], t[1], t[2], args.square, (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt());
+    println!("camera → projector: rotation {angle:.3}°, T ({:.3}, {:.3}, {:.3}), |T| {:.3} (in the unit of --square)", t[0], t[1], t[2], (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt());
     for c in &calib.captures {
         let n = (args.corners.0 * args.corners.1) as usize;
         let partial = if c.projector_corners < n { format!(", {} of {n} corners lit by the projector", c.projector_corners) } else { String::new() };

@@ -154,6 +154,9 @@ pub fn run(args: Args) -> Result<()> {
     check_flags(&args)?;
     let t0 = Instant::now();
     let calib = ProcamCalibration::read(&args.calibration, args.projector)?;
+    for w in calib.lens_warnings() {
+        eprintln!("lucent: warning: {}: {w}", args.calibration.display());
+    }
     let capture_pose = |i: usize, flag: &str| -> Result<BoardPose> {
         match calib.captures.get(i) {
             Some(c) => Ok(BoardPose::from_capture(c)),

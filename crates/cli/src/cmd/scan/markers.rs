@@ -120,6 +120,9 @@ pub fn run(args: Args) -> Result<()> {
                 bail!("--calibration matches markers between exactly two images, got {}", args.images.len());
             }
             let calib = ProcamCalibration::read(c, args.projector)?;
+            for w in calib.lens_warnings() {
+                eprintln!("lucent: warning: {}: {w}", c.display());
+            }
             Some(TwoViews::new(&calib).with_context(|| format!("{}", c.display()))?)
         }
         None => None,

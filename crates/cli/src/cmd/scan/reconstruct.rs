@@ -79,6 +79,9 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--max-edge must be a positive number of pixels, got {}", args.max_edge);
     }
     let calib = ProcamCalibration::read(&args.calibration, args.projector)?;
+    for w in calib.lens_warnings() {
+        eprintln!("lucent: warning: {}: {w}", args.calibration.display());
+    }
     let rig = Rig::new(&calib).with_context(|| format!("{}", args.calibration.display()))?;
     let patterns = PatternSet::new(calib.projector.width, calib.projector.height, args.step).with_context(|| format!("{}: projector", args.calibration.display()))?;
     let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine };

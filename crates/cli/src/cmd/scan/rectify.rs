@@ -69,6 +69,9 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--balance, --fov-scale: options of a fisheye pair; {} is a pinhole pair (--alpha scales it)", args.calibration.display());
     }
     let c = ProcamCalibration::read(&args.calibration, None)?;
+    for w in c.lens_warnings() {
+        eprintln!("lucent: warning: {}: {w}", args.calibration.display());
+    }
     let size = (c.camera.width, c.camera.height);
     let (rect, lenses) = rectify_calibration(&c, !args.keep_disparity, args.alpha.unwrap_or(-1.0)).with_context(|| args.calibration.display().to_string())?;
     for (i, (photo, out)) in [(&args.left, &args.out_left), (&args.right, &args.out_right)].into_iter().enumerate() {
