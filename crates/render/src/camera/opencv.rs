@@ -363,11 +363,13 @@ impl OpenCv {
         let dr = (rd_max / 4000.0).max(1e-6);
         let mut r = 0.0f64;
         let mut reached = 0.0f64;
+        let mut r_need = f64::NAN;
         loop {
             let (f, g, m) = d.radial(r * r);
             let slope = f + 2.0 * r * r * g;
             if reached >= need && !(m > 0.0 && slope > 0.0) {
-                r -= dr;
+                // Folds between `need` and `want`: the disc ends where the map passed `need`.
+                r = r_need;
                 break;
             }
             if !(m > 0.0) {
@@ -381,6 +383,9 @@ impl OpenCv {
                 );
             }
             reached = r * f;
+            if reached >= need && r_need.is_nan() {
+                r_need = r;
+            }
             if reached >= want {
                 break;
             }
