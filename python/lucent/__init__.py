@@ -1275,7 +1275,10 @@ def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix,
     (map_x, map_y), each a (height, width) float32 array giving, for each pixel of the new image
     (the pinhole camera ``new_camera_matrix``, or the left 3×3 of a projection P from
     :func:`stereo_rectify`, turned by ``R``, None for the identity), the source pixel whose ray it
-    shows; ``cv2.remap`` takes them as they are.
+    shows; ``cv2.remap`` takes them as they are. Without ``new_camera_matrix`` the new camera is
+    ``camera_matrix`` with its principal point moved to the image's centre ((w − 1)/2, (h − 1)/2),
+    as OpenCV's ``getDefaultNewCameraMatrix(…, centerPrincipalPoint=True)`` makes it here
+    (``undistort`` keeps ``camera_matrix`` itself).
     """
     if int(m1type) != CV_32FC1:
         raise ValueError(f"m1type: only CV_32FC1 ({CV_32FC1}) float maps, got {m1type}")
@@ -1283,8 +1286,12 @@ def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix,
     r = _np.eye(3) if R is None or _np.asarray(R).size == 0 else _np.asarray(R, dtype=float)
     if r.shape != (3, 3):
         raise ValueError(f"R: expected a 3×3 matrix, got shape {r.shape}")
-    p = _left_3x3(camera_matrix if new_camera_matrix is None else new_camera_matrix, "new_camera_matrix")
     w, h = _image_size(size, "size")
+    if new_camera_matrix is None:
+        p = _np.array(_np.asarray(k, dtype=float).reshape(3, 3))
+        p[0, 2], p[1, 2] = (w - 1) * 0.5, (h - 1) * 0.5
+    else:
+        p = _left_3x3(new_camera_matrix, "new_camera_matrix")
     mx, my = _lucent.undistort_rectify_map_flat(k, d, [float(v) for v in r.ravel()], [float(v) for v in p.ravel()], w, h)
     return _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy(), _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
 

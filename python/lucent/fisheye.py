@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as _np
 
 # The package's helpers; this module is imported at the end of lucent/__init__.py.
-from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _flat64, _image_size, _left_3x3, _lucent, _pair, _planar_target, _pose_args,
+from . import (CALIB_ZERO_DISPARITY, CV_32FC1, SOLVEPNP_ITERATIVE, _flat64, _image_size, _left_3x3, _lucent, _pair, _planar_target, _points, _pose_args,
                _rodrigues, _solve_pnp_ransac_with, _solve_pnp_with)
 
 __all__ = [
@@ -111,7 +111,7 @@ def project_points(object_points, rvec, tvec, K, D, alpha=None) -> _np.ndarray:
     (N, 2) float array
         OpenCV pixel coordinates; NaN at or behind the camera's plane.
     """
-    p = _np.asarray(object_points, dtype=float).reshape(-1, 3)
+    p = _points(object_points, 3, "object_points")
     k, d = _lens(K, D, alpha)
     r, t = _pose_args(rvec, tvec)
     out = _lucent.fisheye_project_flat(_flat64(p), r, t, k, d)
@@ -123,7 +123,7 @@ def distort_points(undistorted, K, D, alpha=None) -> _np.ndarray:
 
     Returns an (N, 2) float array.
     """
-    q = _np.asarray(undistorted, dtype=float).reshape(-1, 2)
+    q = _points(undistorted, 2, "undistorted")
     k, d = _lens(K, D, alpha)
     return _np.asarray(_lucent.fisheye_distort_flat(_flat64(q), k, d), dtype=float).reshape(-1, 2)
 
@@ -148,7 +148,7 @@ def undistort_points(distorted, K, D, R=None, P=None) -> _np.ndarray:
     Returns an (N, 2) float array, NaN where the ray would lie beyond the range where θ_d
     increases (or at or behind the camera after ``R``).
     """
-    q = _np.asarray(distorted, dtype=float).reshape(-1, 2)
+    q = _points(distorted, 2, "distorted")
     k, d = _lens(K, D)
     x = _np.asarray(_lucent.fisheye_undistort_flat(_flat64(q), k, d), dtype=float).reshape(-1, 2)
     if R is None and P is None:

@@ -672,6 +672,10 @@ def test_rectification_agrees_with_live_opencv():
     cx, cy = cv2.initUndistortRectifyMap(RECT_K1, RECT_D1, r1, p1, (640, 480), cv2.CV_32FC1)
     assert mx.dtype == np.float32 and mx.shape == (480, 640)
     assert np.abs(mx - cx).max() < 1e-3 and np.abs(my - cy).max() < 1e-3
+    # Without a new camera matrix: OpenCV's default one, the principal point at the centre.
+    mx, my = lucent.init_undistort_rectify_map(RECT_K1, RECT_D1, None, None, (640, 480))
+    cx, cy = cv2.initUndistortRectifyMap(RECT_K1, RECT_D1, None, None, (640, 480), cv2.CV_32FC1)
+    assert np.abs(mx - cx).max() < 1e-3 and np.abs(my - cy).max() < 1e-3
     # triangulatePoints on noisy pixels: the same points.
     rng = np.random.default_rng(9)
     pts1, pts2 = rng.uniform(100, 500, (2, 20)), rng.uniform(100, 500, (2, 20))
@@ -699,6 +703,13 @@ def test_bad_point_lists_and_sizes_are_value_errors():
         lucent.solve_pnp(obj.T, px, K, DIST)
     with pytest.raises(ValueError, match="object_points"):
         lucent.project_points(obj[:4].T, np.zeros(3), np.array([0.0, 0.0, 500.0]), K, DIST)
+    fk, fd = np.array([[350.0, 0, 320], [0, 350, 240], [0, 0, 1]]), np.array([0.05, -0.02, 0.004, 0.0])
+    with pytest.raises(ValueError, match="object_points"):
+        lucent.fisheye.project_points(obj[:5].T, np.zeros(3), np.array([0.0, 0.0, 500.0]), fk, fd)
+    with pytest.raises(ValueError, match="undistorted"):
+        lucent.fisheye.distort_points(np.zeros((2, 5)), fk, fd)
+    with pytest.raises(ValueError, match="distorted"):
+        lucent.fisheye.undistort_points(np.zeros((2, 5)), fk, fd)
     with pytest.raises(ValueError, match="too large"):
         lucent.init_undistort_rectify_map(K, DIST, None, K, (100000, 100000))
     with pytest.raises(ValueError, match="beyond"):
@@ -709,3 +720,21 @@ def test_bad_point_lists_and_sizes_are_value_errors():
         lucent.stereo_rectify(K, DIST, K, DIST, (640, 480), np.eye(3), np.array([-50.0, 0, 0]), alpha=float("nan"))
     with pytest.raises(ValueError, match="finite"):
         lucent.triangulate_points(np.eye(3, 4), np.eye(3, 4), [[np.nan], [200.0]], [[300.0], [200.0]])
+
+
+def test_init_undistort_rectify_map_default_new_camera_centres_the_principal_point():
+    """Without a new camera matrix the map is that of ``camera_matrix`` with its principal point
+    at ((w − 1)/2, (h − 1)/2), OpenCV's ``getDefaultNewCameraMatrix(…, True)``; a pixel of the new
+    image maps to the source pixel that projects its ray (checked through ``project_points``)."""
+    w, h = 640, 480
+    mx, my = lucent.init_undistort_rectify_map(K, DIST, None, None, (w, h))
+    kc = np.array(K, dtype=float)
+    kc[0, 2], kc[1, 2] = (w - 1) / 2, (h - 1) / 2
+    ex, ey = lucent.init_undistort_rectify_map(K, DIST, None, kc, (w, h))
+    assert np.array_equal(mx, ex) and np.array_equal(my, ey)
+    for u, v in [(0, 0), (319.5, 239.5), (600, 50), (100, 400)]:
+        ray = np.array([[(u - kc[0, 2]) / kc[0, 0], (v - kc[1, 2]) / kc[1, 1], 1.0]])
+        px = lucent.project_points(ray, np.zeros(3), np.zeros(3), K, DIST)[0]
+        i, j = int(v), int(u)
+        if (i, j) == (v, u):
+            assert abs(mx[i, j] - px[0]) < 1e-3 and abs(my[i, j] - px[1]) < 1e-3, (u, v, px, mx[i, j], my[i, j])
