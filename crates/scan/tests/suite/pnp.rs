@@ -220,3 +220,26 @@ fn method_layouts_are_checked() {
     assert_eq!(Method::from_opencv(7), None);
     assert_eq!(Method::from_opencv(-1), None);
 }
+
+/// Four points on a plane seen through a strongly distorted lens: the homography of four points
+/// fits them exactly, so a start from the distorted pixels can lie nearer the plane's other
+/// minimum. From the undistorted pixels (OpenCV's start) every one of 200 random poses comes back
+/// to 1e-7.
+#[test]
+fn four_coplanar_points_through_a_distorted_lens() {
+    let l = Lens::from_opencv(800.0, 760.0, 330.0, 250.0, &[-0.28, 0.09, 0.0012, -0.0009, -0.015]);
+    let mut state = 99u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut worst = 0.0f64;
+    for _ in 0..200 {
+        let obj: Vec<[f64; 3]> = (0..4).map(|_| [0.3 * next() - 0.15, 0.3 * next() - 0.15, 0.0]).collect();
+        let truth = Pose { rvec: Vector3::new(0.8 * next() - 0.4, 0.8 * next() - 0.4, 0.8 * next() - 0.4), t: Vector3::new(0.2 * next() - 0.1, 0.2 * next() - 0.1, 0.5 + 0.7 * next()) };
+        let px: Vec<[f64; 2]> = obj.iter().map(|p| l.project(&truth.apply(&Vector3::from(*p)))).collect();
+        let (pose, _) = solve_pnp(&obj, &px, &l).unwrap();
+        worst = worst.max(angle_between(&pose, &truth));
+    }
+    assert!(worst < 1e-7, "worst rotation error {worst} rad");
+}

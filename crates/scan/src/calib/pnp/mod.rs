@@ -217,7 +217,15 @@ pub fn solve_pnp_from(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, guess: Optio
             bail!("the pose guess must be finite");
         }
     }
-    let norm: Vec<Point2> = px.iter().map(|p| [(p[0] - lens.cx) / lens.fx, (p[1] - lens.cy) / lens.fy]).collect();
+    // The closed form takes the undistorted normalised points, as OpenCV's does (a pixel without
+    // a ray through the lens's inverse keeps its pinhole position): with four points on a plane
+    // the homography fits them exactly, and a distorted start can lead the refinement into the
+    // other of the plane's two minima.
+    let pinhole = |p: &Point2| [(p[0] - lens.cx) / lens.fx, (p[1] - lens.cy) / lens.fy];
+    let norm: Vec<Point2> = match normalised_each(px, lens) {
+        Ok(m) => m.iter().zip(px).map(|(m, p)| m.unwrap_or_else(|| pinhole(p))).collect(),
+        Err(_) => px.iter().map(pinhole).collect(),
+    };
     let start = match guess {
         Some(g) => g,
         None => closed_form_start(&x, &norm)?,
