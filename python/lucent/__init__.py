@@ -730,7 +730,9 @@ def _grey_levels(image):
     if a.dtype != _np.uint8:
         raise ValueError(f"image: expected 8-bit grey levels (uint8), as cv2.findChessboardCorners, got {a.dtype}")
     if a.ndim == 3 and a.shape[2] in (3, 4):
-        a = 0.114 * a[..., 0].astype(float) + 0.587 * a[..., 1] + 0.299 * a[..., 2]
+        # cv2.cvtColor(…, COLOR_BGR2GRAY): BT.601 weights in 14-bit fixed point, rounded.
+        b, g, r = (a[..., i].astype(_np.uint32) for i in range(3))
+        a = ((1868 * b + 9617 * g + 4899 * r + (1 << 13)) >> 14).astype(_np.uint8)
     elif a.ndim != 2:
         raise ValueError(f"image: expected an (H, W) grey or (H, W, 3) BGR array, got shape {a.shape}")
     h, w = a.shape

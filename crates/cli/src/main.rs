@@ -60,9 +60,15 @@ fn exit_quietly_when_stdout_fails() {
     }));
 }
 
+/// Every option that takes a value accepts a negative number as that value (`--square -75` is
+/// then checked by the command, not taken for a flag `-7`), in every subcommand.
+fn negative_numbers(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| if a.get_action().takes_values() { a.allow_negative_numbers(true) } else { a }).mut_subcommands(negative_numbers)
+}
+
 fn main() {
     exit_quietly_when_stdout_fails();
-    let cli = match Cli::try_parse() {
+    let cli = match negative_numbers(<Cli as clap::CommandFactory>::command()).try_get_matches().and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m)) {
         Ok(cli) => cli,
         Err(e) => {
             use clap::error::ErrorKind;

@@ -234,11 +234,21 @@ fn trim_zeros(d: &[u8]) -> &[u8] {
     &d[k..]
 }
 
-/// Reads one camera frame as 8-bit grey (colour is converted to luma; 16-bit scaled to 8).
+/// Reads one camera frame as 8-bit grey: a grey image as it is (16-bit scaled to 8), a colour one
+/// converted with OpenCV's `cvtColor` luma, (4899 R + 9617 G + 1868 B + 2¹³) >> 14 (BT.601
+/// weights in 14-bit fixed point), so that thresholds mean what they mean in OpenCV.
 pub fn read_grey(path: &Path) -> Result<(usize, usize, Vec<u8>)> {
-    let img = image::open(path).with_context(|| format!("{}: cannot read the image", path.display()))?.into_luma8();
-    let (w, h) = img.dimensions();
-    Ok((w as usize, h as usize, img.into_raw()))
+    let img = image::open(path).map_err(|e| anyhow::anyhow!("{}: cannot read the image ({e})", path.display()))?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    Ok((w, h, grey_opencv(img)))
+}
+
+/// An image's 8-bit grey levels as [`read_grey`] makes them.
+pub fn grey_opencv(img: image::DynamicImage) -> Vec<u8> {
+    if !img.color().has_color() {
+        return img.into_luma8().into_raw();
+    }
+    img.into_rgb8().into_raw().chunks_exact(3).map(|p| ((4899 * p[0] as u32 + 9617 * p[1] as u32 + 1868 * p[2] as u32 + (1 << 13)) >> 14) as u8).collect()
 }
 
 /// Reads a capture folder (frames decoded in parallel); `progress` is called once per frame read.

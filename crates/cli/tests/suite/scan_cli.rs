@@ -585,6 +585,9 @@ fn calibrate_writes_the_contract_json_and_refuses_bad_input_cleanly() {
     assert!(e.contains("nowhere"), "{e}");
     let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "0"]);
     assert!(e.contains("--square"), "{e}");
+    // A negative value is the option's value (checked by the command), not a flag "-7".
+    let e = fails_on_one_line(&["scan", "calibrate", &caps[0], &caps[1], &caps[2], "--projector", "1024x768", "--corners", "9x7", "--square", "-75"]);
+    assert!(e.contains("--square") && e.contains("-75"), "{e}");
     assert!(!s.path("bad.json").exists());
 }
 

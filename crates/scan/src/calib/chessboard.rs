@@ -41,7 +41,7 @@
 //! Pixel convention: OpenCV's (integer coordinates at pixel centres).
 
 use super::homography::{apply, fit_homography, Point2};
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -57,11 +57,11 @@ pub struct GrayImage {
 }
 
 impl GrayImage {
-    /// Read a PNG or JPEG as grey levels (colour images are converted to luma).
+    /// Read a PNG or JPEG as grey levels (colour with OpenCV's luma weights:
+    /// [`crate::decode::read_grey`]).
     pub fn load(path: &Path) -> Result<GrayImage> {
-        let img = image::open(path).with_context(|| format!("{}: cannot read image", path.display()))?.into_luma8();
-        let (w, h) = img.dimensions();
-        Ok(GrayImage { width: w as usize, height: h as usize, data: img.into_raw().into_iter().map(f32::from).collect() })
+        let (width, height, grey) = crate::decode::read_grey(path)?;
+        Ok(GrayImage { width, height, data: grey.into_iter().map(f32::from).collect() })
     }
 
     #[inline]

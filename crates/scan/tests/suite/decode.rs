@@ -331,3 +331,23 @@ fn fill_holes_restores_an_affine_map_and_stops_at_steps_and_outlines() {
     }
     assert_eq!(exact, n);
 }
+
+/// A colour frame becomes grey with OpenCV's `cvtColor` luma in 14-bit fixed point: pure red,
+/// green and blue at 255 give 76, 150 and 29 (what `cv2.cvtColor(…, COLOR_RGB2GRAY)` returns),
+/// white 255, a mixed colour the rounded weighted sum; a grey PNG is read as it is.
+#[test]
+fn colour_frames_are_grey_as_opencv_makes_them() {
+    let dir = scratch("grey-opencv");
+    let rgb: Vec<u8> = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255], [10, 200, 90], [0, 0, 0]].concat();
+    image::RgbImage::from_raw(6, 1, rgb).unwrap().save(dir.join("c.png")).unwrap();
+    let (w, h, g) = scan::decode::read_grey(&dir.join("c.png")).unwrap();
+    assert_eq!((w, h), (6, 1));
+    let mixed = ((0.299 * 10.0 + 0.587 * 200.0 + 0.114 * 90.0) as f64).round() as u8;
+    assert_eq!(g, vec![76, 150, 29, 255, mixed, 0]);
+    image::GrayImage::from_raw(3, 1, vec![7, 128, 254]).unwrap().save(dir.join("g.png")).unwrap();
+    assert_eq!(scan::decode::read_grey(&dir.join("g.png")).unwrap().2, vec![7, 128, 254]);
+    std::fs::write(dir.join("bad.png"), b"not a png").unwrap();
+    let e = format!("{:#}", scan::decode::read_grey(&dir.join("bad.png")).unwrap_err());
+    assert!(e.contains("bad.png") && e.matches("signature").count() <= 1, "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
