@@ -114,6 +114,26 @@ pub struct Capture {
     pub frames: Vec<Vec<u8>>,
 }
 
+impl Capture {
+    /// A warning when the frame in the white frame's place (second to last) is not the
+    /// brightest: less than 0.8 of the first frame's mean level, as in captures that put the white
+    /// and black frames first. lucent (and OpenCV's `GrayCodePattern`) expect them last.
+    pub fn order_warning(&self) -> Option<String> {
+        let n = self.frames.len();
+        if n < 3 {
+            return None;
+        }
+        let mean = |f: &Vec<u8>| f.iter().map(|&v| v as f64).sum::<f64>() / f.len().max(1) as f64;
+        let (first, white) = (mean(&self.frames[0]), mean(&self.frames[n - 2]));
+        (white < 0.8 * first).then(|| {
+            format!(
+                "frame {} (the white frame's place) is darker than frame 0 (mean level {white:.1} against {first:.1}): the frames may be in another order; lucent expects the column and row patterns first and the white and black frames last, as OpenCV's GrayCodePattern makes them",
+                n - 2
+            )
+        })
+    }
+}
+
 /// The frame files of a capture folder in pattern order: `graycode_NN.png`, `.jpg` or `.jpeg`
 /// (any number of digits, case-insensitive extension); other files are ignored. An error naming
 /// the file for a missing frame, a frame past the sequence, or two files for one frame.

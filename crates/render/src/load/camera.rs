@@ -1,4 +1,4 @@
-//! `[camera]`: the pinhole (eye, look_at, up, vfov_deg or camera_constant, resolution), the
+//! `[camera]`: the pinhole (eye, look_at, up, vfov_deg, hfov_deg or camera_constant, resolution), the
 //! OpenCV model (`model = "opencv"`: fx, fy, cx, cy, k1…k6, p1, p2, s1…s4, tau_x_rad, tau_y_rad or `dist`, R/rvec + t, pose,
 //! or eye/look_at; or a `calibration` file), OpenCV's fisheye model (`model = "fisheye"`: the same
 //! keys with k1…k4 of θ_d and `skew`, or a fisheye calibration file), and a thin lens (aperture_radius or f_number with
@@ -61,11 +61,19 @@ pub(crate) fn camera_from(
             let (w, h) = (c.width.unwrap_or(dw), c.height.unwrap_or(dh));
             let eye = Vec3::new(to_m(e[0]), to_m(e[1]), to_m(e[2]));
             let at = Vec3::new(to_m(a[0]), to_m(a[1]), to_m(a[2]));
-            match (c.vfov_deg, c.camera_constant) {
-                (Some(_), Some(_)) => return Err(cx.err(&cspan, field, "give vfov_deg or camera_constant, not both")),
-                (Some(f), None) => Camera::look_at(eye, at, v3(up), f as f32, w, h),
-                (None, Some(d)) => Camera::with_constant(eye, at, v3(up), d as f32, w, h),
-                (None, None) => return Err(err("vfov_deg", &"missing (or give camera_constant)")),
+            match (c.vfov_deg, c.hfov_deg, c.camera_constant) {
+                (Some(f), None, None) => Camera::look_at(eye, at, v3(up), f as f32, w, h),
+                (None, Some(f), None) => {
+                    if !(f > 0.0 && f < 180.0) {
+                        return Err(err("hfov_deg", &format!("must be in (0, 180) degrees, got {f}")));
+                    }
+                    // tan(hfov/2) = (w/h)/(2d) on the image plane of unit height.
+                    let d = 0.5 * (w as f64 / h.max(1) as f64) / (0.5 * f.to_radians()).tan();
+                    Camera::with_constant(eye, at, v3(up), d as f32, w, h)
+                }
+                (None, None, Some(d)) => Camera::with_constant(eye, at, v3(up), d as f32, w, h),
+                (None, None, None) => return Err(err("vfov_deg", &"missing (or give hfov_deg or camera_constant)")),
+                _ => return Err(cx.err(&cspan, field, "give one of vfov_deg, hfov_deg and camera_constant")),
             }
             .map_err(|e| cx.err(&cspan, field, e))?
         }
@@ -178,7 +186,7 @@ fn opencv_camera(
     hash: &mut dyn FnMut(&[u8]),
 ) -> Result<Camera> {
     let err = |key: &str, msg: &dyn std::fmt::Display| cx.err(cspan, &format!("{field}.{key}"), msg);
-    for (k, p) in [("vfov_deg", c.vfov_deg.is_some()), ("camera_constant", c.camera_constant.is_some())] {
+    for (k, p) in [("vfov_deg", c.vfov_deg.is_some()), ("hfov_deg", c.hfov_deg.is_some()), ("camera_constant", c.camera_constant.is_some())] {
         if p {
             return Err(err(k, &"is a pinhole key; the OpenCV model takes fx, fy, cx, cy"));
         }

@@ -32,6 +32,9 @@ pub(crate) struct CameraDesc {
     pub(crate) look_at: Option<[f64; 3]>,
     pub(crate) up: Option<[f64; 3]>,
     pub(crate) vfov_deg: Option<f64>,
+    /// Horizontal field of view (degrees) at the file's resolution: Mitsuba 3's `fov` with its
+    /// default `fov_axis = "x"`.
+    pub(crate) hfov_deg: Option<f64>,
     pub(crate) camera_constant: Option<f64>,
     pub(crate) width: Option<u32>,
     pub(crate) height: Option<u32>,

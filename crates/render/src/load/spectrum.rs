@@ -1,5 +1,5 @@
 //! Spectrum values in scene files: a number, a name from `[spectra]`, or a table (`constant`,
-//! `blackbody`, `rgb`, `csv` + `column`, inline `lambda_nm`/`values`; optional `scale`).
+//! `blackbody`, `d65`, `rgb`, `csv` + `column`, inline `lambda_nm`/`values`; optional `scale`).
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
@@ -30,7 +30,7 @@ pub(crate) struct SpectrumCx<'a> {
     pub(crate) hash: std::cell::RefCell<Fnv1a64>,
 }
 
-pub(crate) const SPECTRUM_KEYS: &[&str] = &["constant", "blackbody", "rgb", "csv", "column", "lambda_nm", "values", "scale"];
+pub(crate) const SPECTRUM_KEYS: &[&str] = &["constant", "blackbody", "d65", "rgb", "csv", "column", "lambda_nm", "values", "scale"];
 
 pub(crate) fn as_f64(v: &toml::Value) -> Option<f64> {
     match v {
@@ -97,10 +97,10 @@ impl SpectrumCx<'_> {
                 self.cx.err(span, &format!("{field}.scale"), "must be a non-negative number")
             })?,
         };
-        let kinds: Vec<&str> = ["constant", "blackbody", "rgb", "csv", "lambda_nm"].into_iter().filter(|k| t.contains_key(*k)).collect();
+        let kinds: Vec<&str> = ["constant", "blackbody", "d65", "rgb", "csv", "lambda_nm"].into_iter().filter(|k| t.contains_key(*k)).collect();
         if kinds.len() != 1 {
             return Err(self.cx.err(span, field, format!(
-                "give exactly one of constant, blackbody, rgb, csv, lambda_nm/values (got {kinds:?})")));
+                "give exactly one of constant, blackbody, d65, rgb, csv, lambda_nm/values (got {kinds:?})")));
         }
         let kind = kinds[0];
         if kind != "csv" && t.contains_key("column") {
@@ -120,6 +120,13 @@ impl SpectrumCx<'_> {
                     .ok_or_else(|| self.cx.err(span, &format!("{field}.blackbody"), "must be a positive temperature in kelvin"))?;
                 let s = optics::spectrum::Spectrum::Blackbody { temperature_k: temp, scale };
                 Ok(Box::new(move |l| s.eval(l)))
+            }
+            "d65" => {
+                // CIE D65 with luminance Y = the value (Mitsuba 3's `d65`; the emission of rgb = [v, v, v]).
+                let y = as_f64(&t["d65"])
+                    .filter(|x| x.is_finite() && *x >= 0.0)
+                    .ok_or_else(|| self.cx.err(span, &format!("{field}.d65"), "must be a non-negative luminance"))?;
+                Ok(Box::new(move |l| y * scale * optics::spectrum::d65_normalized(l)))
             }
             "rgb" => {
                 let rgb = as_f64_array(&t["rgb"])

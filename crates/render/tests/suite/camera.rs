@@ -918,3 +918,27 @@ fn fisheye_scene_camera_keys() {
         assert!(e.contains(key) && !e.contains('\n'), "{e}");
     }
 }
+
+/// `hfov_deg` is the horizontal field of view (Mitsuba 3's `fov` on its default x axis): a point
+/// at angle φₓ/2 off the axis, horizontally, lands on the image's left or right edge; it is one
+/// of vfov_deg, hfov_deg and camera_constant, checked for its range.
+#[test]
+fn hfov_puts_the_half_angle_on_the_image_edge() {
+    let tail = "[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = { center = [0, 0, 5], radius = 1 }\n";
+    let s = scene(&format!("[camera]\neye = [0, 0, 0]\nlook_at = [0, 0, 1]\nhfov_deg = 70\nwidth = 200\nheight = 120\n{tail}"));
+    let half = 35f32.to_radians();
+    let p = s.camera.project(Vec3::new(-half.tan(), 0.0, 1.0)).unwrap();
+    let q = s.camera.project(Vec3::new(half.tan(), 0.0, 1.0)).unwrap();
+    assert!((p.x.min(q.x)).abs() < 1e-3 && (p.x.max(q.x) - 200.0).abs() < 1e-3 && (p.y - 60.0).abs() < 1e-3, "{p} {q}");
+    // The same camera by its vertical field of view: tan(φ_y/2) = tan(φₓ/2)·H/W.
+    let vfov = (2.0 * (half.tan() * 120.0 / 200.0).atan()).to_degrees();
+    let v = scene(&format!("[camera]\neye = [0, 0, 0]\nlook_at = [0, 0, 1]\nvfov_deg = {vfov}\nwidth = 200\nheight = 120\n{tail}"));
+    let r = v.camera.project(Vec3::new(0.3, -0.2, 1.0)).unwrap();
+    assert!((r - s.camera.project(Vec3::new(0.3, -0.2, 1.0)).unwrap()).length() < 1e-3);
+    for bad in ["hfov_deg = 70\nvfov_deg = 40", "hfov_deg = 180", "hfov_deg = 0"] {
+        let text = format!("[camera]\neye = [0, 0, 0]\nlook_at = [0, 0, 1]\n{bad}\n{tail}");
+        let e = render::scene::Scene::from_toml_str(&text, "c.toml", std::path::Path::new(".")).err().unwrap();
+        let msg = format!("{e:#}");
+        assert!(msg.contains("c.toml") && msg.contains("fov") && !msg.contains('\n'), "{msg}");
+    }
+}

@@ -296,3 +296,29 @@ fn truncated_or_mutated_scene_files_never_panic() {
         check(&b.iter().collect::<String>());
     }
 }
+
+/// `{ d65 = Y }` is CIE D65 with luminance Y: the same spectrum as an emitter's `rgb = [Y, Y, Y]`
+/// (within the uplift's fit) and Y times the CIE table's shape (100 at 560 nm); its luminance
+/// integral is Y; a negative value is an error naming the key.
+#[test]
+fn d65_spectrum_has_the_luminance_given() {
+    let with = |r: &str| parse(&MINIMAL.replace("radiance = 1", &format!("radiance = {r}")));
+    let get = |s: &Scene| {
+        let li = s.objects.iter().find(|o| o.name == "panel").unwrap().light.unwrap();
+        let Light::Area { radiance, .. } = &s.lights[li as usize] else { panic!() };
+        radiance.as_constant().unwrap().clone()
+    };
+    let (ds, rs) = (get(&with("{ d65 = 2.5 }").unwrap()), get(&with("{ rgb = [2.5, 2.5, 2.5] }").unwrap()));
+    let d = |l: f64| ds.eval(l as f32) as f64;
+    let rgb = |l: f64| rs.eval(l as f32) as f64;
+    let r560 = d(560.0);
+    for l in [400.0, 450.0, 500.0, 600.0, 650.0, 700.0] {
+        let want = optics::spectrum::d65_relative(l) / 100.0 * r560;
+        assert!((d(l) - want).abs() < 1e-6 * r560, "{l} nm: {} against {want}", d(l));
+        assert!((d(l) / rgb(l) - 1.0).abs() < 0.02, "{l} nm: d65 {} against rgb {}", d(l), rgb(l));
+    }
+    let y = optics::color::spectrum_to_xyz(d)[1];
+    assert!((y - 2.5).abs() < 1e-3, "Y = {y}");
+    let e = format!("{:#}", with("{ d65 = -1 }").err().unwrap());
+    assert!(e.contains("d65") && e.contains("bad.toml"), "{e}");
+}

@@ -351,3 +351,17 @@ fn colour_frames_are_grey_as_opencv_makes_them() {
     assert!(e.contains("bad.png") && e.matches("signature").count() <= 1, "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A capture in OpenCV's order (patterns, then white and black) gives no order warning; the same
+/// frames with white and black first (as some capture tools save them) give one that says so.
+#[test]
+fn white_and_black_first_is_warned() {
+    let p = PatternSet::new(64, 48, 1).unwrap();
+    let c = ideal_capture(&p);
+    assert!(c.order_warning().is_none());
+    let mut frames = c.frames.clone();
+    frames.rotate_right(2);
+    let moved = scan::decode::Capture { width: c.width, height: c.height, frames };
+    let w = moved.order_warning().expect("a warning");
+    assert!(w.contains("white and black frames last") && w.contains("darker"), "{w}");
+}

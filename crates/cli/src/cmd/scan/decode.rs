@@ -55,6 +55,9 @@ pub fn run(args: Args) -> Result<()> {
     let capture = read_capture(&args.capture, &patterns, &|| progress.inc());
     progress.set_message("decoding");
     let capture = capture?;
+    if let Some(w) = capture.order_warning() {
+        progress.suspend(|| eprintln!("lucent: warning: {}: {w}", args.capture.display()));
+    }
     let (map, stats) = decode(&capture, &patterns, &settings)?;
     if let Some(out) = &args.out {
         write_map(out, &map)?;

@@ -121,6 +121,11 @@ impl Progress {
         }
     }
 
+    /// Runs `f` (which prints) with the bar hidden.
+    pub fn suspend(&self, f: impl FnOnce()) {
+        self.bar.suspend(f);
+    }
+
     /// Removes the bar.
     pub fn finish(&self) {
         self.bar.finish_and_clear();

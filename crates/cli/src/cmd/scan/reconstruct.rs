@@ -89,6 +89,9 @@ pub fn run(args: Args) -> Result<()> {
     let progress = Progress::new(patterns.len() as u64, "images read");
     let capture = read_capture(&args.capture, &patterns, &|| progress.inc());
     let capture = capture?;
+    if let Some(w) = capture.order_warning() {
+        progress.suspend(|| eprintln!("lucent: warning: {}: {w}", args.capture.display()));
+    }
     progress.set_message("decoding");
     let (map, _) = decode(&capture, &patterns, &settings)?;
     let (map, filled) = if args.fill_holes > 0 { scan::decode::fill_holes(&map, args.fill_holes, 0.25, 1.0) } else { (map, 0) };
