@@ -104,16 +104,51 @@ pub fn calibrate_camera_guided(obj: &[Point2], views: &[(String, Vec<Point2>)], 
     }
     let obs: Vec<ViewObs> = views.iter().map(|(_, c)| ViewObs { cam: c.clone(), proj: vec![] }).collect();
     let fit = if free.rational {
-        let five = calibrate_camera_guided(obj, views, width, height, Free { rational: false, ..free }, guess)?;
+        // A guess with a rational denominator is a start as a whole: its numerator alone, fitted
+        // as a five-coefficient lens, can lie far from any minimum (k1 = −20 with k4 = −20 is a
+        // fine lens, k1 = −20 alone is not). The five-coefficient fit then comes from lucent's
+        // own start and gives the board poses, and the fit starts from the guess and (where no
+        // term is held at the guess's value, nor the aspect ratio) from that fit, keeping the
+        // lower minimum.
+        let rational_guess = guess.filter(|g| g.rational != [0.0; 3]);
+        let five = calibrate_camera_guided(obj, views, width, height, Free { rational: false, ..free }, if rational_guess.is_some() { None } else { guess })?;
         let corner_radius = [(-0.5, -0.5), (width as f64 - 0.5, -0.5), (-0.5, height as f64 - 0.5), (width as f64 - 0.5, height as f64 - 0.5)]
             .iter()
             .map(|&(u, v)| ((u - five.cx) / five.fx).hypot((v - five.cy) / five.fy))
             .fold(0.0f64, f64::max);
         let mut lens = model::Lens::from_opencv(five.fx, five.fy, five.cx, five.cy, &five.dist);
         lens.rational = guess.map_or([0.0; 3], |g| g.rational);
-        let poses = five.views.iter().map(|v| model::Pose { rvec: v.rvec.into(), t: v.tvec.into() }).collect();
-        let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
-        refine(obj, &obs, &init, Free { rational_radius: [corner_radius, 0.0], ..free }, MAX_RMS_PX).context("camera")?
+        let poses: Vec<model::Pose> = five.views.iter().map(|v| model::Pose { rvec: v.rvec.into(), t: v.tvec.into() }).collect();
+        let free_r = Free { rational_radius: [corner_radius, 0.0], ..free };
+        let mut starts = vec![lens];
+        if let Some(g) = rational_guess {
+            lens.rational = [0.0; 3];
+            starts = vec![free.without_unmodelled(*g, 0)];
+            if free.held == 0 && free.aspect_ratio == [None; 2] {
+                starts.push(lens);
+            }
+        }
+        let mut best: Option<(f64, State)> = None;
+        let mut first_error = None;
+        for cam in starts {
+            let init = State { cam, proj: None, stereo: model::Pose::identity(), poses: poses.clone() };
+            match refine(obj, &obs, &init, free_r, MAX_RMS_PX).context("camera") {
+                Ok(fit) => {
+                    let e = bundle::rms(obj, &obs, &fit).all;
+                    if best.as_ref().is_none_or(|b| e < b.0) {
+                        best = Some((e, fit));
+                    }
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        match (best, first_error) {
+            (Some((_, fit)), _) => fit,
+            (None, Some(e)) => return Err(e),
+            (None, None) => bail!("camera: no start"),
+        }
     } else {
         let mut hs = Vec::new();
         for (name, c) in views {
