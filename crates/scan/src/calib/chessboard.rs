@@ -37,6 +37,9 @@
 //!    gives no board, its halves (2 × 2 means) are searched down to 160 px on the short side and
 //!    the corners found there are refined in the full image (5-Mpixel photographs of squares of
 //!    75–120 px, or a board enlarged twice, are found at a coarser level).
+//! 7. **Check.** The refined corners must form a smooth lattice (each within a quarter of the
+//!    half-spacing of its neighbours' midpoint along rows and columns, the end corners within 0.4
+//!    of a spacing of the extrapolation from the next two); otherwise that level gives no board.
 //!
 //! Pixel convention: OpenCV's (integer coordinates at pixel centres).
 
@@ -608,7 +611,9 @@ pub fn find_chessboard(img: &GrayImage, cols: usize, rows: usize) -> Option<Vec<
             // A pixel centre x of the half image lies at 2x + 0.5 in the full one.
             let mut corners: Vec<Point2> = c.iter().map(|p| [scale * p[0] + 0.5 * (scale - 1.0), scale * p[1] + 0.5 * (scale - 1.0)]).collect();
             refine(img, &mut corners, cols, rows);
-            return Some(corners);
+            if smooth_lattice(&corners, cols, rows) {
+                return Some(corners);
+            }
         }
     }
     None
@@ -622,7 +627,40 @@ fn find_at_scale(img: &GrayImage, cols: usize, rows: usize) -> Option<Vec<Point2
     let grid = cands.iter().take(40).enumerate().find_map(|(s, _)| grow(&cands, s, cols, rows))?;
     let mut corners = order(&grid, cols, rows, &smooth);
     refine(img, &mut corners, cols, rows);
-    Some(corners)
+    smooth_lattice(&corners, cols, rows).then_some(corners)
+}
+
+/// Whether the refined corners form a smooth lattice: each corner with neighbours on both sides
+/// along a row or column lies within a quarter of their half-distance of their midpoint, and each
+/// end corner within 0.4 of a spacing of the extrapolation from the next two. Perspective and
+/// lens distortion bend a board's rows by a few per cent of a spacing per corner; corners refined
+/// onto the wrong place (a board defocused beyond what the corner finder's scales resolve, where
+/// OpenCV's finder finds no board) do not pass.
+fn smooth_lattice(c: &[Point2], cols: usize, rows: usize) -> bool {
+    let at = |r: usize, k: usize| c[r * cols + k];
+    let off = |p: Point2, q: Point2| dist(p, q);
+    let mut lines: Vec<Vec<Point2>> = (0..rows).map(|r| (0..cols).map(|k| at(r, k)).collect()).collect();
+    lines.extend((0..cols).map(|k| (0..rows).map(|r| at(r, k)).collect::<Vec<_>>()));
+    for l in &lines {
+        let n = l.len();
+        if n < 3 {
+            continue;
+        }
+        for i in 1..n - 1 {
+            let (a, b) = (l[i - 1], l[i + 1]);
+            let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+            if !(off(l[i], mid) <= 0.25 * 0.5 * off(a, b)) {
+                return false;
+            }
+        }
+        for (e, p1, p2) in [(l[0], l[1], l[2]), (l[n - 1], l[n - 2], l[n - 3])] {
+            let x = [2.0 * p1[0] - p2[0], 2.0 * p1[1] - p2[1]];
+            if !(off(e, x) <= 0.4 * off(p1, p2)) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Sub-pixel refinement with a window of a third of the smallest corner spacing, 3…11 px.
