@@ -290,7 +290,7 @@ impl SpectrumCx<'_> {
         let wrap = match t.get("wrap") {
             None => Wrap::Repeat,
             Some(w) => w.as_str().and_then(Wrap::from_name).ok_or_else(|| {
-                self.cx.err(span, &format!("{field}.wrap"), format!("unknown wrap mode {w} (expected \"repeat\" or \"clamp\")"))
+                self.cx.err(span, &format!("{field}.wrap"), format!("unknown wrap mode {w} (expected \"repeat\", \"clamp\" or \"mirror\")"))
             })?,
         };
         let scale = match t.get("scale") {

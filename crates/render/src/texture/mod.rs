@@ -21,6 +21,9 @@ pub enum Wrap {
     Repeat,
     /// Coordinates are clamped to the image's edge texels.
     Clamp,
+    /// The image tiles the plane mirrored in every other tile (period 2 in u and v), so the
+    /// texels repeat edge to edge without a seam (Mitsuba 3's `mirror`).
+    Mirror,
 }
 
 impl Wrap {
@@ -29,6 +32,7 @@ impl Wrap {
         match name {
             "repeat" => Some(Wrap::Repeat),
             "clamp" => Some(Wrap::Clamp),
+            "mirror" => Some(Wrap::Mirror),
             _ => None,
         }
     }
@@ -156,6 +160,10 @@ pub(crate) fn bilinear(uv: Vec2, scale: Vec2, w: usize, h: usize, wrap: Wrap) ->
         match wrap {
             Wrap::Repeat => i.rem_euclid(n_i) as usize,
             Wrap::Clamp => i.clamp(0, n_i - 1) as usize,
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n_i);
+                (if m < n_i { m } else { 2 * n_i - 1 - m }) as usize
+            }
         }
     };
     let (xa, xb, ya, yb) = (idx(x0, w), idx(x0 + 1.0, w), idx(y0, h), idx(y0 + 1.0, h));

@@ -474,3 +474,28 @@ fn textured_emitters_light_sampling_and_direction_sampling_agree() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `wrap = "mirror"`: the tile beyond u = 1 is the image mirrored about that edge and the one
+/// after it the image again (period 2), in u and in v, so a lookup at 1 + a equals one at 1 − a
+/// and one at 2 + a one at a; an unknown mode's message lists the three.
+#[test]
+fn mirror_wrap_reflects_every_other_tile() {
+    use render::texture::{image::FloatImage, Wrap};
+    let img = render::image_io::Image::from_rgb(5, 3, (0..15).map(|i| [i as f32 * 0.06 + 0.01; 3]).collect()).unwrap();
+    let t = FloatImage::new(&img, Wrap::Mirror, Vec2::ONE);
+    for (a, v) in [(0.13f32, 0.41f32), (0.02, 0.9), (0.37, 0.05)] {
+        let base = t.eval(Vec2::new(1.0 - a, v));
+        assert!((t.eval(Vec2::new(1.0 + a, v)) - base).abs() < 1e-5);
+        assert!((t.eval(Vec2::new(-1.0 + a, v)) - base).abs() < 1e-5);
+        assert!((t.eval(Vec2::new(2.0 + a, v)) - t.eval(Vec2::new(a, v))).abs() < 1e-5);
+        assert!((t.eval(Vec2::new(v, 1.0 + a)) - t.eval(Vec2::new(v, 1.0 - a))).abs() < 1e-5);
+    }
+    // Across the edge the texels meet without a jump: at the edge itself the edge texel.
+    assert!((t.eval(Vec2::new(1.0, 0.5)) - 0.06 * 9.0 - 0.01).abs() < 1e-5, "{}", t.eval(Vec2::new(1.0, 0.5)));
+    let dir = tmp_dir("mirror");
+    write_image(&dir.join("tex.exr"), &img, 0.0).unwrap();
+    let text = "[camera]\neye = [0, 0, 2]\nlook_at = [0, 0, 0]\nvfov_deg = 40\nwidth = 8\nheight = 8\n[materials.m]\ntype = \"lambertian\"\nalbedo = { texture = \"tex.exr\", wrap = \"wobble\" }\n[[objects]]\nmaterial = \"m\"\nquad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]\n";
+    let e = format!("{:#}", render::scene::Scene::from_toml_str(text, "w.toml", &dir).err().unwrap());
+    assert!(e.contains("wrap") && e.contains("mirror"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
