@@ -85,6 +85,31 @@ pub fn calibrate_camera_planar(obj: &[Point2], views: &[(String, Vec<Point2>)], 
     calibrate_camera_guided(obj, views, width, height, free, None)
 }
 
+/// The refinement of `inits` with `free` that ends at the lowest reprojection RMS; the first
+/// error where none converges.
+fn lowest_minimum(obj: &[Point2], obs: &[ViewObs], inits: Vec<State>, free: Free) -> Result<State> {
+    let mut best: Option<(f64, State)> = None;
+    let mut first_error = None;
+    for init in inits {
+        match refine(obj, obs, &init, free, MAX_RMS_PX).context("camera") {
+            Ok(fit) => {
+                let e = bundle::rms(obj, obs, &fit).all;
+                if best.as_ref().is_none_or(|b| e < b.0) {
+                    best = Some((e, fit));
+                }
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    match (best, first_error) {
+        (Some((_, fit)), _) => Ok(fit),
+        (None, Some(e)) => Err(e),
+        (None, None) => bail!("camera: no start"),
+    }
+}
+
 /// [`calibrate_camera_planar`] from a start: with `guess` (OpenCV's `CALIB_USE_INTRINSIC_GUESS`)
 /// the fit starts from that lens, and the terms `free.held` holds keep its values; without it,
 /// from [`zhang::start`] (the held principal point at the image centre, held distortion terms
@@ -128,27 +153,8 @@ pub fn calibrate_camera_guided(obj: &[Point2], views: &[(String, Vec<Point2>)], 
                 starts.push(lens);
             }
         }
-        let mut best: Option<(f64, State)> = None;
-        let mut first_error = None;
-        for cam in starts {
-            let init = State { cam, proj: None, stereo: model::Pose::identity(), poses: poses.clone() };
-            match refine(obj, &obs, &init, free_r, MAX_RMS_PX).context("camera") {
-                Ok(fit) => {
-                    let e = bundle::rms(obj, &obs, &fit).all;
-                    if best.as_ref().is_none_or(|b| e < b.0) {
-                        best = Some((e, fit));
-                    }
-                }
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
-            }
-        }
-        match (best, first_error) {
-            (Some((_, fit)), _) => fit,
-            (None, Some(e)) => return Err(e),
-            (None, None) => bail!("camera: no start"),
-        }
+        let inits = starts.into_iter().map(|cam| State { cam, proj: None, stereo: model::Pose::identity(), poses: poses.clone() }).collect();
+        lowest_minimum(obj, &obs, inits, free_r)?
     } else {
         let mut hs = Vec::new();
         for (name, c) in views {
@@ -174,31 +180,15 @@ pub fn calibrate_camera_guided(obj: &[Point2], views: &[(String, Vec<Point2>)], 
                 v
             }
         };
-        let mut best: Option<(f64, State)> = None;
-        let mut first_error = None;
+        let mut inits = Vec::new();
         for lens in starts {
             let mut poses = Vec::new();
             for (h, (name, _)) in hs.iter().zip(views) {
                 poses.push(zhang::pose_from_homography(h, &lens.k()).with_context(|| format!("{name}: no board pose"))?);
             }
-            let init = State { cam: lens, proj: None, stereo: model::Pose::identity(), poses };
-            match refine(obj, &obs, &init, free, MAX_RMS_PX).context("camera") {
-                Ok(fit) => {
-                    let e = bundle::rms(obj, &obs, &fit).all;
-                    if best.as_ref().is_none_or(|b| e < b.0) {
-                        best = Some((e, fit));
-                    }
-                }
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
-            }
+            inits.push(State { cam: lens, proj: None, stereo: model::Pose::identity(), poses });
         }
-        match (best, first_error) {
-            (Some((_, fit)), _) => fit,
-            (None, Some(e)) => return Err(e),
-            (None, None) => bail!("camera: no start"),
-        }
+        lowest_minimum(obj, &obs, inits, free)?
     };
     let e = bundle::rms(obj, &obs, &fit);
     let l = &fit.cam;
