@@ -176,14 +176,20 @@ pub fn capture_paths(dir: &Path, patterns: &PatternSet) -> Result<Vec<PathBuf>> 
     if slots.iter().all(Option::is_none) && !others.is_empty() {
         sort_natural(&mut others);
         if others.len() != n {
+            let name = |p: &PathBuf| p.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned());
             bail!(
-                "{}: no graycode_NN frames, and {} PNG/JPEG files in natural order where {}",
+                "{}: no graycode_NN frames, and {} PNG/JPEG files in natural order ({} … {}) where {}",
                 dir.display(),
                 others.len(),
+                name(&others[0]),
+                name(&others[others.len() - 1]),
                 sequence()
             );
         }
         return Ok(others);
+    }
+    if slots.iter().all(Option::is_none) {
+        bail!("{}: no frames in the folder (graycode_NN.png, or PNG/JPEG files in natural order: {})", dir.display(), sequence());
     }
     slots
         .into_iter()

@@ -243,6 +243,10 @@ fn bad_capture_folders_name_the_file() {
 
     let e = err(&scratch("empty").join("nope"));
     assert!(e.contains("nope"), "{e}");
+    // A folder without any frame says so (not that frame 0 is missing).
+    let empty = scratch("no-frames");
+    let e = err(&empty);
+    assert!(e.contains("no frames in the folder"), "{e}");
 }
 
 /// A folder named the way other capture tools write theirs (`img_1.png` … `img_N.png`, unpadded,
