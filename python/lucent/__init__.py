@@ -1108,9 +1108,10 @@ def _pnp_guess(rvec, tvec, useExtrinsicGuess):
 def solve_pnp_generic(objectPoints, imagePoints, cameraMatrix, distCoeffs, rvecs=None, tvecs=None, useExtrinsicGuess=False,
                       flags=SOLVEPNP_ITERATIVE, rvec=None, tvec=None, reprojectionError=None):
     """Every pose a method finds, best first, as ``cv2.solvePnPGeneric``: one for
-    ``SOLVEPNP_ITERATIVE``, EPnP, P3P/AP3P (the fourth point choosing among the three's poses) and
-    SQPnP (its global minimum of the object-space error); two for IPPE and IPPE_SQUARE (a plane's
-    two poses). The closed-form methods (``scan::calib::pnp``'s ``epnp``, ``p3p``, ``ippe``,
+    ``SOLVEPNP_ITERATIVE``, EPnP and SQPnP (its global minimum of the object-space error); for
+    P3P/AP3P every pose of the first three points that puts the fourth in front of the camera (up
+    to four; the first, with the fourth point nearest its pixel, is ``solve_pnp``'s); two for IPPE
+    and IPPE_SQUARE (a plane's two poses). The closed-form methods (``scan::calib::pnp``'s ``epnp``, ``p3p``, ``ippe``,
     ``sqpnp``; lucent's own implementations) run on the pixels taken exactly through the lens's
     inverse (OpenCV's ``undistortPoints`` stops after 5 fixed-point steps) and are not refined in
     pixels; :func:`solve_pnp_refine_lm` refines any of them. IPPE's homography is the

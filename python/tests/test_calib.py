@@ -484,8 +484,10 @@ def test_every_solve_pnp_method_recovers_a_known_pose():
         assert ok and rv.shape == (3, 1), flag
         assert np.abs(rv.ravel() - r).max() < 1e-7 and np.abs(tv.ravel() - t).max() < 1e-5, flag
         n, rvs, tvs, err = lucent.solve_pnp_generic(obj, px, K, DIST, flags=flag)
-        assert n == len(rvs) == len(tvs) == err.shape[0] == (2 if flag in (4, 5) else 1)
-        assert np.allclose(rvs[0], rv) and err[0, 0] < 1e-6 and (n == 1 or err[1, 0] >= err[0, 0])
+        # IPPE: a plane's two poses; P3P/AP3P: every pose of the first three points (up to 4).
+        assert n == len(rvs) == len(tvs) == err.shape[0]
+        assert n == 2 if flag in (4, 5) else (1 <= n <= 4 if flag in (2, 3) else n == 1), (flag, n)
+        assert np.allclose(rvs[0], rv) and err[0, 0] < 1e-6 and all(err[i, 0] >= err[0, 0] for i in range(n))
     # The refinement from any of them lands on the iterative solver's minimum.
     px = lucent.project_points(cloud, r, t, K, DIST) + rng.normal(0, 0.3, (len(cloud), 2))
     _, r0, t0 = lucent.solve_pnp(cloud, px, K, DIST, flags=lucent.SOLVEPNP_EPNP)
@@ -772,3 +774,19 @@ def test_rational_fit_from_a_guess_with_a_near_cancelling_denominator():
     free = lucent.calibrate_camera(objs, imgs, (640, 480), flags=lucent.CALIB_RATIONAL_MODEL)
     guided = lucent.calibrate_camera(objs, imgs, (640, 480), k_cv, d_cv, lucent.CALIB_RATIONAL_MODEL | lucent.CALIB_USE_INTRINSIC_GUESS)
     assert guided[0] < 0.3 and abs(guided[0] - free[0]) < 1e-4, (guided[0], free[0])
+
+
+def test_p3p_generic_returns_every_pose_as_opencv():
+    """``solve_pnp_generic`` with P3P and AP3P returns what ``cv2.solvePnPGeneric`` returns: every
+    pose of the first three points with the fourth in front (the same count), best first, the
+    reprojection errors equal to 1e-6 px."""
+    cv2 = pytest.importorskip("cv2")
+    kc = np.array([[800.0, 0, 320.0], [0, 800.0, 240.0], [0, 0, 1]])
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        obj = rng.uniform(-60, 60, (4, 3))
+        px = lucent.project_points(obj, rng.normal(0, 0.4, 3), np.array([0, 0, 600.0]), kc, None) + rng.normal(0, 0.3, (4, 2))
+        for flag in (cv2.SOLVEPNP_P3P, cv2.SOLVEPNP_AP3P):
+            n, _, _, err = cv2.solvePnPGeneric(obj, px, kc, None, flags=flag)
+            nl, _, _, el = lucent.solve_pnp_generic(obj, px, kc, None, flags=flag)
+            assert nl == n and np.allclose(np.sort(el.ravel()), np.sort(err.ravel()), atol=1e-6), (flag, el.ravel(), err.ravel())

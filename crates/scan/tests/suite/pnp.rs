@@ -93,7 +93,7 @@ fn angle_between(a: &Pose, b: &Pose) -> f64 {
 /// Each of OpenCV's closed-form methods gives the pose back from exact pixels through a
 /// distorted lens (the pixels taken through the lens's inverse first): EPnP from 20 and from 6
 /// points off a plane (and from a chessboard to 10⁻⁵); P3P from 4 points (three posed, the fourth
-/// choosing); SQPnP from 20 points, a board and 4 points; IPPE from a board and a tilted plane,
+/// choosing the first of their poses, the others exact for the three); SQPnP from 20 points, a board and 4 points; IPPE from a board and a tilted plane,
 /// its second pose the mirror ambiguity with a larger error; IPPE_SQUARE from a square's corners.
 #[test]
 fn every_method_recovers_exact_poses() {
@@ -129,6 +129,17 @@ fn every_method_recovers_exact_poses() {
         if matches!(method, Method::Ippe | Method::IppeSquare) {
             assert_eq!(poses.len(), 2, "{method:?}");
             assert!(poses[1].1 >= rms, "{method:?}: the second pose reprojects better than the first");
+        } else if method == Method::P3p {
+            // Every pose of the first three points (up to four, as OpenCV's solvePnPGeneric),
+            // each reprojecting those three exactly; the fourth point picks the first.
+            assert!((1..=4).contains(&poses.len()), "{} poses", poses.len());
+            for (p, e) in &poses[1..] {
+                let three: f64 = obj[..3].iter().zip(&px).map(|(o, q)| {
+                    let u = l.project(&p.apply(&Vector3::from(*o)));
+                    (u[0] - q[0]).powi(2) + (u[1] - q[1]).powi(2)
+                }).sum();
+                assert!(three < 1e-12 && *e > rms, "{method:?}: another pose, three points off by {three}, RMS {e}");
+            }
         } else {
             assert_eq!(poses.len(), 1, "{method:?}");
         }

@@ -116,14 +116,11 @@ pub fn solve_pnp_generic(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, method: M
             if x.len() != 4 {
                 bail!("P3P takes exactly 4 points (3 posed, the fourth choosing), got {}", x.len());
             }
+            // Every pose of the first three points that puts the fourth in front of the camera,
+            // as OpenCV's solvePnPGeneric returns them; sorted below by the error over all four
+            // points, so the first is the one whose fourth point lies nearest its pixel (solvePnP's).
             let cands = p3p::p3p(&[x[0], x[1], x[2]], &[m[0], m[1], m[2]]);
-            // The pose whose projection of the fourth point lies nearest its pixel.
-            let err4 = |(r, t): &(Matrix3<f64>, Vector3<f64>)| {
-                let c = r * x[3] + t;
-                let (du, dv) = (lens.fx * (c[0] / c[2] - m[3][0]), lens.fy * (c[1] / c[2] - m[3][1]));
-                if c[2] > 0.0 { du * du + dv * dv } else { f64::INFINITY }
-            };
-            cands.into_iter().min_by(|a, b| err4(a).total_cmp(&err4(b))).into_iter().collect()
+            cands.into_iter().filter(|(r, t)| (r * x[3] + t)[2] > 0.0).collect()
         }
         Method::Ippe | Method::IppeSquare => {
             if method == Method::IppeSquare {
@@ -153,6 +150,7 @@ pub fn solve_pnp_generic(obj: &[[f64; 3]], px: &[Point2], lens: &Lens, method: M
             let pose = Pose::from_rt(&r, t);
             (pose, (sq_error(&x, px, lens, &pose) / px.len() as f64).sqrt())
         })
+        .filter(|(_, e)| e.is_finite())
         .collect();
     if out.is_empty() {
         bail!("{} found no pose (degenerate configuration)", method.opencv_name());
