@@ -832,7 +832,8 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         Pixels.
     camera_matrix, dist_coeffs : None or arrays
         The start of the fit with CALIB_USE_INTRINSIC_GUESS (dist_coeffs may be None: zeros);
-        with CALIB_FIX_ASPECT_RATIO, camera_matrix gives fx/fy; otherwise ignored, as by OpenCV.
+        with CALIB_FIX_ASPECT_RATIO, camera_matrix gives fx/fy (None: fx = fy, as cv2 holds it);
+        otherwise ignored, as by OpenCV.
     flags : int
         A combination of OpenCV's values: the model (CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL,
         CALIB_TILTED_MODEL), CALIB_USE_INTRINSIC_GUESS, and terms held during the fit:
@@ -905,9 +906,10 @@ def _held(flags, guessed):
 
 
 def _aspect(camera_matrix, name):
-    """fx/fy of a camera matrix, for CALIB_FIX_ASPECT_RATIO."""
+    """fx/fy of a camera matrix, for CALIB_FIX_ASPECT_RATIO; 1 without one (cv2 then holds
+    fx = fy)."""
     if camera_matrix is None:
-        raise ValueError(f"{name}: CALIB_FIX_ASPECT_RATIO takes fx/fy from it; got None")
+        return 1.0
     k = _np.asarray(camera_matrix, dtype=float)
     if k.shape != (3, 3):
         raise ValueError(f"{name}: expected a 3×3 matrix, got shape {k.shape}")

@@ -80,6 +80,7 @@ def test_calibrate_camera_hold_flags_agree_with_live_opencv():
     guess_k, guess_d = np.array([[880.0, 0, 330.0], [0, 890.0, 230.0], [0, 0, 1]]), np.array([-0.1, 0.05, 0.0, 0.0, 0.0])
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 300, 1e-15)
     for flags, k0, d0 in [(cv2.CALIB_FIX_PRINCIPAL_POINT | cv2.CALIB_FIX_ASPECT_RATIO, np.eye(3), None),
+                          (cv2.CALIB_FIX_ASPECT_RATIO, None, None),
                           (cv2.CALIB_FIX_K1 | cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_FIX_K3, None, None),
                           (cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_K1 | cv2.CALIB_FIX_FOCAL_LENGTH, guess_k, guess_d),
                           (cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_PRINCIPAL_POINT | cv2.CALIB_FIX_K3, guess_k, guess_d),
@@ -101,8 +102,9 @@ def test_calibrate_camera_refuses_what_it_does_not_do():
         lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=512)  # CALIB_SAME_FOCAL_LENGTH, a stereo flag
     with pytest.raises(ValueError, match="camera_matrix"):
         lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=lucent.CALIB_USE_INTRINSIC_GUESS)
-    with pytest.raises(ValueError, match="camera_matrix.*fx/fy"):
-        lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=lucent.CALIB_FIX_ASPECT_RATIO)
+    # Without a camera matrix CALIB_FIX_ASPECT_RATIO holds fx = fy, as cv2 does.
+    held = lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), flags=lucent.CALIB_FIX_ASPECT_RATIO)
+    assert held[1][0, 0] == held[1][1, 1]
     with pytest.raises(ValueError, match="positive fx and fy"):
         lucent.calibrate_camera([OBJ] * 5, pts, (640, 480), np.zeros((3, 3)), None, flags=lucent.CALIB_FIX_ASPECT_RATIO)
     bent = OBJ.copy()
