@@ -373,7 +373,7 @@ impl OpenCv {
                 break;
             }
             if !(m > 0.0) {
-                bail!("distortion is not invertible inside the image: the rational denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ reaches 0 at r = {r:.4} (the image corners are at r = {rd_max:.4})");
+                bail!("distortion is not invertible inside the image: the rational denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ reaches 0 at undistorted r = {r:.4}, where the distorted radius is {reached:.4}, short of the image corners' distorted radius {rd_max:.4}");
             }
             if !(slope > 0.0) {
                 bail!(
