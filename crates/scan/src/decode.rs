@@ -264,7 +264,12 @@ fn trim_zeros(d: &[u8]) -> &[u8] {
 /// converted with OpenCV's `cvtColor` luma, (4899 R + 9617 G + 1868 B + 2¹³) >> 14 (BT.601
 /// weights in 14-bit fixed point), so that thresholds mean what they mean in OpenCV.
 pub fn read_grey(path: &Path) -> Result<(usize, usize, Vec<u8>)> {
-    let img = image::open(path).map_err(|e| anyhow::anyhow!("{}: cannot read the image ({e})", path.display()))?;
+    // A file error keeps its io::Error in the chain (Python's OSError); a decoding error is one
+    // cause (the image crate's error repeats its message as its own source).
+    let img = image::open(path).map_err(|e| match e {
+        image::ImageError::IoError(io) => anyhow::Error::new(io).context(format!("{}: cannot read the image", path.display())),
+        e => anyhow::anyhow!("{}: cannot read the image ({e})", path.display()),
+    })?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     Ok((w, h, grey_opencv(img)))
 }
