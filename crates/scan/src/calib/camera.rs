@@ -141,18 +141,15 @@ pub fn calibrate_camera_guided(obj: &[Point2], views: &[(String, Vec<Point2>)], 
             .iter()
             .map(|&(u, v)| ((u - five.cx) / five.fx).hypot((v - five.cy) / five.fy))
             .fold(0.0f64, f64::max);
-        let mut lens = model::Lens::from_opencv(five.fx, five.fy, five.cx, five.cy, &five.dist);
-        lens.rational = guess.map_or([0.0; 3], |g| g.rational);
+        // The five-coefficient fit (rational terms 0: a guess without them has none either).
+        let lens = model::Lens::from_opencv(five.fx, five.fy, five.cx, five.cy, &five.dist);
         let poses: Vec<model::Pose> = five.views.iter().map(|v| model::Pose { rvec: v.rvec.into(), t: v.tvec.into() }).collect();
         let free_r = Free { rational_radius: [corner_radius, 0.0], ..free };
-        let mut starts = vec![lens];
-        if let Some(g) = rational_guess {
-            lens.rational = [0.0; 3];
-            starts = vec![free.without_unmodelled(*g, 0)];
-            if free.held == 0 && free.aspect_ratio == [None; 2] {
-                starts.push(lens);
-            }
-        }
+        let starts = match rational_guess {
+            None => vec![lens],
+            Some(g) if free.held == 0 && free.aspect_ratio == [None; 2] => vec![free.without_unmodelled(*g, 0), lens],
+            Some(g) => vec![free.without_unmodelled(*g, 0)],
+        };
         let inits = starts.into_iter().map(|cam| State { cam, proj: None, stereo: model::Pose::identity(), poses: poses.clone() }).collect();
         lowest_minimum(obj, &obs, inits, free_r)?
     } else {
