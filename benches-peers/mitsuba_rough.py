@@ -12,6 +12,8 @@ the median and 10th–90th percentile of the per-pixel ratio. Materials (lucent 
 * `rough_conductor`, metal "au", α = 0.2 / `roughconductor`, material "Au", GGX, α = 0.2;
 * `rough_conductor`, metal "cu", α = [0.05, 0.3] is left out (lucent's tangent frame is arbitrary);
 * `rough_dielectric`, ior 1.5, α = 0.2 / `roughdielectric`, int_ior 1.5, ext_ior 1, GGX, α = 0.2;
+* the same two with `distribution = "beckmann"`, α = 0.3 and `masking = "separable"` / Mitsuba's
+  Beckmann (its default distribution), α = 0.3;
 * `dielectric`, ior 1.5 / `dielectric`, int_ior 1.5, ext_ior 1;
 * `conductor`, metal "ag" / `conductor`, material "Ag";
 * `plastic`, albedo 0.5, ior 1.5 / `plastic`, diffuse_reflectance 0.5, int_ior 1.5,
@@ -46,6 +48,10 @@ MATERIALS = {
                    {"type": "roughconductor", "material": "Au", "distribution": "ggx", "alpha": 0.2}),
     "rough_glass": ('type = "rough_dielectric"\nior = 1.5\nalpha = 0.2',
                     {"type": "roughdielectric", "int_ior": 1.5, "ext_ior": 1.0, "distribution": "ggx", "alpha": 0.2}),
+    "rough_gold_beckmann": ('type = "rough_conductor"\nmetal = "au"\nalpha = 0.3\ndistribution = "beckmann"\nmasking = "separable"',
+                            {"type": "roughconductor", "material": "Au", "distribution": "beckmann", "alpha": 0.3}),
+    "rough_glass_beckmann": ('type = "rough_dielectric"\nior = 1.5\nalpha = 0.3\ndistribution = "beckmann"\nmasking = "separable"',
+                             {"type": "roughdielectric", "int_ior": 1.5, "ext_ior": 1.0, "distribution": "beckmann", "alpha": 0.3}),
     "glass": ('type = "dielectric"\nior = 1.5', {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}),
     "silver": ('type = "conductor"\nmetal = "ag"', {"type": "conductor", "material": "Ag"}),
     "plastic": ('type = "plastic"\nalbedo = 0.5\nior = 1.5',

@@ -5,7 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::bsdf::fresnel::fresnel_dielectric;
-use crate::bsdf::microfacet::{reflect, TrowbridgeReitz};
+use crate::bsdf::microfacet::{reflect, Microfacet};
 use crate::bsdf::{flip_z, to_upper, BsdfSample};
 use crate::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::math::spectral::SampledSpectrum;
@@ -52,7 +52,7 @@ impl CoatingTable {
     }
 
     fn compute(alpha: f32, eta: f32) -> CoatingTable {
-        let distrib = TrowbridgeReitz::isotropic(alpha);
+        let distrib = Microfacet::isotropic(alpha);
         let smooth = distrib.effectively_smooth();
         let mut e = Vec::with_capacity(COATING_N);
         for i in 0..COATING_N {
@@ -123,7 +123,7 @@ pub struct CoatedDiffuse {
     /// Coating index relative to the outside.
     pub eta: f32,
     /// Coating roughness (effectively smooth → delta specular lobe).
-    pub distrib: TrowbridgeReitz,
+    pub distrib: Microfacet,
     /// Albedo table of the coating (from [`CoatingTable::get`] with the same α and η).
     pub table: &'static CoatingTable,
     /// `albedo` is the base's (true, the default): the light the base returns is
@@ -138,7 +138,7 @@ impl CoatedDiffuse {
         CoatedDiffuse {
             albedo,
             eta,
-            distrib: TrowbridgeReitz::isotropic(alpha),
+            distrib: Microfacet::isotropic(alpha),
             table: CoatingTable::get(alpha, eta),
             nonlinear: true,
         }

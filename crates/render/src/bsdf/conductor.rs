@@ -1,10 +1,10 @@
-//! Smooth and rough (GGX) conductors with the complex Fresnel reflectance; conventions in [`crate::bsdf`].
+//! Smooth and rough (GGX or Beckmann microfacet) conductors with the complex Fresnel reflectance; conventions in [`crate::bsdf`].
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::bsdf::fresnel::fresnel_conductor;
-use crate::bsdf::microfacet::{reflect, TrowbridgeReitz};
+use crate::bsdf::microfacet::{reflect, Microfacet};
 use crate::bsdf::{flip_z, to_upper, BsdfSample};
 use crate::math::spectral::SampledSpectrum;
 use glam::{Vec2, Vec3, Vec4};
@@ -50,11 +50,11 @@ impl SmoothConductor {
 
 // ---------------------------------------------------------------------------------------------
 
-/// Rough conductor: GGX microfacets with complex Fresnel, visible-normal sampling (two-sided).
+/// Rough conductor: GGX or Beckmann microfacets with complex Fresnel, visible-normal sampling (two-sided).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RoughConductor {
     /// Microfacet distribution.
-    pub distrib: TrowbridgeReitz,
+    pub distrib: Microfacet,
     /// Real part η of the relative complex index, per carried wavelength.
     pub eta: Vec4,
     /// Extinction coefficient k, per carried wavelength.

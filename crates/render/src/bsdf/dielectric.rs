@@ -1,10 +1,10 @@
-//! Smooth and rough (GGX, Walter et al. 2007) dielectric interfaces; conventions in [`crate::bsdf`].
+//! Smooth and rough (GGX or Beckmann microfacets, Walter et al. 2007) dielectric interfaces; conventions in [`crate::bsdf`].
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::bsdf::fresnel::fresnel_dielectric;
-use crate::bsdf::microfacet::{reflect, refract, TrowbridgeReitz};
+use crate::bsdf::microfacet::{reflect, refract, Microfacet};
 use crate::bsdf::{same_hemisphere, BsdfSample};
 use crate::math::spectral::SampledSpectrum;
 use glam::{Vec2, Vec3, Vec4};
@@ -68,11 +68,11 @@ impl SmoothDielectric {
 
 // ---------------------------------------------------------------------------------------------
 
-/// Rough dielectric interface (GGX, visible-normal sampling; Walter et al. 2007 transmission).
+/// Rough dielectric interface (GGX or Beckmann, visible-normal sampling; Walter et al. 2007 transmission).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RoughDielectric {
     /// Microfacet distribution.
-    pub distrib: TrowbridgeReitz,
+    pub distrib: Microfacet,
     /// Relative index n_inside / n_outside (> 0, ≠ 1 for a visible interface).
     pub eta: f32,
 }

@@ -75,7 +75,7 @@ pub enum Bsdf {
         /// η was taken at the hero wavelength: the integrator must terminate the secondary ones.
         dispersive: bool,
     },
-    /// Rough dielectric (GGX).
+    /// Rough dielectric (microfacet).
     RoughDielectric {
         /// The lobe.
         lobe: RoughDielectric,
@@ -84,7 +84,7 @@ pub enum Bsdf {
     },
     /// Smooth conductor (delta mirror).
     SmoothConductor(SmoothConductor),
-    /// Rough conductor (GGX).
+    /// Rough conductor (microfacet).
     RoughConductor(RoughConductor),
     /// Dielectric coating over a diffuse base.
     Coated(CoatedDiffuse),

@@ -107,6 +107,7 @@ pub(crate) struct MaterialDesc {
     pub(crate) alpha: Option<Spanned<toml::Value>>,
     pub(crate) nonlinear: Option<bool>,
     pub(crate) masking: Option<Spanned<String>>,
+    pub(crate) distribution: Option<Spanned<String>>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }
@@ -116,6 +117,24 @@ pub(crate) struct MaterialDesc {
 pub(crate) struct SphereDesc {
     pub(crate) center: [f64; 3],
     pub(crate) radius: f64,
+}
+
+/// `disk = { center, normal, radius }` (see `shape::tessellate`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct DiskDesc {
+    pub(crate) center: Option<[f64; 3]>,
+    pub(crate) normal: Option<[f64; 3]>,
+    pub(crate) radius: Option<f64>,
+}
+
+/// `cylinder = { p0, p1, radius }`: an open tube (see `shape::tessellate`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CylinderDesc {
+    pub(crate) p0: Option<[f64; 3]>,
+    pub(crate) p1: Option<[f64; 3]>,
+    pub(crate) radius: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -137,6 +156,8 @@ pub(crate) struct ObjectDesc {
     pub(crate) quad: Option<[[f64; 3]; 4]>,
     pub(crate) quads: Option<Vec<[[f64; 3]; 4]>>,
     pub(crate) sphere: Option<SphereDesc>,
+    pub(crate) disk: Option<DiskDesc>,
+    pub(crate) cylinder: Option<CylinderDesc>,
     pub(crate) transform: Option<TransformDesc>,
     /// Medium inside the object (its mesh must be closed).
     pub(crate) medium: Option<Spanned<toml::Value>>,

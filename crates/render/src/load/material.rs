@@ -33,6 +33,9 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
         if m.masking.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor") {
             return Err(cx.err(&span, &format!("{field}.masking"), format!("only allowed for a dielectric or conductor material, not {}", quote(&m.kind))));
         }
+        if m.distribution.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor") {
+            return Err(cx.err(&span, &format!("{field}.distribution"), format!("only allowed for a dielectric or conductor material, not {}", quote(&m.kind))));
+        }
         if m.subsurface.is_some() && m.kind != "translucent" {
             return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", quote(&m.kind))));
         }
@@ -46,7 +49,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                     return Err(cx.err(&span, &format!("{field}.albedo"), format!("not allowed for an {} material", m.kind)));
                 }
                 // Index-matched boundary of a medium: a dielectric of relative index 1 (pass-through).
-                Material::dielectric(DenseSpectrum::from_fn(|_| 1.0), crate::bsdf::microfacet::TrowbridgeReitz::isotropic(0.0))
+                Material::dielectric(DenseSpectrum::from_fn(|_| 1.0), crate::bsdf::microfacet::Microfacet::isotropic(0.0))
             }
             "black" => {
                 if m.albedo.is_some() {
@@ -89,7 +92,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
 /// Dielectric, conductor and plastic materials, see docs/scene-format.md ("Glass, metals, rough
 /// surfaces and plastic").
 pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &Range<usize>, field: &str) -> Result<Material> {
-    use crate::bsdf::microfacet::{roughness_to_alpha, TrowbridgeReitz};
+    use crate::bsdf::microfacet::{roughness_to_alpha, Microfacet};
     let kind = m.kind.as_str();
     let f = |name: &str| format!("{field}.{name}");
     // Fields that do not belong to this type.
@@ -132,25 +135,32 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
         (Some(_), Some(a)) => return Err(cx.err(&a.span(), &f("alpha"), "give either roughness or alpha, not both")),
         (Some(_), None) if roughness_texture.is_some() => {
             let Some(crate::texture::FloatTexture::Image(t)) = &roughness_texture else { unreachable!() };
-            TrowbridgeReitz::isotropic(roughness_to_alpha(t.max_value()))
+            Microfacet::isotropic(roughness_to_alpha(t.max_value()))
         }
-        (Some(r), None) => TrowbridgeReitz::isotropic(roughness_to_alpha(number(r, "roughness", 0.0, 1.0)? as f32)),
+        (Some(r), None) => Microfacet::isotropic(roughness_to_alpha(number(r, "roughness", 0.0, 1.0)? as f32)),
         (None, Some(a)) => match a.get_ref() {
             toml::Value::Array(xs) if kind != "plastic" => {
                 let v: Vec<f64> = xs.iter().filter_map(as_f64).collect();
                 if v.len() != 2 || xs.len() != 2 || !v.iter().all(|x| (0.0..=4.0).contains(x)) {
                     return Err(cx.err(&a.span(), &f("alpha"), "expected [alpha_x, alpha_y], each in [0, 4]"));
                 }
-                TrowbridgeReitz { alpha_x: v[0] as f32, alpha_y: v[1] as f32, masking: Default::default() }
+                Microfacet { alpha_x: v[0] as f32, alpha_y: v[1] as f32, ..Microfacet::isotropic(0.0) }
             }
-            _ => TrowbridgeReitz::isotropic(number(a, "alpha", 0.0, 4.0)? as f32),
+            _ => Microfacet::isotropic(number(a, "alpha", 0.0, 4.0)? as f32),
         },
         (None, None) => {
             if kind.starts_with("rough_") {
                 return Err(cx.err(span, &f("roughness"), format!("missing (a {kind} material needs roughness or alpha)")));
             }
-            TrowbridgeReitz::isotropic(0.0)
+            Microfacet::isotropic(0.0)
         }
+    };
+    let distrib = match &m.distribution {
+        None => distrib,
+        Some(dn) => match crate::bsdf::microfacet::Distribution::from_name(dn.get_ref()) {
+            Some(d) => distrib.with_distribution(d),
+            None => return Err(cx.err(&dn.span(), &f("distribution"), format!("unknown distribution {} (ggx or beckmann)", quote(dn.get_ref())))),
+        },
     };
     let distrib = match &m.masking {
         None => distrib,

@@ -17,7 +17,7 @@ use crate::bsdf::coated::{CoatedDiffuse, CoatingTable};
 use crate::bsdf::conductor::{RoughConductor, SmoothConductor};
 use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric};
 use crate::bsdf::Bsdf;
-use crate::bsdf::microfacet::TrowbridgeReitz;
+use crate::bsdf::microfacet::Microfacet;
 use crate::math::spectral::SampledWavelengths;
 use crate::texture::{FloatTexture, SpectrumTexture};
 use glam::Vec2;
@@ -41,7 +41,7 @@ pub enum Material {
         /// Whether `ior` varies with wavelength (then the secondary wavelengths are terminated).
         dispersive: bool,
         /// Microfacet roughness (α = 0: smooth).
-        distrib: TrowbridgeReitz,
+        distrib: Microfacet,
         /// Roughness r ∈ [0, 1] over the surface (α = r², isotropic), replacing `distrib` where given.
         roughness: Option<FloatTexture>,
     },
@@ -52,7 +52,7 @@ pub enum Material {
         /// Extinction coefficient.
         k: DenseSpectrum,
         /// Microfacet roughness (α = 0: smooth).
-        distrib: TrowbridgeReitz,
+        distrib: Microfacet,
         /// Roughness r ∈ [0, 1] over the surface (α = r², isotropic), replacing `distrib` where given.
         roughness: Option<FloatTexture>,
     },
@@ -92,14 +92,14 @@ impl Material {
 
     /// Dielectric with relative index `ior(λ)` (dispersive when it varies over 360–830 nm) and
     /// microfacet distribution `distrib` (α below `microfacet::SMOOTH_ALPHA`: smooth).
-    pub fn dielectric(ior: DenseSpectrum, distrib: TrowbridgeReitz) -> Material {
+    pub fn dielectric(ior: DenseSpectrum, distrib: Microfacet) -> Material {
         let s = ior.samples();
         let dispersive = s.iter().any(|&x| (x - s[0]).abs() > 1e-6 * s[0].abs());
         Material::Dielectric { ior, dispersive, distrib, roughness: None }
     }
 
     /// Conductor with complex index η + i k (relative to the outside) and roughness `distrib`.
-    pub fn conductor(eta: DenseSpectrum, k: DenseSpectrum, distrib: TrowbridgeReitz) -> Material {
+    pub fn conductor(eta: DenseSpectrum, k: DenseSpectrum, distrib: Microfacet) -> Material {
         Material::Conductor { eta, k, distrib, roughness: None }
     }
 
@@ -194,7 +194,7 @@ impl Material {
             Material::Plastic { albedo, ior, alpha, table, nonlinear } => Bsdf::Coated(CoatedDiffuse {
                 albedo: albedo.eval_with(wl, uv),
                 eta: *ior,
-                distrib: TrowbridgeReitz::isotropic(*alpha),
+                distrib: Microfacet::isotropic(*alpha),
                 table,
                 nonlinear: *nonlinear,
             }),
@@ -205,9 +205,9 @@ impl Material {
 
 /// The microfacet distribution at `uv`: `distrib` itself when the roughness is not textured.
 #[inline]
-fn textured_distrib(distrib: &TrowbridgeReitz, roughness: &Option<FloatTexture>, uv: impl FnOnce() -> Vec2) -> TrowbridgeReitz {
+fn textured_distrib(distrib: &Microfacet, roughness: &Option<FloatTexture>, uv: impl FnOnce() -> Vec2) -> Microfacet {
     match roughness {
         None => *distrib,
-        Some(r) => TrowbridgeReitz::isotropic(crate::bsdf::microfacet::roughness_to_alpha(r.eval_with(uv).clamp(0.0, 1.0))).with_masking(distrib.masking),
+        Some(r) => distrib.with_alpha(crate::bsdf::microfacet::roughness_to_alpha(r.eval_with(uv).clamp(0.0, 1.0))),
     }
 }

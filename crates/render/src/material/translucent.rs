@@ -4,7 +4,7 @@
 
 use crate::bsdf::conductor::{RoughConductor, SmoothConductor};
 use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric};
-use crate::bsdf::microfacet::TrowbridgeReitz;
+use crate::bsdf::microfacet::Microfacet;
 use crate::bsdf::Bsdf;
 use anyhow::{bail, Context, Result};
 use glam::Vec4;
@@ -136,8 +136,8 @@ impl Translucent {
     }
 
     /// The boundary's microfacet distribution (isotropic GGX of α = `boundary_alpha`).
-    pub fn boundary_distrib(&self) -> TrowbridgeReitz {
-        TrowbridgeReitz::isotropic(self.boundary_alpha)
+    pub fn boundary_distrib(&self) -> Microfacet {
+        Microfacet::isotropic(self.boundary_alpha)
     }
 
     /// The boundary's surface reflection alone (what the path tracer continues with on top of the

@@ -156,6 +156,8 @@ fn bad_material_input_gives_one_line_errors() {
     fails_with("type = \"plastic\"\nalbedo = 0.5\nnonlinear = 1", &["bad.toml:", "boolean"]);
     fails_with("type = \"plastic\"\nalbedo = 0.5\nroughness = 0.3\nmasking = \"separable\"", &["materials.m.masking", "plastic"]);
     fails_with("type = \"rough_conductor\"\nmetal = \"au\"\nalpha = 0.3\nmasking = \"smith\"", &["bad.toml:", "materials.m.masking", "smith", "separable"]);
+    fails_with("type = \"plastic\"\nalbedo = 0.5\nroughness = 0.3\ndistribution = \"beckmann\"", &["materials.m.distribution", "plastic"]);
+    fails_with("type = \"rough_dielectric\"\nior = 1.5\nalpha = 0.3\ndistribution = \"phong\"", &["bad.toml:", "materials.m.distribution", "phong", "beckmann"]);
     fails_with("type = \"glass\"", &["materials.m.type", "glass", "dielectric"]);
     fails_with(
         "type = \"dielectric\"\nior = 1.5\nroughnes = 0.1",
