@@ -15,6 +15,7 @@ the median and 10th–90th percentile of the per-pixel ratio. Materials (lucent 
 * the same two with `distribution = "beckmann"`, α = 0.3 and `masking = "separable"` / Mitsuba's
   Beckmann (its default distribution), α = 0.3;
 * `dielectric`, ior 1.5 / `dielectric`, int_ior 1.5, ext_ior 1;
+* `thin_dielectric`, ior 1.5 / `thindielectric`, int_ior 1.5, ext_ior 1 (a soap-bubble sphere);
 * `conductor`, metal "ag" / `conductor`, material "Ag";
 * `plastic`, albedo 0.5, ior 1.5 / `plastic`, diffuse_reflectance 0.5, int_ior 1.5,
   nonlinear = true: the same model for a smooth coating (ρ (1 − F_i)(1 − F_o) / (π η² (1 − ρ F_dr)));
@@ -53,6 +54,7 @@ MATERIALS = {
     "rough_glass_beckmann": ('type = "rough_dielectric"\nior = 1.5\nalpha = 0.3\ndistribution = "beckmann"\nmasking = "separable"',
                              {"type": "roughdielectric", "int_ior": 1.5, "ext_ior": 1.0, "distribution": "beckmann", "alpha": 0.3}),
     "glass": ('type = "dielectric"\nior = 1.5', {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}),
+    "thin_glass": ('type = "thin_dielectric"\nior = 1.5', {"type": "thindielectric", "int_ior": 1.5, "ext_ior": 1.0}),
     "silver": ('type = "conductor"\nmetal = "ag"', {"type": "conductor", "material": "Ag"}),
     "plastic": ('type = "plastic"\nalbedo = 0.5\nior = 1.5',
                 {"type": "plastic", "diffuse_reflectance": {"type": "spectrum", "value": 0.5}, "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),

@@ -68,6 +68,68 @@ impl SmoothDielectric {
 
 // ---------------------------------------------------------------------------------------------
 
+/// A thin dielectric sheet (a window pane; Mitsuba 3's `thindielectric`): two parallel smooth
+/// faces a negligible distance apart, nothing absorbed between them. Light reflected between the
+/// faces, summed incoherently, gives R′ = R + T²R(1 + R² + R⁴ + …) = 2R/(1 + R) and T′ = 1 − R′,
+/// R the Fresnel reflectance of one face at the angle of incidence (the path inside refracts to
+/// the same angle at both faces, so one R serves every bounce). The transmitted light leaves
+/// unbent, along −wo, and its radiance is not compressed (it leaves into the index it came from).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinDielectric {
+    /// Index of the sheet relative to its surroundings, per carried wavelength (> 0).
+    pub eta: Vec4,
+}
+
+impl ThinDielectric {
+    /// R′ = 2R/(1 + R) per lane at |cos θ| = `cos_theta`.
+    #[inline]
+    pub fn reflectance(&self, cos_theta: f32) -> Vec4 {
+        let c = cos_theta.abs();
+        let r = Vec4::new(
+            fresnel_dielectric(c, self.eta.x),
+            fresnel_dielectric(c, self.eta.y),
+            fresnel_dielectric(c, self.eta.z),
+            fresnel_dielectric(c, self.eta.w),
+        );
+        2.0 * r / (Vec4::ONE + r)
+    }
+
+    /// Delta lobes only: f = 0.
+    pub fn eval(&self, _wo: Vec3, _wi: Vec3) -> SampledSpectrum {
+        Vec4::ZERO
+    }
+
+    /// Delta lobes only: density 0.
+    pub fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+
+    /// Reflection with probability the lanes' mean R′, else straight transmission; `uc` picks.
+    pub fn sample(&self, wo: Vec3, uc: f32, _u: Vec2) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        let r = self.reflectance(wo.z);
+        let p = (r.x + r.y + r.z + r.w) / 4.0;
+        let reflect = if p >= 1.0 { true } else if p <= 0.0 { false } else { uc < p };
+        let (wi, f, pdf) = if reflect {
+            (Vec3::new(-wo.x, -wo.y, wo.z), r, p)
+        } else {
+            (-wo, Vec4::ONE - r, 1.0 - p)
+        };
+        Some(BsdfSample {
+            wi,
+            f: f / wi.z.abs(),
+            pdf,
+            delta: true,
+            transmission: !reflect,
+            eta: 1.0,
+            terminate_secondary: false,
+        })
+    }
+}
+
+
 /// Rough dielectric interface (GGX or Beckmann, visible-normal sampling; Walter et al. 2007 transmission).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RoughDielectric {

@@ -1,4 +1,4 @@
-//! Scattering functions at fixed wavelengths (BSDFs): the [`Bsdf`] dispatch and its lobes — smooth and rough dielectrics, smooth and rough
+//! Scattering functions at fixed wavelengths (BSDFs): the [`Bsdf`] dispatch and its lobes — smooth and rough dielectrics, thin dielectric sheets, smooth and rough
 //! conductors, and a dielectric coating over a diffuse base (plastic).
 //!
 //! Frame convention (as in pbrt-v4): every lobe works in a local frame whose +z is the surface
@@ -51,7 +51,7 @@ pub mod microfacet;
 
 pub use coated::{CoatedDiffuse, CoatingTable};
 pub use conductor::{RoughConductor, SmoothConductor};
-pub use dielectric::{RoughDielectric, SmoothDielectric};
+pub use dielectric::{RoughDielectric, SmoothDielectric, ThinDielectric};
 
 use crate::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::math::spectral::SampledSpectrum;
@@ -82,6 +82,8 @@ pub enum Bsdf {
         /// η was taken at the hero wavelength: the integrator must terminate the secondary ones.
         dispersive: bool,
     },
+    /// Thin dielectric sheet (delta reflection + unbent transmission).
+    ThinDielectric(ThinDielectric),
     /// Smooth conductor (delta mirror).
     SmoothConductor(SmoothConductor),
     /// Rough conductor (microfacet).
@@ -117,7 +119,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { .. } => false,
             Bsdf::Black => true,
-            Bsdf::SmoothDielectric { .. } | Bsdf::SmoothConductor(_) => true,
+            Bsdf::SmoothDielectric { .. } | Bsdf::ThinDielectric(_) | Bsdf::SmoothConductor(_) => true,
             Bsdf::RoughDielectric { .. } | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
         }
     }
@@ -134,7 +136,7 @@ impl Bsdf {
             Bsdf::RoughDielectric { lobe, dispersive } => {
                 Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: lobe.distrib, eta: 1.0 / lobe.eta }, dispersive }
             }
-            Bsdf::Diffuse { .. } | Bsdf::Black | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => self,
+            Bsdf::Diffuse { .. } | Bsdf::Black | Bsdf::ThinDielectric(_) | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => self,
         }
     }
 
@@ -156,7 +158,7 @@ impl Bsdf {
     pub fn terminates_secondary(&self) -> bool {
         match self {
             Bsdf::SmoothDielectric { dispersive, .. } | Bsdf::RoughDielectric { dispersive, .. } => *dispersive,
-            Bsdf::Diffuse { .. } | Bsdf::Black | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
+            Bsdf::Diffuse { .. } | Bsdf::Black | Bsdf::ThinDielectric(_) | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
         }
     }
 
@@ -166,7 +168,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { r } => *r == Vec4::ZERO,
             Bsdf::Black => true,
-            Bsdf::SmoothDielectric { .. } | Bsdf::RoughDielectric { .. } | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
+            Bsdf::SmoothDielectric { .. } | Bsdf::RoughDielectric { .. } | Bsdf::ThinDielectric(_) | Bsdf::SmoothConductor(_) | Bsdf::RoughConductor(_) | Bsdf::Coated(_) => false,
         }
     }
 
@@ -184,6 +186,7 @@ impl Bsdf {
             Bsdf::Black => Vec4::ZERO,
             Bsdf::SmoothDielectric { lobe, .. } => lobe.eval(wo, wi),
             Bsdf::RoughDielectric { lobe, .. } => lobe.eval(wo, wi),
+            Bsdf::ThinDielectric(lobe) => lobe.eval(wo, wi),
             Bsdf::SmoothConductor(lobe) => lobe.eval(wo, wi),
             Bsdf::RoughConductor(lobe) => lobe.eval(wo, wi),
             Bsdf::Coated(lobe) => lobe.eval(wo, wi),
@@ -204,6 +207,7 @@ impl Bsdf {
             Bsdf::Black => 0.0,
             Bsdf::SmoothDielectric { lobe, .. } => lobe.pdf(wo, wi),
             Bsdf::RoughDielectric { lobe, .. } => lobe.pdf(wo, wi),
+            Bsdf::ThinDielectric(lobe) => lobe.pdf(wo, wi),
             Bsdf::SmoothConductor(lobe) => lobe.pdf(wo, wi),
             Bsdf::RoughConductor(lobe) => lobe.pdf(wo, wi),
             Bsdf::Coated(lobe) => lobe.pdf(wo, wi),
@@ -235,6 +239,7 @@ impl Bsdf {
                 s.terminate_secondary = *dispersive;
                 s
             }),
+            Bsdf::ThinDielectric(lobe) => lobe.sample(wo, uc, u),
             Bsdf::SmoothConductor(lobe) => lobe.sample(wo, uc, u),
             Bsdf::RoughConductor(lobe) => lobe.sample(wo, uc, u),
             Bsdf::Coated(lobe) => lobe.sample(wo, uc, u),

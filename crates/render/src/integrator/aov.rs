@@ -192,7 +192,7 @@ fn reflectance(mat: &Material, wl: &SampledWavelengths, front: bool, uv: glam::V
     match mat {
         Material::Lambertian { albedo } | Material::Plastic { albedo, .. } => albedo.eval(wl, uv),
         Material::Black => Vec4::ZERO,
-        Material::Dielectric { .. } | Material::Conductor { .. } | Material::Translucent(_) => {
+        Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Translucent(_) => {
             let bsdf = mat.bsdf(wl, uv).facing(front);
             bsdf.eval(wo_local, Vec3::Z) * std::f32::consts::PI
         }

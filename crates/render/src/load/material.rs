@@ -73,12 +73,12 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                 let t = crate::load::translucent::translucent_from_toml(ior, roughness, sub.get_ref()).map_err(|e| cx.err(&sub.span(), &field, format!("{e:#}")))?;
                 Material::Translucent(std::sync::Arc::new(t))
             }
-            "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
+            "dielectric" | "rough_dielectric" | "thin_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
             other => {
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, conductor, rough_conductor, plastic, translucent)", quote(other)),
+                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, translucent)", quote(other)),
                 ))
             }
         };
@@ -98,6 +98,7 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
     // Fields that do not belong to this type.
     let allowed: &[&str] = match kind {
         "dielectric" | "rough_dielectric" => &["ior", "roughness", "alpha"],
+        "thin_dielectric" => &["ior"],
         "conductor" | "rough_conductor" => &["metal", "eta", "k", "roughness", "alpha"],
         _ => &["albedo", "ior", "roughness", "alpha", "nonlinear"],
     };
@@ -205,6 +206,16 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
                 Some(t) => mat.with_roughness_texture(t).expect("a dielectric has a roughness"),
                 None => mat,
             })
+        }
+        "thin_dielectric" => {
+            let ior = match &m.ior {
+                Some(v) => positive(v, "ior")?,
+                None => return Err(cx.err(span, &f("ior"), "missing (the sheet's index: a number such as 1.5, a glass name or a spectrum)")),
+            };
+            if ior.samples().iter().any(|&x| !(x > 0.0)) {
+                return Err(cx.err(&m.ior.as_ref().unwrap().span(), &f("ior"), "must be positive at every wavelength"));
+            }
+            Ok(Material::ThinDielectric { ior })
         }
         "conductor" | "rough_conductor" => {
             let (eta, k) = match (&m.metal, &m.eta, &m.k) {

@@ -15,7 +15,7 @@ pub mod translucent;
 
 use crate::bsdf::coated::{CoatedDiffuse, CoatingTable};
 use crate::bsdf::conductor::{RoughConductor, SmoothConductor};
-use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric};
+use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric, ThinDielectric};
 use crate::bsdf::Bsdf;
 use crate::bsdf::microfacet::Microfacet;
 use crate::math::spectral::SampledWavelengths;
@@ -34,7 +34,7 @@ pub enum Material {
     },
     /// Absorbs everything (an emitter with no reflectance, or a light trap).
     Black,
-    /// Dielectric interface (glass, water), smooth when α < `microfacet::SMOOTH_ALPHA`, else GGX-rough.
+    /// Dielectric interface (glass, water), smooth when α < `microfacet::SMOOTH_ALPHA`, else rough.
     Dielectric {
         /// Index of the inside relative to the outside, per wavelength (nm).
         ior: DenseSpectrum,
@@ -45,7 +45,13 @@ pub enum Material {
         /// Roughness r ∈ [0, 1] over the surface (α = r², isotropic), replacing `distrib` where given.
         roughness: Option<FloatTexture>,
     },
-    /// Conductor with complex index η + i k per wavelength; smooth or GGX-rough.
+    /// Thin dielectric sheet (a window pane): Fresnel reflection summed over the light bouncing
+    /// between its two faces, unbent transmission ([`ThinDielectric`]).
+    ThinDielectric {
+        /// Index of the sheet relative to its surroundings, per wavelength (nm).
+        ior: DenseSpectrum,
+    },
+    /// Conductor with complex index η + i k per wavelength; smooth or rough.
     Conductor {
         /// Real part of the index relative to the outside.
         eta: DenseSpectrum,
@@ -81,7 +87,7 @@ impl Material {
     pub fn as_translucent(&self) -> Option<&std::sync::Arc<translucent::Translucent>> {
         match self {
             Material::Translucent(t) => Some(t),
-            Material::Lambertian { .. } | Material::Black | Material::Dielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } => None,
+            Material::Lambertian { .. } | Material::Black | Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } => None,
         }
     }
 
@@ -122,7 +128,7 @@ impl Material {
         match self {
             Material::Dielectric { ior, dispersive, distrib, .. } => Some(Material::Dielectric { ior, dispersive, distrib, roughness: Some(roughness) }),
             Material::Conductor { eta, k, distrib, .. } => Some(Material::Conductor { eta, k, distrib, roughness: Some(roughness) }),
-            Material::Lambertian { .. } | Material::Black | Material::Plastic { .. } | Material::Translucent(_) => None,
+            Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Plastic { .. } | Material::Translucent(_) => None,
         }
     }
 
@@ -131,7 +137,7 @@ impl Material {
         match self {
             Material::Lambertian { albedo } | Material::Plastic { albedo, .. } => albedo.is_textured(),
             Material::Dielectric { roughness, .. } | Material::Conductor { roughness, .. } => roughness.is_some(),
-            Material::Black | Material::Translucent(_) => false,
+            Material::Black | Material::ThinDielectric { .. } | Material::Translucent(_) => false,
         }
     }
 
@@ -170,6 +176,7 @@ impl Material {
         match self {
             Material::Lambertian { albedo } => Bsdf::Diffuse { r: albedo.eval_with(wl, uv) },
             Material::Black => Bsdf::Black,
+            Material::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: wl.eval(ior) }),
             Material::Dielectric { ior, dispersive, distrib, roughness } => {
                 let distrib = &textured_distrib(distrib, roughness, uv);
                 // One real η per lobe: the hero wavelength's (pbrt-v4's convention for dispersion).

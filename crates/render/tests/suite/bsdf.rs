@@ -770,6 +770,72 @@ fn smooth_dielectric_slab_conserves_energy() {
     }
 }
 
+/// The thin dielectric lobe against the slab traced face by face: a plane-parallel slab of
+/// index n whose two faces are the smooth dielectric lobe, photons followed until they leave,
+/// gives the thin sheet's reflected share; the lobe's own estimate, per lane (four indices) and
+/// sample by sample, must agree with it and with 2R/(1 + R), and its transmission must be unbent.
+#[test]
+fn thin_dielectric_is_the_slab_traced_face_by_face() {
+    use render::bsdf::ThinDielectric;
+    for (n, mu) in [(1.5f32, 0.9f32), (1.5, 0.3), (2.4, 0.6), (1.33, 0.05)] {
+        let etas = Vec4::new(n, 1.1 * n, 1.3 * n, 0.9 * n + 0.1);
+        let thin = Bsdf::ThinDielectric(ThinDielectric { eta: etas });
+        let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let mut rng = Pcg32::new(31, 2);
+        let samples = 100_000;
+        let mut r_thin = Vec4::ZERO;
+        for _ in 0..samples {
+            let smp = thin.sample(wo, rng.next_f32(), rng.next_2d()).unwrap();
+            let w = smp.f * smp.wi.z.abs() / smp.pdf;
+            assert!(smp.delta && smp.eta == 1.0);
+            if smp.transmission {
+                assert!((smp.wi + wo).length() < 1e-6, "transmission bends: {}", smp.wi);
+            } else {
+                assert!((smp.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+                r_thin += w;
+            }
+        }
+        let r_thin = r_thin / samples as f32;
+        // Reflection and transmission share the light: R′ + T′ = 1 per lane, sample weights aside.
+        let smp = |uc: f32| thin.sample(wo, uc, Vec2::ZERO).unwrap();
+        let (a, b) = (smp(0.0), smp(0.999_999));
+        let (pa, pb) = (a.f * a.wi.z.abs(), b.f * b.wi.z.abs());
+        assert!((pa + pb - Vec4::ONE).abs().max_element() < 1e-6, "R′ + T′ = {}", pa + pb);
+        // The slab, face by face, for each lane's index.
+        for lane in 0..4 {
+            let eta = etas[lane];
+            let face = Bsdf::SmoothDielectric { lobe: SmoothDielectric { eta }, dispersive: false };
+            let photons = 100_000;
+            let mut wr = 0.0f64;
+            for _ in 0..photons {
+                let mut d = Vec3::new(-(1.0 - mu * mu).sqrt(), 0.0, -mu);
+                let mut at_top = true;
+                loop {
+                    let s = if at_top { 1.0 } else { -1.0 };
+                    let wo = Vec3::new(-d.x, -d.y, -d.z * s);
+                    let smp = face.sample(wo, rng.next_f32(), rng.next_2d()).unwrap();
+                    d = Vec3::new(smp.wi.x, smp.wi.y, smp.wi.z * s);
+                    if smp.wi.z > 0.0 {
+                        if at_top {
+                            wr += 1.0;
+                        }
+                        break;
+                    }
+                    at_top = !at_top;
+                }
+            }
+            let r_slab = wr / photons as f64;
+            let r = optics::fresnel::fresnel_dielectric(mu as f64, eta as f64);
+            let exact = 2.0 * r / (1.0 + r);
+            let se = (exact * (1.0 - exact) / photons as f64).sqrt();
+            assert!((r_slab - exact).abs() < 4.0 * se + 1e-6, "slab n {eta} μ {mu}: {r_slab} vs {exact}");
+            // The lobe's estimate: its sampling noise is that of choosing reflection with the lanes'
+            // mean probability, at most the same binomial spread again.
+            assert!((r_thin[lane] as f64 - r_slab).abs() < 6.0 * se + 1e-4, "lane {lane}, n {eta} μ {mu}: thin {} vs slab {r_slab}", r_thin[lane]);
+        }
+    }
+}
+
 #[test]
 fn smooth_dielectric_total_internal_reflection_and_index_matching() {
     // From inside glass (η = 1/1.5) beyond the critical angle (sin θc = 1/1.5): always reflects with weight 1.
