@@ -7,7 +7,8 @@ renderers (`path`, max_depth 2: the square cannot see itself). The texture is as
 in R across u, a ramp in G up v, and a dark block near one corner, so that a flipped or
 turned image, or a texel-centre shift, shows. The script prints the ratio lucent / Mitsuba of
 the luminance Y and of each sRGB channel: median and 10th–90th percentiles over the pixels
-that see the square.
+that see the square, with bilinear filtering (`ratio`) and with nearest-texel lookups
+(`ratio_nearest`: lucent's `filter = "nearest"`, Mitsuba's `filter_type = "nearest"`).
 
     /tmp/pyvenv/bin/python benches-peers/mitsuba_texture.py [--lucent target/release/lucent]
         [--spp 64] [--variant scalar_spectral] [--save DIR] [--json]
@@ -44,7 +45,7 @@ def write_inputs(work):
         f.write("f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n")
 
 
-def render_lucent(lucent, work, spp):
+def render_lucent(lucent, work, spp, filt="bilinear"):
     scene = f"""unit = "m"
 camera = {{ eye = [0, 0, -{DIST}], look_at = [0, 0, 0], up = [0, 1, 0], vfov_deg = {FOV_DEG}, width = {N_CAM}, height = {N_CAM} }}
 [integrator]
@@ -52,7 +53,7 @@ type = "path"
 max_depth = 2
 [materials.tex]
 type = "lambertian"
-albedo = {{ texture = "tex.png" }}
+albedo = {{ texture = "tex.png", filter = "{filt}" }}
 [[objects]]
 material = "tex"
 mesh = "square.obj"
@@ -60,15 +61,15 @@ mesh = "square.obj"
 type = "environment"
 radiance = 1.0
 """
-    path = os.path.join(work, "lucent.toml")
+    path = os.path.join(work, f"lucent-{filt}.toml")
     with open(path, "w") as f:
         f.write(scene)
-    out = os.path.join(work, "lucent.pfm")
+    out = os.path.join(work, f"lucent-{filt}.pfm")
     subprocess.run([lucent, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
     return read_pfm(out)
 
 
-def render_mitsuba(variant, work, spp):
+def render_mitsuba(variant, work, spp, filt="bilinear"):
     import mitsuba as mi
 
     mi.set_variant(variant)
@@ -83,7 +84,7 @@ def render_mitsuba(variant, work, spp):
             "sampler": {"type": "independent", "sample_count": spp},
         },
         "square": {"type": "obj", "filename": os.path.join(work, "square.obj"),
-                   "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "bitmap", "filename": os.path.join(work, "tex.png")}}}},
+                   "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "bitmap", "filename": os.path.join(work, "tex.png"), "filter_type": filt}}}},
         "env": {"type": "constant", "radiance": {"type": "spectrum", "value": 1.0}},
     })
     return np.array(mi.render(scene, seed=1), dtype=np.float64)
@@ -92,22 +93,26 @@ def render_mitsuba(variant, work, spp):
 def main():
     a, work, _tmp = peer_args(__doc__, 64)
     write_inputs(work)
-    L, M = render_lucent(a.lucent, work, a.spp), render_mitsuba(a.variant, work, a.spp)
+    images = {filt: (render_lucent(a.lucent, work, a.spp, filt), render_mitsuba(a.variant, work, a.spp, filt)) for filt in ("bilinear", "nearest")}
     # Pixels whose footprint lies on the square: the square spans ±1 at distance DIST.
     f = (N_CAM / 2) / np.tan(np.radians(FOV_DEG / 2))
     half = f / DIST  # pixels per metre at the square
     c = np.abs(np.arange(N_CAM) + 0.5 - N_CAM / 2)
     inside = c < half - 1.0
     mask = inside[:, None] & inside[None, :]
-    res = {"mitsuba_variant": a.variant, "spp": a.spp, "pixels": int(mask.sum()), "ratio": {}}
-    for label, w in [("R", np.eye(3)[0]), ("G", np.eye(3)[1]), ("B", np.eye(3)[2]), ("Y", LUMA)]:
-        r = (L @ w)[mask] / (M @ w)[mask]
-        res["ratio"][label] = [float(x) for x in np.percentile(r, [10, 50, 90])]
+    res = {"mitsuba_variant": a.variant, "spp": a.spp, "pixels": int(mask.sum())}
+    for filt, (L, M) in images.items():
+        key = "ratio" if filt == "bilinear" else "ratio_nearest"
+        res[key] = {}
+        for label, w in [("R", np.eye(3)[0]), ("G", np.eye(3)[1]), ("B", np.eye(3)[2]), ("Y", LUMA)]:
+            r = (L @ w)[mask] / (M @ w)[mask]
+            res[key][label] = [float(x) for x in np.percentile(r, [10, 50, 90])]
     if a.json:
         print(json.dumps(res, indent=1))
     else:
         print(f"Mitsuba 3 {a.variant}, {a.spp} spp, {res['pixels']} pixels on the square; lucent / Mitsuba, median (10th–90th percentile):")
-        print("  " + "  ".join(f"{c} {m[1]:.4f} ({m[0]:.3f}–{m[2]:.3f})" for c, m in res["ratio"].items()))
+        for key in ("ratio", "ratio_nearest"):
+            print(f"  {'bilinear' if key == 'ratio' else 'nearest '}: " + "  ".join(f"{c} {m[1]:.4f} ({m[0]:.3f}–{m[2]:.3f})" for c, m in res[key].items()))
 
 
 if __name__ == "__main__":

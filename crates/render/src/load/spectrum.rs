@@ -205,7 +205,7 @@ pub(crate) fn rgb_illuminant(rgb: [f64; 3]) -> Result<optics::spectrum::Spectrum
 }
 
 /// Keys of an image texture table (`{ texture = "file.png", … }`).
-pub(crate) const TEXTURE_KEYS: &[&str] = &["texture", "wrap", "scale", "encoding"];
+pub(crate) const TEXTURE_KEYS: &[&str] = &["texture", "wrap", "scale", "encoding", "filter"];
 
 /// Whether a value is a texture table rather than a spectrum.
 pub(crate) fn is_texture(v: &toml::Value) -> bool {
@@ -245,13 +245,13 @@ impl SpectrumCx<'_> {
             let cb = Checkerboard { squares: squares as u32, even: side("even")?, odd: side("odd")? };
             return Ok(SpectrumTexture::Checkerboard(std::sync::Arc::new(cb)));
         }
-        let (img, wrap, scale) = self.texture_image(t, &span, field)?;
+        let (img, wrap, scale, filter) = self.texture_image(t, &span, field)?;
         let uplift = match usage {
             SpectrumUse::Albedo => Uplift::Reflectance,
             SpectrumUse::Emission => Uplift::Illuminant,
             SpectrumUse::Coefficient => return Err(self.cx.err(&span, field, "cannot be a texture")),
         };
-        let s = SpectralImage::new(&img, uplift, wrap, scale).map_err(|e| self.cx.err(&span, &format!("{field}.texture"), format!("{}: {e:#}", t["texture"].as_str().unwrap_or(""))))?;
+        let s = SpectralImage::new(&img, uplift, wrap, scale).map_err(|e| self.cx.err(&span, &format!("{field}.texture"), format!("{}: {e:#}", t["texture"].as_str().unwrap_or(""))))?.with_filter(filter);
         Ok(SpectrumTexture::Image(std::sync::Arc::new(s)))
     }
 
@@ -266,8 +266,8 @@ impl SpectrumCx<'_> {
         if t.contains_key("checkerboard") {
             return Err(self.cx.err(&span, field, "a checkerboard gives spectra, not a number (use an image texture)"));
         }
-        let (img, wrap, scale) = self.texture_image(t, &span, field)?;
-        let f = FloatImage::new(&img, wrap, scale);
+        let (img, wrap, scale, filter) = self.texture_image(t, &span, field)?;
+        let f = FloatImage::new(&img, wrap, scale).with_filter(filter);
         if let Some(i) = img.rgb.iter().position(|p| {
             let m = (p[0] + p[1] + p[2]) / 3.0;
             !(m >= lo && m <= hi)
@@ -279,8 +279,8 @@ impl SpectrumCx<'_> {
     }
 
     /// Reads the image of a texture table and its wrap mode and (u, v) scale.
-    fn texture_image(&self, t: &toml::value::Table, span: &Range<usize>, field: &str) -> Result<(crate::image_io::Image, crate::texture::Wrap, glam::Vec2)> {
-        use crate::texture::{image::Encoding, Wrap};
+    fn texture_image(&self, t: &toml::value::Table, span: &Range<usize>, field: &str) -> Result<(crate::image_io::Image, crate::texture::Wrap, glam::Vec2, crate::texture::Filter)> {
+        use crate::texture::{image::Encoding, Filter, Wrap};
         for k in t.keys() {
             if !TEXTURE_KEYS.contains(&k.as_str()) {
                 return Err(self.cx.err(span, field, format!("unknown key `{k}`, expected one of {TEXTURE_KEYS:?}")));
@@ -301,6 +301,12 @@ impl SpectrumCx<'_> {
                 glam::Vec2::new(a[0] as f32, a[1] as f32)
             }
         };
+        let filter = match t.get("filter") {
+            None => Filter::Bilinear,
+            Some(x) => x.as_str().and_then(Filter::from_name).ok_or_else(|| {
+                self.cx.err(span, &format!("{field}.filter"), format!("unknown filter {x} (expected \"bilinear\" or \"nearest\")"))
+            })?,
+        };
         let encoding = match t.get("encoding").map(|e| e.as_str()) {
             None | Some(Some("srgb")) => Encoding::Srgb,
             Some(Some("linear")) => Encoding::Linear,
@@ -309,6 +315,6 @@ impl SpectrumCx<'_> {
         let (path, bytes) = self.files.image_path(rel).map_err(|e| self.cx.err(span, &format!("{field}.texture"), format!("{e:#}")))?;
         self.hash.borrow_mut().write(&bytes);
         let img = crate::texture::image::read_texture_image(&path, encoding).map_err(|e| self.cx.err(span, &format!("{field}.texture"), format!("{e:#}")))?;
-        Ok((img, wrap, scale))
+        Ok((img, wrap, scale, filter))
     }
 }

@@ -1,5 +1,6 @@
 //! Image textures: PNG and JPEG (8 or 16 bits, sRGB-decoded unless `linear`), OpenEXR and PFM
-//! (linear floats, read by [`crate::image_io`]), filtered bilinearly with repeat or clamp wrap.
+//! (linear floats, read by [`crate::image_io`]), read bilinearly or from the nearest texel, with
+//! repeat, clamp or mirror wrap.
 //!
 //! RGB texels are uplifted to spectra once, per texel, as pbrt-v4 and Mitsuba 3 do
 //! ([`optics::uplift`], Jakob & Hanika 2019): a reflectance to the bounded sigmoid spectrum, an
@@ -10,7 +11,7 @@
 // `!(x >= 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::{bilinear, Wrap};
+use super::{footprint, Filter, Wrap};
 use crate::image_io::{read_image, Image};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use anyhow::{anyhow, bail, Context, Result};
@@ -83,6 +84,7 @@ pub struct SpectralImage {
     width: usize,
     height: usize,
     wrap: Wrap,
+    filter: Filter,
     /// (u, v) multipliers applied before the lookup (tiling).
     uv_scale: Vec2,
     /// Per texel: sigmoid coefficients (c₀, c₁, c₂) and the scale.
@@ -136,7 +138,12 @@ impl SpectralImage {
         };
         let n = img.rgb.len().max(1) as f64;
         let mean_rgb = img.rgb.iter().fold([0.0f64; 3], |a, p| [0, 1, 2].map(|k| a[k] + p[k] as f64)).map(|v| v / n);
-        Ok(SpectralImage { width: img.width as usize, height: img.height as usize, wrap, uv_scale, texels, d65, mean_rgb })
+        Ok(SpectralImage { width: img.width as usize, height: img.height as usize, wrap, filter: Filter::Bilinear, uv_scale, texels, d65, mean_rgb })
+    }
+
+    /// The same image read with `filter`.
+    pub fn with_filter(self, filter: Filter) -> SpectralImage {
+        SpectralImage { filter, ..self }
     }
 
     /// This image with every texel spectrum multiplied by `k` (≥ 0).
@@ -182,10 +189,10 @@ impl SpectralImage {
         SigmoidSpectrum { coeffs: [c[0] as f64, c[1] as f64, c[2] as f64], scale: c[3] as f64 }.eval(lambda_nm)
     }
 
-    /// The bilinearly weighted texel spectra at `uv`, at the wavelengths `wl`.
+    /// The texel spectra at `uv` weighted by the filter, at the wavelengths `wl`.
     #[inline]
     pub fn eval(&self, wl: &SampledWavelengths, uv: Vec2) -> SampledSpectrum {
-        let (idx, w) = bilinear(uv, self.uv_scale, self.width, self.height, self.wrap);
+        let (idx, w) = footprint(uv, self.uv_scale, self.width, self.height, self.wrap, self.filter);
         let span = (LAMBDA_MAX_NM - LAMBDA_MIN_NM) as f32;
         let t = Vec4::from_array(wl.lambda_nm.map(|l| (l - LAMBDA_MIN_NM as f32) / span));
         let mut out = Vec4::ZERO;
@@ -212,6 +219,7 @@ pub struct FloatImage {
     width: usize,
     height: usize,
     wrap: Wrap,
+    filter: Filter,
     uv_scale: Vec2,
     values: Vec<f32>,
 }
@@ -220,7 +228,12 @@ impl FloatImage {
     /// The channel mean of every texel of `img`.
     pub fn new(img: &Image, wrap: Wrap, uv_scale: Vec2) -> FloatImage {
         let values = img.rgb.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).collect();
-        FloatImage { width: img.width as usize, height: img.height as usize, wrap, uv_scale, values }
+        FloatImage { width: img.width as usize, height: img.height as usize, wrap, filter: Filter::Bilinear, uv_scale, values }
+    }
+
+    /// The same image read with `filter`.
+    pub fn with_filter(self, filter: Filter) -> FloatImage {
+        FloatImage { filter, ..self }
     }
 
     /// Largest texel value.
@@ -228,10 +241,10 @@ impl FloatImage {
         self.values.iter().copied().fold(0.0, f32::max)
     }
 
-    /// The bilinearly interpolated value at `uv`.
+    /// The value at `uv`, interpolated bilinearly or read from the nearest texel.
     #[inline]
     pub fn eval(&self, uv: Vec2) -> f32 {
-        let (idx, w) = bilinear(uv, self.uv_scale, self.width, self.height, self.wrap);
+        let (idx, w) = footprint(uv, self.uv_scale, self.width, self.height, self.wrap, self.filter);
         (0..4).map(|k| w[k] * self.values[idx[k]]).sum()
     }
 }

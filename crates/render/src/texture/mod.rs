@@ -145,15 +145,38 @@ impl FloatTexture {
     }
 }
 
-/// Bilinear footprint of `uv` on a `w` × `h` grid of texels whose centres sit at
-/// ((i + ½)/w, 1 − (j + ½)/h), row j = 0 the top of the image: the four texel indices
-/// (row-major) and their weights.
+/// How an image texture is read between texel centres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Filter {
+    /// The four nearest texels weighted bilinearly (the default; Mitsuba 3's `bilinear`).
+    #[default]
+    Bilinear,
+    /// The texel whose square holds the point (Mitsuba 3's `nearest`).
+    Nearest,
+}
+
+impl Filter {
+    /// The filter named `name` in scene files: `"bilinear"` or `"nearest"`.
+    pub fn from_name(name: &str) -> Option<Filter> {
+        match name {
+            "bilinear" => Some(Filter::Bilinear),
+            "nearest" => Some(Filter::Nearest),
+            _ => None,
+        }
+    }
+}
+
+/// Footprint of `uv` on a `w` × `h` grid of texels whose squares are [i/w, (i + 1)/w] ×
+/// [1 − (j + 1)/h, 1 − j/h] (centres at ((i + ½)/w, 1 − (j + ½)/h), row j = 0 the top of the
+/// image): four texel indices (row-major) and their weights. Bilinear: the four texels around
+/// the point; nearest: the texel whose square holds it, with weight 1 (the others 0).
 #[inline]
-pub(crate) fn bilinear(uv: Vec2, scale: Vec2, w: usize, h: usize, wrap: Wrap) -> ([usize; 4], [f32; 4]) {
-    let x = uv.x * scale.x * w as f32 - 0.5;
-    let y = (1.0 - uv.y * scale.y) * h as f32 - 0.5;
+pub(crate) fn footprint(uv: Vec2, scale: Vec2, w: usize, h: usize, wrap: Wrap, filter: Filter) -> ([usize; 4], [f32; 4]) {
+    let half = if filter == Filter::Nearest { 0.0 } else { 0.5 };
+    let x = uv.x * scale.x * w as f32 - half;
+    let y = (1.0 - uv.y * scale.y) * h as f32 - half;
     let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
+    let (fx, fy) = if filter == Filter::Nearest { (0.0, 0.0) } else { (x - x0, y - y0) };
     let idx = |i: f32, n: usize| -> usize {
         let n_i = n as i64;
         let i = if i.is_finite() { i as i64 } else { 0 };

@@ -499,3 +499,39 @@ fn mirror_wrap_reflects_every_other_tile() {
     assert!(e.contains("wrap") && e.contains("mirror"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `filter = "nearest"`: every point of a texel's square reads that texel exactly (u left to
+/// right, v bottom to top, row 0 the top), with the wrap applied to the texel index, while
+/// bilinear filtering blends neighbours off the centres and agrees at them; the scene key is
+/// read and an unknown filter's message names both.
+#[test]
+fn nearest_filter_reads_the_texel_whose_square_holds_the_point() {
+    use render::texture::{image::FloatImage, Filter, Wrap};
+    let (w, h) = (5usize, 3usize);
+    let value = |i: usize, j: usize| (j * w + i) as f32 * 0.06 + 0.01;
+    let img = render::image_io::Image::from_rgb(w as u32, h as u32, (0..w * h).map(|k| [value(k % w, k / w); 3]).collect()).unwrap();
+    let bil = FloatImage::new(&img, Wrap::Repeat, Vec2::ONE);
+    let near = bil.clone().with_filter(Filter::Nearest);
+    let mut rng = render::math::sampling::Pcg32::new(5, 1);
+    for _ in 0..2000 {
+        let (i, j) = ((rng.next_f32() * w as f32) as usize % w, (rng.next_f32() * h as f32) as usize % h);
+        // A point strictly inside texel (i, j)'s square, in some tile.
+        let (fx, fy) = (0.001 + 0.998 * rng.next_f32(), 0.001 + 0.998 * rng.next_f32());
+        let tile = Vec2::new((rng.next_f32() * 6.0).floor() - 3.0, (rng.next_f32() * 6.0).floor() - 3.0);
+        let uv = Vec2::new((i as f32 + fx) / w as f32, 1.0 - (j as f32 + fy) / h as f32) + tile;
+        assert!((near.eval(uv) - value(i, j)).abs() < 1e-6, "texel ({i}, {j}) at {uv}: {}", near.eval(uv));
+    }
+    // At texel centres the two filters agree; a quarter texel off they do not.
+    let c = Vec2::new(2.5 / w as f32, 1.0 - 1.5 / h as f32);
+    assert!((bil.eval(c) - value(2, 1)).abs() < 1e-5 && (near.eval(c) - value(2, 1)).abs() < 1e-6);
+    let off = c + Vec2::new(0.25 / w as f32, 0.0);
+    assert!((near.eval(off) - value(2, 1)).abs() < 1e-6);
+    assert!((bil.eval(off) - (0.75 * value(2, 1) + 0.25 * value(3, 1))).abs() < 1e-5);
+    let dir = tmp_dir("nearest");
+    write_image(&dir.join("tex.exr"), &img, 0.0).unwrap();
+    let scene = |filter: &str| format!("[camera]\neye = [0, 0, 2]\nlook_at = [0, 0, 0]\nvfov_deg = 40\nwidth = 8\nheight = 8\n[materials.m]\ntype = \"lambertian\"\nalbedo = {{ texture = \"tex.exr\", filter = \"{filter}\" }}\n[[objects]]\nmaterial = \"m\"\nquad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]\n");
+    assert!(render::scene::Scene::from_toml_str(&scene("nearest"), "n.toml", &dir).is_ok());
+    let e = format!("{:#}", render::scene::Scene::from_toml_str(&scene("cubic"), "n.toml", &dir).err().unwrap());
+    assert!(e.contains("filter") && e.contains("nearest") && e.contains("bilinear"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
