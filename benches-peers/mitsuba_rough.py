@@ -22,6 +22,7 @@ the median and 10th–90th percentile of the per-pixel ratio. Materials (lucent 
 * `plastic` with alpha = 0.1 / `roughplastic`, GGX, α = 0.1, nonlinear = true: not quite the same
   model (lucent normalises the diffuse term by the coating's mean albedo, 1 − E_avg, so that a
   white base returns all the light; Mitsuba by 1/η²), so this row measures how far apart they are;
+* the same with `distribution = "beckmann"` / `roughplastic` with Mitsuba's default Beckmann;
 * `plastic` with nonlinear = false / `plastic` with Mitsuba's default nonlinear = false (the
   albedo is the effective albedo under the coating).
 
@@ -61,6 +62,9 @@ MATERIALS = {
     "rough_plastic": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nalpha = 0.1',
                       {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1, "diffuse_reflectance": {"type": "spectrum", "value": 0.5},
                        "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),
+    "rough_plastic_beckmann": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nalpha = 0.1\ndistribution = "beckmann"',
+                               {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.1, "diffuse_reflectance": {"type": "spectrum", "value": 0.5},
+                                "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),
     "plastic_linear": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nnonlinear = false',
                                {"type": "plastic", "diffuse_reflectance": {"type": "spectrum", "value": 0.5}, "int_ior": 1.5, "ext_ior": 1.0}),
 }

@@ -43,8 +43,10 @@ pub struct Label {
 pub struct Gloss {
     /// Coating index relative to the outside.
     pub ior: f32,
-    /// GGX roughness α.
+    /// Microfacet roughness α.
     pub alpha: f32,
+    /// Shape of the coating's microfacet distribution.
+    pub distribution: render::bsdf::microfacet::Distribution,
 }
 
 /// Linear-sRGB image data, row-major from the top row.
@@ -108,7 +110,7 @@ pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
             }
         };
         let gloss = match m {
-            Material::Plastic { ior, alpha, .. } => Some(Gloss { ior: *ior, alpha: *alpha }),
+            Material::Plastic { ior, alpha, distribution, .. } => Some(Gloss { ior: *ior, alpha: *alpha, distribution: *distribution }),
             _ => None,
         };
         labels.push(Label { name: name.clone(), material: i, albedo, gloss });
@@ -189,7 +191,7 @@ enum Target {
 fn label_material(gloss: Option<Gloss>, albedo: DenseSpectrum) -> Material {
     match gloss {
         None => Material::Lambertian { albedo: SpectrumTexture::from(albedo) },
-        Some(g) => Material::plastic(albedo, g.ior, g.alpha).with_nonlinear(false).expect("a plastic"),
+        Some(g) => Material::plastic(albedo, g.ior, g.alpha).with_coating_distribution(g.distribution).and_then(|m| m.with_nonlinear(false)).expect("a plastic"),
     }
 }
 
@@ -198,8 +200,8 @@ pub fn set_roughness(scene: &mut Scene, labels: &mut [Label], alpha: f32) {
     for l in labels.iter_mut() {
         if let Some(g) = &mut l.gloss {
             g.alpha = alpha;
-            if let Material::Plastic { albedo, ior, nonlinear, .. } = &scene.materials[l.material] {
-                let m = Material::plastic(albedo.clone(), *ior, alpha).with_nonlinear(*nonlinear).expect("a plastic");
+            if let Material::Plastic { albedo, ior, nonlinear, distribution, .. } = &scene.materials[l.material] {
+                let m = Material::plastic(albedo.clone(), *ior, alpha).with_coating_distribution(*distribution).and_then(|m| m.with_nonlinear(*nonlinear)).expect("a plastic");
                 scene.materials[l.material] = m;
             }
         }

@@ -1,11 +1,11 @@
-//! A dielectric coating (smooth or GGX-rough) over a Lambertian base ("plastic"); the model is
+//! A dielectric coating (smooth, or rough with GGX or Beckmann microfacets) over a Lambertian base ("plastic"); the model is
 //! described in [`crate::bsdf`].
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::bsdf::fresnel::fresnel_dielectric;
-use crate::bsdf::microfacet::{reflect, Microfacet};
+use crate::bsdf::microfacet::{reflect, Distribution, Microfacet};
 use crate::bsdf::{flip_z, to_upper, BsdfSample};
 use crate::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::math::spectral::SampledSpectrum;
@@ -51,8 +51,8 @@ impl CoatingTable {
         rho * (1.0 - fi) / (Vec4::ONE - rho * fi)
     }
 
-    fn compute(alpha: f32, eta: f32) -> CoatingTable {
-        let distrib = Microfacet::isotropic(alpha);
+    fn compute(alpha: f32, eta: f32, distribution: Distribution) -> CoatingTable {
+        let distrib = Microfacet::isotropic(alpha).with_distribution(distribution);
         let smooth = distrib.effectively_smooth();
         let mut e = Vec::with_capacity(COATING_N);
         for i in 0..COATING_N {
@@ -104,14 +104,20 @@ impl CoatingTable {
         }
     }
 
-    /// The (cached, process-lifetime) table for coating roughness `alpha` and index `eta`.
+    /// The (cached, process-lifetime) table for a GGX coating of roughness `alpha` and index `eta`.
     pub fn get(alpha: f32, eta: f32) -> &'static CoatingTable {
-        static CACHE: Mutex<Option<HashMap<(u32, u32), &'static CoatingTable>>> = Mutex::new(None);
-        let key = (alpha.to_bits(), eta.to_bits());
+        CoatingTable::get_for(alpha, eta, Distribution::Ggx)
+    }
+
+    /// The (cached, process-lifetime) table for a coating of roughness `alpha`, index `eta` and
+    /// microfacet `distribution`.
+    pub fn get_for(alpha: f32, eta: f32, distribution: Distribution) -> &'static CoatingTable {
+        static CACHE: Mutex<Option<HashMap<(u32, u32, Distribution), &'static CoatingTable>>> = Mutex::new(None);
+        let key = (alpha.to_bits(), eta.to_bits(), distribution);
         let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
         let map = guard.get_or_insert_with(HashMap::new);
         map.entry(key)
-            .or_insert_with(|| Box::leak(Box::new(CoatingTable::compute(alpha, eta))))
+            .or_insert_with(|| Box::leak(Box::new(CoatingTable::compute(alpha, eta, distribution))))
     }
 }
 
@@ -141,6 +147,15 @@ impl CoatedDiffuse {
             distrib: Microfacet::isotropic(alpha),
             table: CoatingTable::get(alpha, eta),
             nonlinear: true,
+        }
+    }
+
+    /// The same lobe with a coating of microfacet `distribution` (and its table).
+    pub fn with_distribution(self, distribution: Distribution) -> CoatedDiffuse {
+        CoatedDiffuse {
+            distrib: self.distrib.with_distribution(distribution),
+            table: CoatingTable::get_for(self.distrib.alpha_x, self.eta, distribution),
+            ..self
         }
     }
 

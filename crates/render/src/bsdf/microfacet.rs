@@ -57,7 +57,7 @@ impl Masking {
 }
 
 /// The shape of the distribution of microfacet normals.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Distribution {
     /// Trowbridge–Reitz (GGX): long tails (pbrt-v4's only distribution).
     #[default]

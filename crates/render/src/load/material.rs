@@ -33,8 +33,8 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
         if m.masking.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor") {
             return Err(cx.err(&span, &format!("{field}.masking"), format!("only allowed for a dielectric or conductor material, not {}", quote(&m.kind))));
         }
-        if m.distribution.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor") {
-            return Err(cx.err(&span, &format!("{field}.distribution"), format!("only allowed for a dielectric or conductor material, not {}", quote(&m.kind))));
+        if m.distribution.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic") {
+            return Err(cx.err(&span, &format!("{field}.distribution"), format!("only allowed for a dielectric, conductor or plastic material, not {}", quote(&m.kind))));
         }
         if m.subsurface.is_some() && m.kind != "translucent" {
             return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", quote(&m.kind))));
@@ -245,7 +245,7 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
             if distrib.alpha_x != distrib.alpha_y {
                 return Err(cx.err(span, &f("alpha"), "a plastic coating is isotropic (one alpha)"));
             }
-            let mat = Material::plastic(albedo, ior as f32, distrib.alpha_x);
+            let mat = Material::plastic(albedo, ior as f32, distrib.alpha_x).with_coating_distribution(distrib.distribution).expect("a plastic has a coating");
             Ok(mat.with_nonlinear(m.nonlinear.unwrap_or(true)).expect("a plastic takes nonlinear"))
         }
     }

@@ -17,7 +17,7 @@ use crate::bsdf::coated::{CoatedDiffuse, CoatingTable};
 use crate::bsdf::conductor::{RoughConductor, SmoothConductor};
 use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric, ThinDielectric};
 use crate::bsdf::Bsdf;
-use crate::bsdf::microfacet::Microfacet;
+use crate::bsdf::microfacet::{Distribution, Microfacet};
 use crate::math::spectral::SampledWavelengths;
 use crate::texture::{FloatTexture, SpectrumTexture};
 use glam::Vec2;
@@ -70,6 +70,8 @@ pub enum Material {
         ior: f32,
         /// Coating roughness α (isotropic; 0 = smooth).
         alpha: f32,
+        /// Shape of the coating's microfacet distribution.
+        distribution: Distribution,
         /// Albedo table of the coating (computed once per (α, ior)).
         table: &'static CoatingTable,
         /// Whether `albedo` is the base's (true) or the effective albedo under the coating
@@ -111,13 +113,23 @@ impl Material {
 
     /// Plastic: a coating of index `ior` and roughness `alpha` over a Lambertian base `albedo`.
     pub fn plastic(albedo: impl Into<SpectrumTexture>, ior: f32, alpha: f32) -> Material {
-        Material::Plastic { albedo: albedo.into(), ior, alpha, table: CoatingTable::get(alpha, ior), nonlinear: true }
+        Material::Plastic { albedo: albedo.into(), ior, alpha, distribution: Distribution::Ggx, table: CoatingTable::get(alpha, ior), nonlinear: true }
     }
 
     /// This material with `nonlinear` set, if it is a plastic ([`CoatedDiffuse::nonlinear`]).
     pub fn with_nonlinear(self, nonlinear: bool) -> Option<Material> {
         match self {
-            Material::Plastic { albedo, ior, alpha, table, .. } => Some(Material::Plastic { albedo, ior, alpha, table, nonlinear }),
+            Material::Plastic { albedo, ior, alpha, distribution, table, .. } => Some(Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear }),
+            _ => None,
+        }
+    }
+
+    /// This material with a plastic coating of microfacet `distribution` (None if it is not a plastic).
+    pub fn with_coating_distribution(self, distribution: Distribution) -> Option<Material> {
+        match self {
+            Material::Plastic { albedo, ior, alpha, nonlinear, .. } => {
+                Some(Material::Plastic { albedo, ior, alpha, distribution, table: CoatingTable::get_for(alpha, ior, distribution), nonlinear })
+            }
             _ => None,
         }
     }
@@ -198,10 +210,10 @@ impl Material {
                     Bsdf::RoughConductor(RoughConductor { distrib: *distrib, eta, k })
                 }
             }
-            Material::Plastic { albedo, ior, alpha, table, nonlinear } => Bsdf::Coated(CoatedDiffuse {
+            Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear } => Bsdf::Coated(CoatedDiffuse {
                 albedo: albedo.eval_with(wl, uv),
                 eta: *ior,
-                distrib: Microfacet::isotropic(*alpha),
+                distrib: Microfacet::isotropic(*alpha).with_distribution(*distribution),
                 table,
                 nonlinear: *nonlinear,
             }),
