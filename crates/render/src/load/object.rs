@@ -1,10 +1,10 @@
-//! `[[objects]]`: spheres, quads and meshes with their transforms, materials and media, and the
-//! scene's length unit.
+//! `[[objects]]`: spheres, quads, disks, cylinders and meshes with their transforms, materials
+//! and media, and the scene's length unit.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
 
-use crate::load::desc::{SceneDesc, TransformDesc};
+use crate::load::desc::{CylinderDesc, DiskDesc, SceneDesc, TransformDesc};
 use crate::load::error::{quote, quote_list, short, Cx};
 use crate::load::medium::medium_desc;
 use crate::load::spectrum::{as_f64, as_f64_array};
@@ -13,9 +13,9 @@ use crate::material::Material;
 use crate::scene::ObjectInfo;
 use crate::shape::mesh::TriangleMesh;
 use crate::shape::sphere::Sphere;
-use crate::shape::Shape;
+use crate::shape::{tessellate, Shape};
 use anyhow::Result;
-use glam::{Mat4, Vec3};
+use glam::{DVec3, Mat4, Vec3};
 use std::ops::Range;
 
 pub(crate) fn unit_in_metres(u: &str) -> Option<f64> {
@@ -108,6 +108,51 @@ pub(crate) fn transform_matrix(cx: &Cx, span: &Range<usize>, field: &str, t: &Tr
     Ok(m)
 }
 
+/// A required point or direction of a shape: present and finite.
+fn point(cx: &Cx, span: &Range<usize>, field: &str, p: &Option<[f64; 3]>) -> Result<DVec3> {
+    match p {
+        None => Err(cx.err(span, field, "missing")),
+        Some(a) if !finite3(a) => Err(cx.err(span, field, format!("must be finite, got {a:?}"))),
+        Some(a) => Ok(DVec3::from_array(*a)),
+    }
+}
+
+/// A required radius: present, positive and finite.
+fn radius(cx: &Cx, span: &Range<usize>, field: &str, r: Option<f64>) -> Result<f64> {
+    match r {
+        None => Err(cx.err(span, field, "missing")),
+        Some(r) if !(r > 0.0) || !r.is_finite() => Err(cx.err(span, field, format!("must be positive and finite, got {r}"))),
+        Some(r) => Ok(r),
+    }
+}
+
+/// The mesh of `disk = { center, normal, radius }` (in the file's unit, before the transform).
+fn disk_mesh(cx: &Cx, span: &Range<usize>, field: &str, d: &DiskDesc) -> Result<TriangleMesh> {
+    let center = point(cx, span, &format!("{field}.center"), &d.center)?;
+    let normal = point(cx, span, &format!("{field}.normal"), &d.normal)?;
+    let r = radius(cx, span, &format!("{field}.radius"), d.radius)?;
+    let len = normal.length();
+    if !(len > 0.0 && len.is_finite()) {
+        return Err(cx.err(span, &format!("{field}.normal"), format!("must be a non-zero vector of finite length, got {:?}", normal.to_array())));
+    }
+    Ok(tessellate::disk(center, normal, r))
+}
+
+/// The mesh of `cylinder = { p0, p1, radius }` (in the file's unit, before the transform).
+fn cylinder_mesh(cx: &Cx, span: &Range<usize>, field: &str, c: &CylinderDesc) -> Result<TriangleMesh> {
+    let p0 = point(cx, span, &format!("{field}.p0"), &c.p0)?;
+    let p1 = point(cx, span, &format!("{field}.p1"), &c.p1)?;
+    let r = radius(cx, span, &format!("{field}.radius"), c.radius)?;
+    let len = (p1 - p0).length();
+    if !(len > 0.0) {
+        return Err(cx.err(span, &format!("{field}.p1"), format!("must differ from p0 (the axis p0 → p1 has zero length): both are {:?}", p0.to_array())));
+    }
+    if !len.is_finite() {
+        return Err(cx.err(span, &format!("{field}.p1"), "the axis p0 → p1 is too long (its length overflows)"));
+    }
+    Ok(tessellate::cylinder(p0, p1, r))
+}
+
 pub(crate) fn merge_meshes(list: Vec<TriangleMesh>) -> TriangleMesh {
     let all_normals = list.iter().all(|m| m.normals.is_some());
     let all_uvs = list.iter().all(|m| m.uvs.is_some());
@@ -164,9 +209,12 @@ pub(crate) fn objects(
         let material = material_names.iter().position(|n| *n == o.material).ok_or_else(|| {
             cx.err(&span, &format!("{field}.material"), format!("unknown material {} (defined: {})", quote(&o.material), quote_list(material_names)))
         })? as u32;
-        let given = [o.mesh.is_some(), o.quad.is_some(), o.quads.is_some(), o.sphere.is_some()].iter().filter(|b| **b).count();
+        let given = [o.mesh.is_some(), o.quad.is_some(), o.quads.is_some(), o.sphere.is_some(), o.disk.is_some(), o.cylinder.is_some()]
+            .iter()
+            .filter(|b| **b)
+            .count();
         if given != 1 {
-            return Err(cx.err(&span, &field, "give exactly one shape: mesh, quad, quads or sphere"));
+            return Err(cx.err(&span, &field, "give exactly one shape: mesh, quad, quads, sphere, disk or cylinder"));
         }
         if o.group.is_some() && o.mesh.is_none() {
             return Err(cx.err(&span, &format!("{field}.group"), "only allowed with mesh"));
@@ -204,6 +252,10 @@ pub(crate) fn objects(
                     return Err(cx.err(&span, &format!("{field}.quads"), "corners must be finite"));
                 }
                 merge_meshes(qs.iter().map(|q| TriangleMesh::quad([v3(q[0]), v3(q[1]), v3(q[2]), v3(q[3])])).collect())
+            } else if let Some(d) = &o.disk {
+                disk_mesh(cx, &span, &format!("{field}.disk"), d)?
+            } else if let Some(c) = &o.cylinder {
+                cylinder_mesh(cx, &span, &format!("{field}.cylinder"), c)?
             } else {
                 let rel = o.mesh.as_ref().unwrap();
                 let (list, bytes) = files.load_mesh(rel).map_err(|e| cx.err(&span, &format!("{field}.mesh"), format!("{e:#}")))?;
@@ -232,6 +284,10 @@ pub(crate) fn objects(
             if o.medium.is_some() || translucent {
                 // A medium boundary (or translucent object) must be closed; orient it outwards (the front face is the outside).
                 let what = if translucent { "material (translucent)" } else { "medium" };
+                let open = if o.disk.is_some() { Some("disk") } else if o.cylinder.is_some() { Some("cylinder") } else { None };
+                if let Some(shape) = open {
+                    return Err(cx.err(&span, &format!("{field}.{what}"), format!("a {shape} is an open surface and cannot bound a volume (use a closed mesh)")));
+                }
                 let volume = crate::medium::closed_mesh_volume(&mesh).map_err(|e| cx.err(&span, &format!("{field}.{what}"), format!("boundary is not a closed mesh: {e:#}")))?;
                 if volume < 0.0 {
                     for t in mesh.indices.iter_mut() {

@@ -1,4 +1,5 @@
-//! Geometry of scene objects: spheres and triangle meshes, their ray tests and mesh files.
+//! Geometry of scene objects: spheres and triangle meshes, their ray tests and mesh files; disks
+//! and cylinders are triangle meshes ([`tessellate`]).
 //!
 //! A new kind of shape is a file here, a variant of [`Shape`] (every `match` on it must then
 //! handle it: none has a catch-all arm), its intersection in [`crate::accel`] and its loader in
@@ -6,6 +7,7 @@
 
 pub mod mesh;
 pub mod sphere;
+pub mod tessellate;
 pub mod triangle;
 
 use crate::math::geometry::Aabb;

@@ -20,6 +20,7 @@ mod pinned_physics;
 mod projector;
 mod robustness;
 mod scene;
+mod shapes;
 mod subsurface;
 mod subsurface_colour;
 mod texture;
