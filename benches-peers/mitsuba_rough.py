@@ -23,6 +23,8 @@ the median and 10th–90th percentile of the per-pixel ratio. Materials (lucent 
   model (lucent normalises the diffuse term by the coating's mean albedo, 1 − E_avg, so that a
   white base returns all the light; Mitsuba by 1/η²), so this row measures how far apart they are;
 * the same with `distribution = "beckmann"` / `roughplastic` with Mitsuba's default Beckmann;
+* the same with `coupling = "mitsuba"` (Mitsuba's diffuse term), and with α = 0.5, Beckmann and
+  `nonlinear = false` / the matching `roughplastic`;
 * `plastic` with nonlinear = false / `plastic` with Mitsuba's default nonlinear = false (the
   albedo is the effective albedo under the coating).
 
@@ -65,6 +67,12 @@ MATERIALS = {
     "rough_plastic_beckmann": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nalpha = 0.1\ndistribution = "beckmann"',
                                {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.1, "diffuse_reflectance": {"type": "spectrum", "value": 0.5},
                                 "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),
+    "rough_plastic_mitsuba": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nalpha = 0.1\ncoupling = "mitsuba"',
+                              {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1, "diffuse_reflectance": {"type": "spectrum", "value": 0.5},
+                               "int_ior": 1.5, "ext_ior": 1.0, "nonlinear": True}),
+    "rougher_plastic_mitsuba": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nalpha = 0.5\ndistribution = "beckmann"\ncoupling = "mitsuba"\nnonlinear = false',
+                                {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.5, "diffuse_reflectance": {"type": "spectrum", "value": 0.5},
+                                 "int_ior": 1.5, "ext_ior": 1.0}),
     "plastic_linear": ('type = "plastic"\nalbedo = 0.5\nior = 1.5\nnonlinear = false',
                                {"type": "plastic", "diffuse_reflectance": {"type": "spectrum", "value": 0.5}, "int_ior": 1.5, "ext_ior": 1.0}),
 }

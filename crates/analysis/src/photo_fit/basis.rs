@@ -94,6 +94,7 @@ pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
                 None => bail!("materials.{name}: a fitted label must have a constant albedo, not a texture"),
             },
             Material::Black => [0.0; 3],
+            Material::Plastic { mitsuba: Some(_), .. } => bail!("materials.{name}: a fitted label's plastic must use the default coupling, not coupling = \"mitsuba\""),
             Material::Plastic { albedo, nonlinear, table, .. } => match albedo.as_constant() {
                 Some(s) => {
                     let rgb = spectrum_rgb(s, &white);

@@ -121,6 +121,99 @@ impl CoatingTable {
     }
 }
 
+/// The diffuse term as Mitsuba 3's `plastic` and `roughplastic` write it:
+/// f_d = ρ′ t(μo) t(μi) / (π η²), ρ′ = ρ/(1 − ρ F_int) (`nonlinear`) or ρ/(1 − F_int), with
+/// t(μ) the light the coating lets through from outside, ∫ D_wo(m) (1 − F(wo·m)) G1(wt, m) dm
+/// (wt the refracted direction, separable masking), tabulated at 64 equally spaced cosines and
+/// interpolated linearly, and F_int twice the mean of R_in(μ) μ over the same 64 cosines, R_in the
+/// coating's specular reflectance from inside (total internal reflection included), as
+/// Mitsuba 3.9.1's `roughplastic` computes them. For a smooth coating t = 1 − F and F_int = F_dr,in
+/// (Mitsuba's `plastic`), and the term equals lucent's; for a rough one the light the single-scattering lobes lose to masking is
+/// not given back, so a white base reflects less than all the light (Mitsuba's model).
+#[derive(Debug)]
+pub struct MitsubaCoupling {
+    /// t(μ) at μ = max(10⁻⁶, i/63).
+    t: Vec<f32>,
+    /// F_int.
+    pub f_int: f32,
+    /// 1/η².
+    inv_eta2: f32,
+    /// For a smooth coating, its index: t(μ) = 1 − F(μ) exactly.
+    smooth_eta: Option<f32>,
+}
+
+const MTS_N: usize = 64;
+
+impl MitsubaCoupling {
+    /// t(μ), interpolated linearly between the 64 nodes (exact for a smooth coating).
+    #[inline]
+    pub fn t(&self, mu: f32) -> f32 {
+        if let Some(eta) = self.smooth_eta {
+            return 1.0 - fresnel_dielectric(mu.clamp(0.0, 1.0), eta);
+        }
+        let x = mu.clamp(0.0, 1.0) * (MTS_N - 1) as f32;
+        let i = (x as usize).min(MTS_N - 2);
+        let f = x - i as f32;
+        self.t[i] * (1.0 - f) + self.t[i + 1] * f
+    }
+
+    fn compute(alpha: f32, eta: f32, distribution: Distribution) -> MitsubaCoupling {
+        let distrib = Microfacet::isotropic(alpha).with_distribution(distribution).with_masking(crate::bsdf::microfacet::Masking::Separable);
+        let smooth = distrib.effectively_smooth();
+        // ∫ over the visible normals of `wo` of `g(wo, m)`, midpoint rule on the sampler's unit square.
+        let vndf_mean = |wo: Vec3, n: usize, g: &dyn Fn(Vec3) -> f32| -> f64 {
+            let mut sum = 0.0f64;
+            for a in 0..n {
+                for b in 0..n {
+                    let u = Vec2::new((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
+                    sum += g(distrib.sample_visible_normal(wo, u)) as f64;
+                }
+            }
+            sum / (n * n) as f64
+        };
+        let mut t = Vec::with_capacity(MTS_N);
+        let mut r_in_mu = 0.0f64;
+        for i in 0..MTS_N {
+            let mu = (i as f32 / (MTS_N - 1) as f32).max(1e-6);
+            if smooth {
+                t.push(1.0 - fresnel_dielectric(mu, eta));
+                continue;
+            }
+            let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+            let trans = vndf_mean(wo, 64, &|m| {
+                let c = wo.dot(m);
+                match crate::bsdf::microfacet::refract(wo, m, eta) {
+                    Some((wt, _)) if wt.z < 0.0 => (1.0 - fresnel_dielectric(c, eta)) * distrib.g1(wt) * if wt.dot(m) < 0.0 { 1.0 } else { 0.0 },
+                    _ => 0.0,
+                }
+            });
+            t.push(trans as f32);
+            let refl = vndf_mean(wo, 96, &|m| {
+                let wr = reflect(wo, m);
+                if wr.z <= 0.0 || wr.dot(m) <= 0.0 {
+                    return 0.0;
+                }
+                fresnel_dielectric(wo.dot(m), 1.0 / eta) * distrib.g1(wr)
+            });
+            r_in_mu += refl * mu as f64;
+        }
+        // A smooth coating's F_int is the exact diffuse Fresnel reflectance (Mitsuba's `plastic`).
+        let f_int = if smooth { optics::fresnel::fresnel_diffuse_reflectance(1.0 / eta as f64) } else { 2.0 * r_in_mu / MTS_N as f64 };
+        MitsubaCoupling { t, f_int: f_int as f32, inv_eta2: 1.0 / (eta * eta), smooth_eta: smooth.then_some(eta) }
+    }
+
+    /// The (cached, process-lifetime) coupling for a coating of roughness `alpha`, index `eta` and
+    /// microfacet `distribution`.
+    pub fn get(alpha: f32, eta: f32, distribution: Distribution) -> &'static MitsubaCoupling {
+        static CACHE: Mutex<Option<HashMap<(u32, u32, Distribution), &'static MitsubaCoupling>>> = Mutex::new(None);
+        let key = (alpha.to_bits(), eta.to_bits(), distribution);
+        let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+        let map = guard.get_or_insert_with(HashMap::new);
+        map.entry(key)
+            .or_insert_with(|| Box::leak(Box::new(MitsubaCoupling::compute(alpha, eta, distribution))))
+    }
+}
+
 /// Dielectric coating (smooth or rough) over a Lambertian base; two-sided (see the module docs).
 #[derive(Clone, Copy, Debug)]
 pub struct CoatedDiffuse {
@@ -136,6 +229,9 @@ pub struct CoatedDiffuse {
     /// ρ(1 − F_in)/(1 − ρF_in) after its internal reflections. False: `albedo` is that
     /// effective albedo itself (Mitsuba 3's `plastic` with `nonlinear = false`, its default).
     pub nonlinear: bool,
+    /// The diffuse term as Mitsuba 3 writes it ([`MitsubaCoupling`]) instead of lucent's
+    /// energy-conserving coupling (None, the default).
+    pub mitsuba: Option<&'static MitsubaCoupling>,
 }
 
 impl CoatedDiffuse {
@@ -147,16 +243,23 @@ impl CoatedDiffuse {
             distrib: Microfacet::isotropic(alpha),
             table: CoatingTable::get(alpha, eta),
             nonlinear: true,
+            mitsuba: None,
         }
     }
 
-    /// The same lobe with a coating of microfacet `distribution` (and its table).
+    /// The same lobe with a coating of microfacet `distribution` (and its tables).
     pub fn with_distribution(self, distribution: Distribution) -> CoatedDiffuse {
         CoatedDiffuse {
             distrib: self.distrib.with_distribution(distribution),
             table: CoatingTable::get_for(self.distrib.alpha_x, self.eta, distribution),
+            mitsuba: self.mitsuba.map(|_| MitsubaCoupling::get(self.distrib.alpha_x, self.eta, distribution)),
             ..self
         }
+    }
+
+    /// The same lobe with Mitsuba 3's diffuse term ([`MitsubaCoupling`]).
+    pub fn with_mitsuba_coupling(self) -> CoatedDiffuse {
+        CoatedDiffuse { mitsuba: Some(MitsubaCoupling::get(self.distrib.alpha_x, self.eta, self.distrib.distribution)), ..self }
     }
 
     #[inline]
@@ -186,6 +289,11 @@ impl CoatedDiffuse {
 
     #[inline]
     fn diffuse(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if let Some(c) = self.mitsuba {
+            let fi = Vec4::splat(c.f_int);
+            let rho = if self.nonlinear { self.albedo / (Vec4::ONE - self.albedo * fi) } else { self.albedo / (Vec4::ONE - fi) };
+            return rho * (c.t(wo.z) * c.t(wi.z) * FRAC_1_PI * c.inv_eta2);
+        }
         let t = &self.table;
         self.rho_eff() * ((1.0 - t.e(wo.z)) * (1.0 - t.e(wi.z)) * FRAC_1_PI / (1.0 - t.e_avg))
     }

@@ -49,7 +49,7 @@ pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
 
-pub use coated::{CoatedDiffuse, CoatingTable};
+pub use coated::{CoatedDiffuse, CoatingTable, MitsubaCoupling};
 pub use conductor::{RoughConductor, SmoothConductor};
 pub use dielectric::{RoughDielectric, SmoothDielectric, ThinDielectric};
 

@@ -108,6 +108,7 @@ pub(crate) struct MaterialDesc {
     pub(crate) nonlinear: Option<bool>,
     pub(crate) masking: Option<Spanned<String>>,
     pub(crate) distribution: Option<Spanned<String>>,
+    pub(crate) coupling: Option<Spanned<String>>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

@@ -27,6 +27,9 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                 }
             }
         }
+        if m.coupling.is_some() && m.kind != "plastic" {
+            return Err(cx.err(&span, &format!("{field}.coupling"), format!("only allowed for a plastic material, not {}", quote(&m.kind))));
+        }
         if m.nonlinear.is_some() && m.kind != "plastic" {
             return Err(cx.err(&span, &format!("{field}.nonlinear"), format!("only allowed for a plastic material, not {}", quote(&m.kind))));
         }
@@ -245,7 +248,12 @@ pub(crate) fn bsdf_material(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, span: &R
             if distrib.alpha_x != distrib.alpha_y {
                 return Err(cx.err(span, &f("alpha"), "a plastic coating is isotropic (one alpha)"));
             }
-            let mat = Material::plastic(albedo, ior as f32, distrib.alpha_x).with_coating_distribution(distrib.distribution).expect("a plastic has a coating");
+            let mut mat = Material::plastic(albedo, ior as f32, distrib.alpha_x).with_coating_distribution(distrib.distribution).expect("a plastic has a coating");
+            match m.coupling.as_ref().map(|c| (c, c.get_ref().as_str())) {
+                None | Some((_, "energy")) => {}
+                Some((_, "mitsuba")) => mat = mat.with_mitsuba_coupling().expect("a plastic has a coating"),
+                Some((c, other)) => return Err(cx.err(&c.span(), &f("coupling"), format!("unknown coupling {} (energy or mitsuba)", quote(other)))),
+            }
             Ok(mat.with_nonlinear(m.nonlinear.unwrap_or(true)).expect("a plastic takes nonlinear"))
         }
     }

@@ -72,6 +72,8 @@ pub enum Material {
         alpha: f32,
         /// Shape of the coating's microfacet distribution.
         distribution: Distribution,
+        /// Mitsuba 3's diffuse term instead of lucent's ([`crate::bsdf::MitsubaCoupling`]).
+        mitsuba: Option<&'static crate::bsdf::MitsubaCoupling>,
         /// Albedo table of the coating (computed once per (α, ior)).
         table: &'static CoatingTable,
         /// Whether `albedo` is the base's (true) or the effective albedo under the coating
@@ -113,13 +115,13 @@ impl Material {
 
     /// Plastic: a coating of index `ior` and roughness `alpha` over a Lambertian base `albedo`.
     pub fn plastic(albedo: impl Into<SpectrumTexture>, ior: f32, alpha: f32) -> Material {
-        Material::Plastic { albedo: albedo.into(), ior, alpha, distribution: Distribution::Ggx, table: CoatingTable::get(alpha, ior), nonlinear: true }
+        Material::Plastic { albedo: albedo.into(), ior, alpha, distribution: Distribution::Ggx, table: CoatingTable::get(alpha, ior), nonlinear: true, mitsuba: None }
     }
 
     /// This material with `nonlinear` set, if it is a plastic ([`CoatedDiffuse::nonlinear`]).
     pub fn with_nonlinear(self, nonlinear: bool) -> Option<Material> {
         match self {
-            Material::Plastic { albedo, ior, alpha, distribution, table, .. } => Some(Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear }),
+            Material::Plastic { albedo, ior, alpha, distribution, table, mitsuba, .. } => Some(Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear, mitsuba }),
             _ => None,
         }
     }
@@ -127,9 +129,32 @@ impl Material {
     /// This material with a plastic coating of microfacet `distribution` (None if it is not a plastic).
     pub fn with_coating_distribution(self, distribution: Distribution) -> Option<Material> {
         match self {
-            Material::Plastic { albedo, ior, alpha, nonlinear, .. } => {
-                Some(Material::Plastic { albedo, ior, alpha, distribution, table: CoatingTable::get_for(alpha, ior, distribution), nonlinear })
-            }
+            Material::Plastic { albedo, ior, alpha, nonlinear, mitsuba, .. } => Some(Material::Plastic {
+                albedo,
+                ior,
+                alpha,
+                distribution,
+                table: CoatingTable::get_for(alpha, ior, distribution),
+                nonlinear,
+                mitsuba: mitsuba.map(|_| crate::bsdf::MitsubaCoupling::get(alpha, ior, distribution)),
+            }),
+            _ => None,
+        }
+    }
+
+    /// This plastic with Mitsuba 3's diffuse term ([`crate::bsdf::MitsubaCoupling`]; None if it
+    /// is not a plastic).
+    pub fn with_mitsuba_coupling(self) -> Option<Material> {
+        match self {
+            Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear, .. } => Some(Material::Plastic {
+                albedo,
+                ior,
+                alpha,
+                distribution,
+                table,
+                nonlinear,
+                mitsuba: Some(crate::bsdf::MitsubaCoupling::get(alpha, ior, distribution)),
+            }),
             _ => None,
         }
     }
@@ -210,12 +235,13 @@ impl Material {
                     Bsdf::RoughConductor(RoughConductor { distrib: *distrib, eta, k })
                 }
             }
-            Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear } => Bsdf::Coated(CoatedDiffuse {
+            Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear, mitsuba } => Bsdf::Coated(CoatedDiffuse {
                 albedo: albedo.eval_with(wl, uv),
                 eta: *ior,
                 distrib: Microfacet::isotropic(*alpha).with_distribution(*distribution),
                 table,
                 nonlinear: *nonlinear,
+                mitsuba: *mitsuba,
             }),
             Material::Translucent(t) => t.boundary_dielectric(),
         }

@@ -158,6 +158,8 @@ fn bad_material_input_gives_one_line_errors() {
     fails_with("type = \"rough_conductor\"\nmetal = \"au\"\nalpha = 0.3\nmasking = \"smith\"", &["bad.toml:", "materials.m.masking", "smith", "separable"]);
     fails_with("type = \"lambertian\"\nalbedo = 0.5\ndistribution = \"beckmann\"", &["materials.m.distribution", "lambertian"]);
     fails_with("type = \"thin_dielectric\"\nior = 1.5\nroughness = 0.3", &["materials.m.roughness", "thin_dielectric", "allowed: ior"]);
+    fails_with("type = \"plastic\"\nalbedo = 0.5\nroughness = 0.3\ncoupling = \"kelemen\"", &["materials.m.coupling", "kelemen", "mitsuba"]);
+    fails_with("type = \"lambertian\"\nalbedo = 0.5\ncoupling = \"mitsuba\"", &["materials.m.coupling", "plastic"]);
     fails_with("type = \"thin_dielectric\"", &["materials.m.ior", "missing"]);
     fails_with("type = \"rough_dielectric\"\nior = 1.5\nalpha = 0.3\ndistribution = \"phong\"", &["bad.toml:", "materials.m.distribution", "phong", "beckmann"]);
     fails_with("type = \"glass\"", &["materials.m.type", "glass", "dielectric"]);
