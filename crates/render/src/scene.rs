@@ -33,6 +33,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Material names, parallel to `materials`.
     pub material_names: Vec<String>,
+    /// Per material, whether it reflects from its front side only (`two_sided = false`, Mitsuba 3's
+    /// plain BSDFs): a hit on its back face sees a black surface ([`Scene::black_behind`]).
+    pub one_sided: Vec<bool>,
     /// All lights.
     pub lights: Vec<Light>,
     /// Probability of choosing each light for next-event estimation ([`crate::light::selection_pmf`]: by power, lights at infinity capped).
@@ -73,6 +76,13 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Whether a hit on material `material` from its back (`front` false) sees black: the
+    /// material is one-sided ([`Scene::one_sided`]).
+    #[inline]
+    pub fn black_behind(&self, material: u32, front: bool) -> bool {
+        !front && self.one_sided.get(material as usize).copied().unwrap_or(false)
+    }
+
     /// Override the camera resolution in pixels.
     pub fn set_resolution(&mut self, width: u32, height: u32) {
         self.camera.set_resolution(width, height);

@@ -170,7 +170,8 @@ pub fn first_hit(scene: &Scene, ray: &Ray, u_lambda: f32) -> FirstHit {
             u -= 1.0;
         }
         let wl = SampledWavelengths::sample(u);
-        let rgb = wl.reflectance_to_srgb(reflectance(mat, &wl, front, uv, wo_local));
+        let r = if scene.black_behind(obj.material, front) { Vec4::ZERO } else { reflectance(mat, &wl, front, uv, wo_local) };
+        let rgb = wl.reflectance_to_srgb(r);
         for c in 0..3 {
             albedo[c] += rgb[c] / ALBEDO_SETS as f32;
         }

@@ -33,7 +33,12 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut
     if let Some(li_idx) = obj.light {
         l += scene.lights[li_idx as usize].le(s.ng_raw, wo, || s.uv(scene), wl);
     }
-    let bsdf = scene.materials[obj.material as usize].bsdf_with(wl, || s.uv(scene)).facing(s.ng_raw.dot(wo) > 0.0); // back face: η → 1/η
+    let front = s.ng_raw.dot(wo) > 0.0;
+    let bsdf = if scene.black_behind(obj.material, front) {
+        crate::bsdf::Bsdf::Black
+    } else {
+        scene.materials[obj.material as usize].bsdf_with(wl, || s.uv(scene)).facing(front) // back face: η → 1/η
+    };
     if bsdf.is_black() {
         return l;
     }

@@ -92,7 +92,14 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
                 t.boundary_reflection()
             }
             // Back face: η → 1/η; dispersion: hero only.
-            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => mat.bsdf_at(wl, s.ng_raw.dot(wo) > 0.0, || s.uv(scene)),
+            (Some(_), SubsurfaceMode::Dielectric) | (None, _) => {
+                let front = s.ng_raw.dot(wo) > 0.0;
+                if scene.black_behind(obj.material, front) {
+                    crate::bsdf::Bsdf::Black
+                } else {
+                    mat.bsdf_at(wl, front, || s.uv(scene))
+                }
+            }
         };
         if bsdf.is_black() {
             break;

@@ -778,7 +778,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             break;
         }
         let terminated = wl.secondary_terminated();
-        let bsdf = material.bsdf_at(wl, front, || sp.uv(scene));
+        let bsdf = if scene.black_behind(obj.material, front) { crate::bsdf::Bsdf::Black } else { material.bsdf_at(wl, front, || sp.uv(scene)) };
         if !bsdf.is_delta() || wl.secondary_terminated() != terminated {
             // Off the refracted branch's chain (see `refracted_branch`).
             guide_at = None;
@@ -998,7 +998,7 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
             continue;
         }
         let b = material.bsdf_with(wl, || sp.uv(scene));
-        if !b.is_delta() || b.is_black() || b.terminates_secondary() {
+        if !b.is_delta() || b.is_black() || b.terminates_secondary() || scene.black_behind(obj.material, front) {
             return l;
         }
         let bsdf = if front { b } else { b.from_inside() };

@@ -109,6 +109,7 @@ pub(crate) struct MaterialDesc {
     pub(crate) masking: Option<Spanned<String>>,
     pub(crate) distribution: Option<Spanned<String>>,
     pub(crate) coupling: Option<Spanned<String>>,
+    pub(crate) two_sided: Option<bool>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

@@ -12,10 +12,12 @@ use optics::spectrum::DenseSpectrum;
 use std::ops::Range;
 use toml::Spanned;
 
-/// The `[materials]` table: the materials and their names, in the table's (sorted) order.
-pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(Vec<Material>, Vec<String>)> {
+/// The `[materials]` table: the materials, their names and whether each is one-sided
+/// (`two_sided = false`), in the table's (sorted) order.
+pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(Vec<Material>, Vec<String>, Vec<bool>)> {
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
+    let mut one_sided = Vec::new();
     for (name, m) in &desc.materials {
         let span = m.span();
         let m = m.get_ref();
@@ -26,6 +28,9 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                     return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
                 }
             }
+        }
+        if m.two_sided.is_some() && !matches!(m.kind.as_str(), "lambertian" | "diffuse" | "plastic" | "conductor" | "rough_conductor") {
+            return Err(cx.err(&span, &format!("{field}.two_sided"), format!("only allowed for a reflecting material (lambertian, plastic, conductor), not {}", quote(&m.kind))));
         }
         if m.coupling.is_some() && m.kind != "plastic" {
             return Err(cx.err(&span, &format!("{field}.coupling"), format!("only allowed for a plastic material, not {}", quote(&m.kind))));
@@ -87,9 +92,10 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
         };
         materials.push(mat);
         material_names.push(name.clone());
+        one_sided.push(m.two_sided == Some(false));
     }
 
-    Ok((materials, material_names))
+    Ok((materials, material_names, one_sided))
 }
 
 /// Dielectric, conductor and plastic materials, see docs/scene-format.md ("Glass, metals, rough

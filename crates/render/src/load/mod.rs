@@ -173,7 +173,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     };
     let sp = SpectrumCx { cx, named: &desc.spectra, files, hash: std::cell::RefCell::new(Fnv1a64::new()) };
     let mut ld = Build { cx, sp, files, unit_m, hash };
-    let (materials, material_names) = material::materials(cx, &ld.sp, &desc)?;
+    let (materials, material_names, one_sided) = material::materials(cx, &ld.sp, &desc)?;
     let (shapes, mut objects, media, global_medium) = object::objects(&mut ld, &desc, &materials, &material_names)?;
     let (lights, environment) = light::lights(cx, &ld.sp, &desc, unit_m, &shapes, &mut objects)?;
     let spectra_hash = ld.sp.hash.borrow().finish();
@@ -245,6 +245,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         objects,
         materials,
         material_names,
+        one_sided,
         lights,
         light_pmf,
         light_cdf,

@@ -242,3 +242,53 @@ fn furnace_renders_of_glass_spheres() {
         }
     }
 }
+
+/// `two_sided = false` (Mitsuba 3's plain BSDFs): a flat Lambertian square of albedo ρ under a
+/// uniform environment L shows the same image from its front with or without the key, in every
+/// integrator, and exactly 0 from its back, where the two-sided square shows what its front
+/// does (ρL); the key is refused on a dielectric.
+#[test]
+fn one_sided_materials_are_black_from_behind() {
+    let scene = |winding: &str, two_sided: &str, kind: &str| {
+        format!(
+            "unit = \"m\"\n[camera]\neye = [0, 0, -3]\nlook_at = [0, 0, 0]\nvfov_deg = 20\nwidth = 16\nheight = 16\n\
+             [integrator]\ntype = \"{kind}\"\n[materials.m]\ntype = \"lambertian\"\nalbedo = 0.6\n{two_sided}\n\
+             [[objects]]\nmaterial = \"m\"\nquad = {winding}\n[[lights]]\ntype = \"environment\"\nradiance = 1.0\n"
+        )
+    };
+    // Counter-clockwise seen from the camera at −z: the front faces it.
+    let facing = "[[-1, -1, 0], [-1, 1, 0], [1, 1, 0], [1, -1, 0]]";
+    let away = "[[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]";
+    for (kind, ik) in [("path", IntegratorKind::Path), ("volpath", IntegratorKind::Volpath), ("direct", IntegratorKind::Direct)] {
+        let settings = IntegratorSettings { kind: ik, max_depth: 8, rr_depth: 100 };
+        let mean = |text: &str| -> Vec<f32> {
+            let s = parse(text).unwrap_or_else(|e| panic!("{e:#}"));
+            let mut buf = vec![[0f32; 3]; 256];
+            let mut out = vec![0f32; 256];
+            for p in 0..64 {
+                render_pass(&s, &settings, 5, p, &mut buf);
+                for (o, b) in out.iter_mut().zip(&buf) {
+                    *o += b[1] / 64.0;
+                }
+            }
+            out
+        };
+        let front_one = mean(&scene(facing, "two_sided = false", kind));
+        let front_two = mean(&scene(facing, "", kind));
+        assert_eq!(front_one, front_two, "{kind}: the front of a one-sided square changed");
+        let centre = |img: &[f32]| (5..11).flat_map(|j| (5..11).map(move |i| j * 16 + i)).map(|k| img[k]).sum::<f32>() / 36.0;
+        let front = centre(&front_one);
+        let back_one = mean(&scene(away, "two_sided = false", kind));
+        let back_two = mean(&scene(away, "", kind));
+        for j in 5..11 {
+            for i in 5..11 {
+                assert_eq!(back_one[j * 16 + i], 0.0, "{kind}: the back of a one-sided square is lit");
+            }
+        }
+        // Both sides of the two-sided square show ρL (green of linear sRGB, L of constant spectral
+        // radiance 1); only the wavelength samples' noise separates the two estimates.
+        let back = centre(&back_two);
+        assert!(front > 0.4 && (back / front - 1.0).abs() < 0.02, "{kind}: front {front}, two-sided back {back}");
+    }
+    fails_with("type = \"dielectric\"\nior = 1.5\ntwo_sided = false", &["materials.m.two_sided", "dielectric"]);
+}
