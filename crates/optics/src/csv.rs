@@ -17,6 +17,9 @@ pub fn read_csv_columns(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         match &names {
             None => {
+                if let Some((j, f)) = fields.iter().enumerate().find(|(j, f)| fields[..*j].contains(f)) {
+                    bail!("CSV line {}: column '{}' appears twice in the header (columns {} and {})", lineno + 1, f, fields.iter().position(|g| g == f).unwrap_or(0) + 1, j + 1);
+                }
                 names = Some(fields.iter().map(|s| s.to_string()).collect());
                 cols = vec![Vec::new(); fields.len()];
             }

@@ -18,3 +18,4 @@ pub mod fitting;
 pub mod reflectometry;
 pub mod ior;
 pub mod slab;
+pub mod numfmt;

@@ -265,7 +265,14 @@ pub fn bulk_properties(lambda_nm: &[f64], host: &IndexSpectrum, components: &[Co
         for (c, &r_max) in components.iter().zip(&r_maxes) {
             let alpha = 4.0 * PI * r_max * host.eval(l).im / (l * 1e-9);
             if alpha > mie::MAX_HOST_ATTENUATION {
-                bail!("particle {:?}: the host absorbs too strongly at {l} nm for radius {:.3e} m (4πr·n″/λ = {alpha:.3} > {})", c.name, r_max, mie::MAX_HOST_ATTENUATION);
+                bail!(
+                    "particle {:?}: the host absorbs too strongly at {} nm for radius {:.3e} m (4πr·n″/λ = {} > {})",
+                    c.name,
+                    crate::numfmt::short(l),
+                    r_max,
+                    crate::numfmt::fixed(alpha, 3),
+                    mie::MAX_HOST_ATTENUATION
+                );
             }
         }
     }
@@ -595,7 +602,20 @@ fn um(v: f64, field: &str) -> Result<f64> {
 impl Recipe {
     /// Parse a recipe from TOML text (errors name the line and field).
     pub fn from_toml(text: &str) -> Result<Recipe> {
-        let r: Recipe = toml::from_str(text).map_err(|e| anyhow!("{}", e.to_string().replace('\n', " ").trim()))?;
+        let r: Recipe = toml::from_str(text).map_err(|e| {
+            // "line L, column C (`the line`): message" on one line, not the multi-line snippet.
+            let at = e.span().map(|s| {
+                let start = s.start.min(text.len());
+                let before = &text[..start];
+                let line = before.matches('\n').count() + 1;
+                let col = before.chars().rev().take_while(|&c| c != '\n').count() + 1;
+                let from = before.rfind('\n').map_or(0, |i| i + 1);
+                let src: String = text[from..].lines().next().unwrap_or("").trim().chars().take(80).collect();
+                format!("line {line}, column {col} (`{src}`): ")
+            });
+            let msg: Vec<&str> = e.message().lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            anyhow!("{}{}", at.unwrap_or_default(), msg.join("; "))
+        })?;
         Ok(r)
     }
 

@@ -127,6 +127,22 @@ pub fn fat_size_m(fat_percent: f64, pressure_mpa: f64) -> (f64, f64) {
     (r_vs * 1e-6, cv * r_vs * 1e-6)
 }
 
+/// Wavelengths (nm) the milk model answers for: its data cover 375–775 nm and hold their end
+/// values up to 75 nm below and 125 nm above (the renderer's 360–830 nm inside).
+pub const WAVELENGTH_RANGE_NM: [f64; 2] = [300.0, 900.0];
+
+/// Refuses wavelengths (nm) outside [`WAVELENGTH_RANGE_NM`].
+pub fn check_wavelengths(lambda_nm: &[f64]) -> Result<()> {
+    let [lo, hi] = WAVELENGTH_RANGE_NM;
+    if let Some(&l) = lambda_nm.iter().find(|&&l| l.is_nan() || l < lo || l > hi) {
+        bail!(
+            "wavelength {} nm lies outside the milk model's {lo}–{hi} nm (its data cover 375–775 nm, end values held beyond)",
+            crate::numfmt::short(l)
+        );
+    }
+    Ok(())
+}
+
 /// Check the content declaration; errors name the argument.
 pub fn validate(fat_percent: f64, protein_percent: f64, pressure_mpa: f64) -> Result<()> {
     if !(fat_percent.is_finite() && fat_percent > 0.0 && fat_percent <= 100.0) {

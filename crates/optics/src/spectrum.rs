@@ -52,6 +52,9 @@ impl Tabulated {
             if !l.is_finite() || !v.is_finite() {
                 bail!("tabulated spectrum: sample {i} is not finite (lambda_nm {l}, value {v})");
             }
+            if l <= 0.0 {
+                bail!("tabulated spectrum: sample {i}: wavelength {} nm is not positive", crate::numfmt::short(l));
+            }
             if i > 0 && l <= lambda_nm[i - 1] {
                 bail!(
                     "tabulated spectrum: wavelengths must increase strictly (sample {i}: {l} nm after {} nm)",

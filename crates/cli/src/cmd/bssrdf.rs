@@ -166,8 +166,9 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
             .wavelength_nm
             .context("--wavelength-nm is required with --milk")?;
         if !(lambda.is_finite() && lambda > 0.0) {
-            bail!("--wavelength-nm must be a positive wavelength, got {lambda}");
+            bail!("--wavelength-nm must be a positive wavelength, got {}", optics::numfmt::short(lambda));
         }
+        optics::milk::check_wavelengths(&[lambda]).context("--wavelength-nm")?;
         optics::milk::validate(fat, protein, pressure)?;
         let bulk = optics::milk::milk_properties_with(
             fat,
@@ -211,7 +212,13 @@ fn compute(args: &Args) -> Result<serde_json::Map<String, serde_json::Value>> {
         .derive()
         .context("invalid medium (--eta, --sigma-s-per-mm, --sigma-a-per-mm, --g)")?;
     let profile_mm = match &args.profile_mm {
-        Some(t) => Some(parse_list(t, "--profile-mm")?),
+        Some(t) => {
+            let r = parse_list(t, "--profile-mm")?;
+            if r.is_empty() {
+                bail!("--profile-mm: no distances given (a comma-separated list in mm)");
+            }
+            Some(r)
+        }
         None => None,
     };
     let want_rd = args.rd || profile_mm.is_none();

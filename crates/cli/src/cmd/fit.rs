@@ -354,6 +354,9 @@ fn read_line_csv(text: &str, file: &str) -> Result<(Vec<f64>, Vec<f64>, Option<V
 }
 
 fn run_oblique(a: ObliqueArgs) -> Result<()> {
+    if !(a.exclude_mm >= 0.0 && a.exclude_mm.is_finite()) {
+        bail!("--exclude-mm: a distance ≥ 0 around the entry point, got {}", optics::numfmt::short(a.exclude_mm));
+    }
     let name = a.data.display().to_string();
     let text = read_text(&a.data)?;
     let (x, v, se) = read_line_csv(&text, &name)?;

@@ -3,7 +3,7 @@
 
 use super::format::sig;
 use super::mie::{number, spectra_svg, write_svg};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use optics::media::{self, BulkOptions, BulkProperties, Recipe};
 use optics::milk;
 use serde_json::{json, Value};
@@ -58,8 +58,10 @@ pub fn run(args: Args) -> Result<()> {
         };
         milk::validate(fat, protein, pressure)?;
         let l = lambda.unwrap_or_else(|| media::parse_wavelengths_nm("375:775:25").expect("default wavelengths"));
+        milk::check_wavelengths(&l).context("--wavelengths-nm")?;
         let opts = BulkOptions { phase_angles: args.phase_angles.unwrap_or(0) };
-        let p = milk::milk_properties_with(fat, protein, pressure, &l, &opts)?;
+        let p = milk::milk_properties_with(fat, protein, pressure, &l, &opts)
+            .with_context(|| format!("milk of --fat-percent {}, --protein-percent {}", optics::numfmt::short(fat), optics::numfmt::short(protein)))?;
         (p, format!("milk: {fat} % fat, {protein} % protein, {pressure} MPa"))
     } else {
         for (flag, v) in [("--fat-percent", &args.fat_percent), ("--protein-percent", &args.protein_percent), ("--pressure-mpa", &args.pressure_mpa)] {

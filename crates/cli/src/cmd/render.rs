@@ -383,7 +383,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(e) => {
             let v = finite_f64("--exposure", e)?;
             if v.abs() > 64.0 {
-                bail!("--exposure must be between -64 and 64 stops, got {v}");
+                bail!("--exposure must be between -64 and 64 stops, got {}", optics::numfmt::short(v));
             }
             v as f32
         }

@@ -298,3 +298,16 @@ fn unwritable_standard_output_is_not_a_panic() {
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(out.status.code(), Some(141), "{err}");
 }
+
+/// Wavelengths the milk model has no data near, an empty distance list and a negative exclusion
+/// radius are refused naming the flag; a huge wavelength is echoed in scientific notation.
+#[test]
+fn milk_wavelengths_empty_profiles_and_negative_exclusions_are_refused() {
+    let e = refused(&["medium", "milk", "--fat-percent", "3.5", "--wavelengths-nm", "1e300"], &["--wavelengths-nm", "1e300", "300"]);
+    assert!(e.len() < 240, "{e}");
+    refused(&["medium", "milk", "--fat-percent", "3.5", "--wavelengths-nm", "200,550"], &["--wavelengths-nm", "200 nm"]);
+    refused(&["bssrdf", "--milk", "--fat-percent", "3.5", "--wavelength-nm", "5000"], &["--wavelength-nm", "5000"]);
+    refused(&["bssrdf", "--eta", "1.3", "--g", "0", "--sigma-s-per-mm", "1", "--sigma-a-per-mm", "0.01", "--profile-mm", ","], &["--profile-mm", "no distances"]);
+    let csv = tmp("oblique.csv", "x_mm,value\n-2,0.1\n-1,0.3\n0,1\n1,0.5\n2,0.2\n3,0.1\n");
+    refused(&["fit", "oblique", csv.to_str().unwrap(), "--incidence-deg", "30", "--eta", "1.33", "--exclude-mm", "-1"], &["--exclude-mm"]);
+}

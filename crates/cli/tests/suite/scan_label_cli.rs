@@ -111,6 +111,13 @@ fn label_bad_input_is_one_line() {
     let e = run(base("missing.ply", "photo.png"));
     assert!(e.contains("missing.ply"), "{e}");
     assert!(!s.path("o.ply").exists());
+    // An overlay shrunk to nothing is refused before any output is written (a good file stays).
+    std::fs::write(s.path("o.ply"), "GOOD").unwrap();
+    let mut a = base("mesh.ply", "photo.png");
+    a.extend(["--overlay".to_string(), s.arg("ov.png"), "--overlay-scale".into(), "100000".into()]);
+    let e = run(a);
+    assert!(e.contains("--overlay-scale") && e.contains("64x48"), "{e}");
+    assert_eq!(std::fs::read_to_string(s.path("o.ply")).unwrap(), "GOOD");
 }
 
 /// With `--board-capture 0` only the surface on that capture's board plane (z = 10) is

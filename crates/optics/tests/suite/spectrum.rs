@@ -277,3 +277,14 @@ fn uplift_table_and_direct_fit_agree() {
     assert_eq!(a.scale, b.scale);
     assert!((a.eval(550.0) - b.eval(550.0)).abs() < 1e-6);
 }
+
+/// A header naming a column twice, and a wavelength that is not positive, are refused on one line
+/// naming the line or sample.
+#[test]
+fn duplicate_columns_and_non_positive_wavelengths_are_refused() {
+    let e = read_csv_columns("wavelength_nm,v,v\n400,0.5,0.4\n").unwrap_err().to_string();
+    assert!(e.contains("line 1") && e.contains("'v'") && e.contains("twice"), "{e}");
+    let e = optics::spectrum::Tabulated::from_csv("wavelength_nm,v\n-400,0.5\n600,0.5\n", "v").unwrap_err().to_string();
+    assert!(e.contains("sample 0") && e.contains("-400") && !e.contains('\n'), "{e}");
+    assert!(optics::spectrum::Tabulated::from_csv("wavelength_nm,v\n0,0.5\n600,0.5\n", "v").is_err());
+}

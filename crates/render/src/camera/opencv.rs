@@ -320,7 +320,7 @@ impl OpenCv {
         }
         let span = 10.0 * width.max(height) as f64;
         if !(cx.abs() <= span && cy.abs() <= span) {
-            bail!("principal point ({cx}, {cy}) lies far outside the {width}×{height} image (more than 10 image widths)");
+            bail!("principal point ({}, {}) lies far outside the {width}×{height} image (more than 10 image widths)", optics::numfmt::short(cx), optics::numfmt::short(cy));
         }
         Ok(OpenCv { intrinsics, distortion, extrinsics, centre_m: extrinsics.centre_m() })
     }
@@ -373,13 +373,15 @@ impl OpenCv {
                 break;
             }
             if !(m > 0.0) {
-                bail!("distortion is not invertible inside the image: the rational denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ reaches 0 at undistorted r = {r:.4}, where the distorted radius is {reached:.4}, short of the image corners' distorted radius {rd_max:.4}");
+                bail!("distortion is not invertible inside the image: the rational denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ reaches 0 at undistorted r = {}, where the distorted radius is {}, short of the image corners' distorted radius {}", optics::numfmt::fixed(r, 4), optics::numfmt::fixed(reached, 4), optics::numfmt::fixed(rd_max, 4));
             }
             if !(slope > 0.0) {
                 bail!(
-                    "distortion is not invertible inside the image: the radial map r ↦ r·(1 + k1 r² + …)/(1 + k4 r² + …) turns back at undistorted r = {r:.4}, where the distorted radius is {:.4}, short of the image corners' distorted radius {rd_max:.4}{}",
-                    r * f,
-                    if margin > 0.0 { format!(" (+ {margin:.4} for the tangential and prism terms)") } else { String::new() }
+                    "distortion is not invertible inside the image: the radial map r ↦ r·(1 + k1 r² + …)/(1 + k4 r² + …) turns back at undistorted r = {}, where the distorted radius is {}, short of the image corners' distorted radius {}{}",
+                    optics::numfmt::fixed(r, 4),
+                    optics::numfmt::fixed(r * f, 4),
+                    optics::numfmt::fixed(rd_max, 4),
+                    if margin > 0.0 { format!(" (+ {} for the tangential and prism terms)", optics::numfmt::fixed(margin, 4)) } else { String::new() }
                 );
             }
             reached = r * f;
@@ -391,7 +393,7 @@ impl OpenCv {
             }
             r += dr;
             if r > 100.0 * rd_max.max(0.01) {
-                bail!("distortion is not invertible inside the image: the radial map does not reach the image corners (r = {rd_max:.4})");
+                bail!("distortion is not invertible inside the image: the radial map does not reach the image corners (r = {})", optics::numfmt::fixed(rd_max, 4));
             }
         }
         let r_u = r;

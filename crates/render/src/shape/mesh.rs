@@ -219,11 +219,11 @@ fn check_obj(bytes: &[u8]) -> Result<()> {
                 counts[0] += 1;
             }
             Some("vt") => {
-                // vt u [v [w]]: u required, v and w default to 0.
+                // vt u v [w]: the OBJ reader needs u and v (w is ignored).
                 let what = format!("texture coordinate {}", counts[1] + 1);
                 let tok: Vec<&str> = w.collect();
-                if tok.is_empty() || tok.len() > 3 {
-                    bail!("OBJ line {ln}: {what} needs 1 to 3 numbers, got {}", tok.len());
+                if tok.len() < 2 || tok.len() > 3 {
+                    bail!("OBJ line {ln}: {what} needs u and v (2 or 3 numbers), got {}", tok.len());
                 }
                 for t in tok {
                     finite(Some(t), &what)?;
@@ -538,7 +538,8 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh> {
                     Some("ascii") => Format::Ascii,
                     Some("binary_little_endian") => Format::BinaryLe,
                     Some("binary_big_endian") => Format::BinaryBe,
-                    other => bail!("PLY header line {ln}: unknown format {other:?}"),
+                    Some(other) => bail!("PLY header line {ln}: unknown format '{}' (ascii, binary_little_endian or binary_big_endian)", shorten(other)),
+                    None => bail!("PLY header line {ln}: format names none (ascii, binary_little_endian or binary_big_endian)"),
                 })
             }
             Some("element") => {

@@ -383,6 +383,14 @@ fn binary_ply_body_must_have_the_declared_size() {
 }
 
 #[test]
+fn ply_unknown_format_is_named_plainly() {
+    let e = ply_err(b"ply\nformat ebcdic 1.0\nelement vertex 0\nend_header\n");
+    assert!(e.contains("line 2") && e.contains("'ebcdic'") && !e.contains("Some("), "{e}");
+    let e = ply_err(b"ply\nformat\nend_header\n");
+    assert!(e.contains("line 2") && !e.contains("None"), "{e}");
+}
+
+#[test]
 fn obj_errors_name_the_line() {
     let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
     for (text, needle) in [
@@ -398,6 +406,7 @@ fn obj_errors_name_the_line() {
         (format!("{tri}f 1//2 2//2 3//2\n"), "normal index 2 out of range"),
         (format!("{tri}f 1 2 x\n"), "line 4"),
         (format!("f 1 2 3\n{tri}"), "line 1"),
+        (format!("{tri}vt 0\nf 1 2 3\n"), "line 4"),
     ] {
         let e = format!("{:#}", render::shape::mesh::parse_obj(text.as_bytes(), "t").expect_err(&text));
         assert!(e.contains(needle) && !e.contains('\n'), "{text:?}: {e}");

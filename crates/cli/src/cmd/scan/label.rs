@@ -198,6 +198,9 @@ pub fn run(args: Args) -> Result<()> {
             calib.camera.height
         );
     }
+    if args.overlay.is_some() && args.overlay_scale > photo.width.min(photo.height) {
+        bail!("--overlay-scale {}: shrinks the {}x{} photo to nothing (at most {})", args.overlay_scale, photo.width, photo.height, photo.width.min(photo.height));
+    }
     let t_read = t0.elapsed().as_secs_f64();
     let opts = LabelOptions {
         max_edge_px: args.max_edge_px,
@@ -240,6 +243,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     let t_label = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
+    // Each output is written under a temporary name and renamed; the overlay, a diagnostic,
+    // goes first, so that a failure writing it leaves the earlier outputs of a run as they were.
+    if let Some(o) = &args.overlay {
+        render::image_io::write_image(o, &overlay(&l, &photo, args.overlay_scale), 0.0)?;
+    }
     write_ply(&args.out, &l.mesh.positions, &l.mesh.triangles, Some(&l.face_label))?;
     let faces = l.faces_per_label();
     let seg = &l.segmentation;
@@ -330,9 +338,6 @@ pub fn run(args: Args) -> Result<()> {
             let note = format!("capture {j} ({}): the labels of capture {i} ({}) moved by the boards' relative pose", name(*j), name(i));
             write_scene(path, Some(rows), Some(&note))?;
         }
-    }
-    if let Some(o) = &args.overlay {
-        render::image_io::write_image(o, &overlay(&l, &photo, args.overlay_scale), 0.0)?;
     }
     let t_write = t2.elapsed().as_secs_f64();
     if args.json {
