@@ -257,9 +257,14 @@ impl CoatedDiffuse {
         }
     }
 
-    /// The same lobe with Mitsuba 3's diffuse term ([`MitsubaCoupling`]).
+    /// The same lobe with Mitsuba 3's diffuse term ([`MitsubaCoupling`]) and its separable
+    /// masking on the specular lobe.
     pub fn with_mitsuba_coupling(self) -> CoatedDiffuse {
-        CoatedDiffuse { mitsuba: Some(MitsubaCoupling::get(self.distrib.alpha_x, self.eta, self.distrib.distribution)), ..self }
+        CoatedDiffuse {
+            mitsuba: Some(MitsubaCoupling::get(self.distrib.alpha_x, self.eta, self.distrib.distribution)),
+            distrib: self.distrib.with_masking(crate::bsdf::microfacet::Masking::Separable),
+            ..self
+        }
     }
 
     #[inline]

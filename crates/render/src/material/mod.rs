@@ -17,7 +17,7 @@ use crate::bsdf::coated::{CoatedDiffuse, CoatingTable};
 use crate::bsdf::conductor::{RoughConductor, SmoothConductor};
 use crate::bsdf::dielectric::{RoughDielectric, SmoothDielectric, ThinDielectric};
 use crate::bsdf::Bsdf;
-use crate::bsdf::microfacet::{Distribution, Microfacet};
+use crate::bsdf::microfacet::{Distribution, Masking, Microfacet};
 use crate::math::spectral::SampledWavelengths;
 use crate::texture::{FloatTexture, SpectrumTexture};
 use glam::Vec2;
@@ -238,7 +238,10 @@ impl Material {
             Material::Plastic { albedo, ior, alpha, distribution, table, nonlinear, mitsuba } => Bsdf::Coated(CoatedDiffuse {
                 albedo: albedo.eval_with(wl, uv),
                 eta: *ior,
-                distrib: Microfacet::isotropic(*alpha).with_distribution(*distribution),
+                // Mitsuba's coupling comes with its separable masking on the specular lobe too.
+                distrib: Microfacet::isotropic(*alpha)
+                    .with_distribution(*distribution)
+                    .with_masking(if mitsuba.is_some() { Masking::Separable } else { Masking::HeightCorrelated }),
                 table,
                 nonlinear: *nonlinear,
                 mitsuba: *mitsuba,
