@@ -453,10 +453,14 @@ fn order(grid: &BTreeMap<(i32, i32), Point2>, cols: usize, rows: usize, smooth: 
     }
     // The colour of the square outside corner 0 where the board's ends differ in colour (cols +
     // rows odd) and the image shows it by more than half the board's contrast: the dark one first.
+    // The square is read in its quarter next to the corner (centre a quarter diagonal out, a
+    // quarter of its area): a board's outer squares are often cut short by its edge, and their
+    // middle may be the margin (OpenCV's samples/data left07, left08, right08).
     if rows > 1 && cols > 1 && (cols + rows) % 2 == 1 {
         let outer = |v: &Vec<Point2>| {
             let (p0, a, d) = (v[0], sub(v[1], v[0]), sub(v[cols], v[0]));
-            square_level(smooth, [p0[0] - 0.5 * (a[0] + d[0]), p0[1] - 0.5 * (a[1] + d[1])], a, d)
+            let (ha, hd) = ([0.5 * a[0], 0.5 * a[1]], [0.5 * d[0], 0.5 * d[1]]);
+            square_level(smooth, [p0[0] - 0.25 * (a[0] + d[0]), p0[1] - 0.25 * (a[1] + d[1])], ha, hd)
         };
         let levels: Vec<Option<f64>> = labelings.iter().map(outer).collect();
         if let Some(levels) = levels.iter().copied().collect::<Option<Vec<f64>>>() {

@@ -14,6 +14,12 @@ fn render_board(h: &Matrix3<f64>, w: usize, ht: usize, n: usize) -> GrayImage {
 /// [`render_board`] with `cols` × `rows` inner corners: squares from −1 to `cols` × −1 to
 /// `rows`, the square outside inner corner (0, 0) black.
 fn render_board_sized(h: &Matrix3<f64>, w: usize, ht: usize, n: usize, cols: usize, rows: usize) -> GrayImage {
+    render_board_cut(h, w, ht, n, cols, rows, 1.0)
+}
+
+/// [`render_board_sized`] with the outer ring of squares only `outer` squares wide (a print cut
+/// short by its edge), then the white margin.
+fn render_board_cut(h: &Matrix3<f64>, w: usize, ht: usize, n: usize, cols: usize, rows: usize, outer: f64) -> GrayImage {
     let hi = h.try_inverse().unwrap();
     let (cw, rw) = (cols as f64, rows as f64);
     let mut data = vec![0f32; w * ht];
@@ -25,9 +31,10 @@ fn render_board_sized(h: &Matrix3<f64>, w: usize, ht: usize, n: usize, cols: usi
                     let px = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64;
                     let py = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64;
                     let b = apply(&hi, [px, py]);
-                    let v = if b[0] < -2.0 || b[0] > cw + 1.0 || b[1] < -2.0 || b[1] > rw + 1.0 {
+                    let (lo, hx, hy) = (-outer, cw - 1.0 + outer, rw - 1.0 + outer);
+                    let v = if b[0] < lo - 1.0 || b[0] > hx + 1.0 || b[1] < lo - 1.0 || b[1] > hy + 1.0 {
                         90.0
-                    } else if b[0] < -1.0 || b[0] > cw || b[1] < -1.0 || b[1] > rw {
+                    } else if b[0] < lo || b[0] > hx || b[1] < lo || b[1] > hy {
                         200.0
                     } else if (b[0].floor() as i64 + b[1].floor() as i64).rem_euclid(2) == 0 {
                         30.0
@@ -119,6 +126,25 @@ fn corner_order_follows_opencv_at_every_turn_of_the_board() {
                 assert!(err(want) < 0.1, "{cols}×{rows} at {deg}°: corner 0 not the end nearer the top-left");
             }
         }
+    }
+}
+
+/// A print whose outer squares are cut to 0.4 of a square by its edge (as in OpenCV's
+/// samples/data left07, left08, right08): corner 0 is still the corner at the black outer
+/// square, at every turn (the colour is read next to the corner, not in the square's middle).
+#[test]
+fn corner_order_holds_when_the_outer_squares_are_cut_short() {
+    let (cols, rows) = (9usize, 6usize);
+    for k in 0..12 {
+        let deg = 30.0 * k as f64 + 7.0;
+        let h = turned(deg, 34.0, 320.0, 240.0, cols, rows);
+        let img = render_board_cut(&h, 640, 480, 4, cols, rows, 0.4);
+        let f = find_chessboard(&img, cols, rows).unwrap_or_else(|| panic!("at {deg}°: not found"));
+        let own: Vec<[f64; 2]> = (0..cols * rows).map(|i| apply(&h, [(i % cols) as f64, (i / cols) as f64])).collect();
+        // (The corners next to the cut squares refine to within half a pixel; a reversed order
+        // would put every corner a board's length away.)
+        let e = f.iter().zip(&own).map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()).fold(0.0, f64::max);
+        assert!(e < 1.0, "at {deg}°: corner 0 is not the black-square corner (max distance {e} px)");
     }
 }
 
