@@ -4,6 +4,7 @@
 //! - [`pinhole`]: the tutorial's pinhole (eye, look-at, up, field of view or camera constant).
 //! - [`opencv`]: OpenCV's calibrated model (intrinsics, radial/tangential distortion, R, t).
 //! - [`fisheye`]: OpenCV's fisheye model (`cv::fisheye`: θ_d = θ(1 + k1θ² + … + k4θ⁸), skew, R, t).
+//! - [`orthographic`]: parallel rays from a rectangle of the view plane (pbrt-v4's and Mitsuba 3's).
 //! - [`thin_lens`]: depth of field for either model.
 //! - [`filter`]: the pixel reconstruction filter, importance-sampled into the film position.
 //!
@@ -14,12 +15,14 @@
 pub mod filter;
 pub mod fisheye;
 pub mod opencv;
+pub mod orthographic;
 pub mod pinhole;
 pub mod thin_lens;
 
 pub use filter::{GaussianFilter, PixelFilter};
 pub use fisheye::{Fisheye, FisheyeLens};
 pub use opencv::{Distortion, Extrinsics, Intrinsics, OpenCv};
+pub use orthographic::Orthographic;
 pub use pinhole::Pinhole;
 pub use thin_lens::ThinLens;
 
@@ -35,6 +38,8 @@ pub enum CameraModel {
     OpenCv(OpenCv),
     /// OpenCV's fisheye model and extrinsics.
     Fisheye(Fisheye),
+    /// Parallel projection.
+    Orthographic(Orthographic),
 }
 
 /// A camera: model, optional thin lens, resolution.
@@ -79,18 +84,25 @@ impl Camera {
         Ok(Camera { model: CameraModel::Fisheye(cam), lens: None, width, height, filter: PixelFilter::Box })
     }
 
+    /// Orthographic camera (see [`Orthographic::new`]).
+    pub fn orthographic(cam: Orthographic, width: u32, height: u32) -> anyhow::Result<Camera> {
+        check_resolution(width, height)?;
+        Ok(Camera { model: CameraModel::Orthographic(cam), lens: None, width, height, filter: PixelFilter::Box })
+    }
+
     /// The pinhole model, if this is one.
     pub fn pinhole(&self) -> Option<&Pinhole> {
         match &self.model {
             CameraModel::Pinhole(p) => Some(p),
-            CameraModel::OpenCv(_) | CameraModel::Fisheye(_) => None,
+            CameraModel::OpenCv(_) | CameraModel::Fisheye(_) | CameraModel::Orthographic(_) => None,
         }
     }
 
-    /// Centre of projection (m).
+    /// Centre of projection (m); for the orthographic camera, the centre of its view rectangle.
     pub fn eye(&self) -> Vec3 {
         match &self.model {
             CameraModel::Pinhole(p) => p.eye,
+            CameraModel::Orthographic(p) => p.eye,
             CameraModel::OpenCv(c) => v3(c.centre_m()),
             CameraModel::Fisheye(c) => v3(c.centre_m()),
         }
@@ -101,6 +113,7 @@ impl Camera {
     pub fn axes(&self) -> (Vec3, Vec3, Vec3) {
         match &self.model {
             CameraModel::Pinhole(p) => (p.forward, p.right, p.up),
+            CameraModel::Orthographic(p) => (p.forward, p.right, p.up),
             CameraModel::OpenCv(c) => {
                 let r = &c.extrinsics.r;
                 (v3(r[2]), v3(r[0]), v3(r[1]))
@@ -118,10 +131,12 @@ impl Camera {
     }
 
     /// Vertical field of view in degrees (of the undistorted model, about the principal point for
-    /// OpenCV; for the fisheye, twice the angle off the axis at half the image height).
+    /// OpenCV; for the fisheye, twice the angle off the axis at half the image height; 0 for
+    /// the orthographic camera).
     pub fn vfov_deg(&self) -> f32 {
         match &self.model {
             CameraModel::Pinhole(p) => p.vfov_deg(),
+            CameraModel::Orthographic(_) => 0.0,
             CameraModel::OpenCv(c) => (2.0 * (0.5 * self.height as f64 / c.intrinsics.fy).atan()).to_degrees() as f32,
             CameraModel::Fisheye(c) => {
                 let l = &c.lens;
@@ -131,21 +146,24 @@ impl Camera {
         }
     }
 
-    /// Focal length in pixels along y (d·H for the pinhole, fy for OpenCV's models).
+    /// Focal length in pixels along y (d·H for the pinhole, fy for OpenCV's models, infinite for
+    /// the orthographic camera).
     pub fn focal_length_px(&self) -> f64 {
         match &self.model {
             CameraModel::Pinhole(p) => p.d as f64 * self.height as f64,
+            CameraModel::Orthographic(_) => f64::INFINITY,
             CameraModel::OpenCv(c) => c.intrinsics.fy,
             CameraModel::Fisheye(c) => c.lens.fy,
         }
     }
 
     /// Change the resolution, keeping the view (the pinhole's vertical field of view; for OpenCV
-    /// the intrinsics scale with the film, see [`OpenCv::rescaled`]).
+    /// the intrinsics scale with the film, see [`OpenCv::rescaled`]; the orthographic camera's
+    /// view width).
     pub fn set_resolution(&mut self, width: u32, height: u32) {
         let (width, height) = (width.max(1), height.max(1));
         match &mut self.model {
-            CameraModel::Pinhole(_) => {}
+            CameraModel::Pinhole(_) | CameraModel::Orthographic(_) => {}
             CameraModel::OpenCv(c) => {
                 *c = c.rescaled(width as f64 / self.width as f64, height as f64 / self.height as f64);
             }
@@ -166,6 +184,7 @@ impl Camera {
                 let d = p.direction(i, j, u, self.width, self.height).normalize();
                 Ray { o: p.eye, d, t_min: 0.0, t_max: f32::INFINITY }
             }
+            CameraModel::Orthographic(p) => Ray { o: p.origin(i, j, u, self.width, self.height), d: p.forward, t_min: 0.0, t_max: f32::INFINITY },
             CameraModel::OpenCv(c) => {
                 let (o, d) = c.ray_pixel(i as f64 + u.x as f64 - 0.5, j as f64 + u.y as f64 - 0.5);
                 Ray { o: v3(o), d: v3(d), t_min: 0.0, t_max: f32::INFINITY }
@@ -194,10 +213,12 @@ impl Camera {
     }
 
     /// Film position (continuous, pixel (i, j) covering [i, i+1) × [j, j+1)) of world point
-    /// `p` (m) through the centre of projection, or None when it is behind the camera.
+    /// `p` (m) through the centre of projection (along the viewing direction for the
+    /// orthographic camera), or None when it is behind the camera.
     pub fn project(&self, p: Vec3) -> Option<Vec2> {
         match &self.model {
             CameraModel::Pinhole(c) => c.project_direction(p - c.eye, self.width, self.height),
+            CameraModel::Orthographic(c) => c.project(p, self.width, self.height),
             CameraModel::OpenCv(c) => {
                 let q = c.project_pixel([p.x as f64, p.y as f64, p.z as f64])?;
                 Some(Vec2::new((q[0] + 0.5) as f32, (q[1] + 0.5) as f32))

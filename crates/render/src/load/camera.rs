@@ -79,7 +79,33 @@ pub(crate) fn camera_from(
         }
         "opencv" => opencv_camera(cx, files, unit_m, c, &cspan, field, default_size, false, hash)?,
         "fisheye" => opencv_camera(cx, files, unit_m, c, &cspan, field, default_size, true, hash)?,
-        other => return Err(err("model", &format!("unknown camera model `{other}` (use pinhole, opencv or fisheye)"))),
+        "orthographic" => {
+            if default_size.is_some() {
+                return Err(err("model", &"a projector is a pinhole or OpenCV camera, not orthographic"));
+            }
+            if let Some(k) = opencv_keys(c).first() {
+                return Err(err(k, &"is an OpenCV camera key (the orthographic camera takes eye, look_at, up and view_width)"));
+            }
+            for (k, present) in [("vfov_deg", c.vfov_deg.is_some()), ("hfov_deg", c.hfov_deg.is_some()), ("camera_constant", c.camera_constant.is_some()), ("aperture_radius", c.aperture_radius.is_some())] {
+                if present {
+                    return Err(err(k, &"has no meaning for an orthographic camera (its view is view_width wide)"));
+                }
+            }
+            let (Some(e), Some(a)) = (c.eye, c.look_at) else {
+                return Err(err(if c.eye.is_none() { "eye" } else { "look_at" }, &"missing"));
+            };
+            let vw = c.view_width.ok_or_else(|| err("view_width", &"missing (the width of the view, in the scene's unit)"))?;
+            if !(vw > 0.0 && vw.is_finite()) {
+                return Err(err("view_width", &format!("must be positive, got {}", optics::numfmt::short(vw))));
+            }
+            let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
+            let (w, h) = (c.width.unwrap_or(256), c.height.unwrap_or(256));
+            let eye = Vec3::new(to_m(e[0]), to_m(e[1]), to_m(e[2]));
+            let at = Vec3::new(to_m(a[0]), to_m(a[1]), to_m(a[2]));
+            let o = crate::camera::Orthographic::new(eye, at, v3(up), to_m(vw)).map_err(|e| cx.err(&cspan, field, e))?;
+            Camera::orthographic(o, w, h).map_err(|e| cx.err(&cspan, field, e))?
+        }
+        other => return Err(err("model", &format!("unknown camera model `{other}` (use pinhole, opencv, fisheye or orthographic)"))),
     };
     camera.lens = lens(c, unit_m).map_err(|(k, e)| err(k, &e))?;
     if let Some(f) = &c.filter {
@@ -379,10 +405,11 @@ pub fn calibrated_camera(cal: &Calibration, base: &Camera, scene_unit_m: f64) ->
         None => match &base.model {
             CameraModel::OpenCv(c) => c.extrinsics,
             CameraModel::Fisheye(c) => c.extrinsics,
-            CameraModel::Pinhole(p) => {
+            CameraModel::Pinhole(_) | CameraModel::Orthographic(_) => {
                 let row = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
-                let r = [row(p.right), row(-p.up), row(p.forward)];
-                let e = row(p.eye);
+                let (forward, right, up) = base.axes();
+                let r = [row(right), row(-up), row(forward)];
+                let e = row(base.eye());
                 let re = crate::camera::opencv::mat_vec(&r, e);
                 Extrinsics::from_rt(r, [-re[0], -re[1], -re[2]])?
             }

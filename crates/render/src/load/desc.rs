@@ -36,6 +36,8 @@ pub(crate) struct CameraDesc {
     /// default `fov_axis = "x"`.
     pub(crate) hfov_deg: Option<f64>,
     pub(crate) camera_constant: Option<f64>,
+    /// Width of an orthographic camera's view (scene units).
+    pub(crate) view_width: Option<f64>,
     pub(crate) width: Option<u32>,
     pub(crate) height: Option<u32>,
     // OpenCV intrinsics (pixels), distortion, extrinsics.

@@ -942,3 +942,36 @@ fn hfov_puts_the_half_angle_on_the_image_edge() {
         assert!(msg.contains("c.toml") && msg.contains("fov") && !msg.contains('\n'), "{msg}");
     }
 }
+
+/// The orthographic camera: an emitting sphere of radius r (radiance 1) seen at two distances
+/// covers the same image, whose summed pixels times the pixel area equal the disc's area π r²
+/// (a pinhole's image would shrink with distance), centred on the projection of its centre;
+/// bad keys are one-line errors.
+#[test]
+fn orthographic_camera_sees_a_sphere_as_its_true_disc_at_any_distance() {
+    let (w, view_w) = (64u32, 0.8f64); // 0.0125 m per pixel
+    let cam = |z: f64| format!("model = \"orthographic\"\neye = [0, 0, {z}]\nlook_at = [0, 0, 10]\nview_width = {view_w}\nwidth = {w}\nheight = 48");
+    let centre = [0.11, -0.05, 3.0];
+    let mut areas = Vec::new();
+    for z in [0.0, -20.0] {
+        let s = emissive_dot(&cam(z), centre);
+        let img = render_mean(&s, 256, 9);
+        let px = view_w / w as f64;
+        // Y of constant spectral radiance 1 is 1: the green of linear sRGB is close but not exact,
+        // so sum the luminance.
+        let sum: f64 = img.iter().map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64).sum();
+        let area = sum * px * px;
+        let (c, _, _) = moments(&img, w);
+        let want = s.camera.project(Vec3::new(centre[0] as f32, centre[1] as f32, centre[2] as f32)).unwrap();
+        eprintln!("eye at z = {z}: image area {area:.5} m² (π r² = {:.5}), centroid {c}, projection {want}", std::f64::consts::PI * 0.13 * 0.13);
+        assert!((area / (std::f64::consts::PI * 0.13 * 0.13) - 1.0).abs() < 0.01, "z {z}: area {area}");
+        assert!((c - want).length() < 0.05, "z {z}: centroid {c} vs {want}");
+        areas.push(area);
+    }
+    assert!((areas[0] / areas[1] - 1.0).abs() < 0.01);
+    for (extra, key) in [("vfov_deg = 30", "vfov_deg"), ("fx = 100", "fx"), ("aperture_radius = 0.1", "aperture_radius")] {
+        let text = format!("[camera]\n{}\n{extra}\n[materials.m]\ntype = \"lambertian\"\nalbedo = 0.5\n[[objects]]\nmaterial = \"m\"\nsphere = {{ center = [0, 0, 3], radius = 1 }}\n", cam(0.0));
+        let e = format!("{:#}", render::scene::Scene::from_toml_str(&text, "o.toml", std::path::Path::new(".")).err().expect(key));
+        assert!(e.contains(key) && !e.contains('\n'), "{e}");
+    }
+}
