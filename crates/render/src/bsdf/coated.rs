@@ -30,6 +30,17 @@ pub struct CoatingTable {
 
 const COATING_N: usize = 33;
 
+/// Per-coating data computed once per (α, η, distribution) and kept for the process's lifetime.
+type CoatingCache<T> = Mutex<Option<HashMap<(u32, u32, Distribution), &'static T>>>;
+
+/// The entry of `cache` for (α, η, distribution), computed by `make` the first time.
+fn cached<T>(cache: &CoatingCache<T>, alpha: f32, eta: f32, distribution: Distribution, make: fn(f32, f32, Distribution) -> T) -> &'static T {
+    let key = (alpha.to_bits(), eta.to_bits(), distribution);
+    let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
+    let map = guard.get_or_insert_with(HashMap::new);
+    map.entry(key).or_insert_with(|| Box::leak(Box::new(make(alpha, eta, distribution))))
+}
+
 impl CoatingTable {
     /// Directional albedo of the specular coating lobe at cosine `mu` ∈ [0, 1].
     #[inline]
@@ -112,12 +123,8 @@ impl CoatingTable {
     /// The (cached, process-lifetime) table for a coating of roughness `alpha`, index `eta` and
     /// microfacet `distribution`.
     pub fn get_for(alpha: f32, eta: f32, distribution: Distribution) -> &'static CoatingTable {
-        static CACHE: Mutex<Option<HashMap<(u32, u32, Distribution), &'static CoatingTable>>> = Mutex::new(None);
-        let key = (alpha.to_bits(), eta.to_bits(), distribution);
-        let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-        let map = guard.get_or_insert_with(HashMap::new);
-        map.entry(key)
-            .or_insert_with(|| Box::leak(Box::new(CoatingTable::compute(alpha, eta, distribution))))
+        static CACHE: CoatingCache<CoatingTable> = Mutex::new(None);
+        cached(&CACHE, alpha, eta, distribution, CoatingTable::compute)
     }
 }
 
@@ -205,12 +212,8 @@ impl MitsubaCoupling {
     /// The (cached, process-lifetime) coupling for a coating of roughness `alpha`, index `eta` and
     /// microfacet `distribution`.
     pub fn get(alpha: f32, eta: f32, distribution: Distribution) -> &'static MitsubaCoupling {
-        static CACHE: Mutex<Option<HashMap<(u32, u32, Distribution), &'static MitsubaCoupling>>> = Mutex::new(None);
-        let key = (alpha.to_bits(), eta.to_bits(), distribution);
-        let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-        let map = guard.get_or_insert_with(HashMap::new);
-        map.entry(key)
-            .or_insert_with(|| Box::leak(Box::new(MitsubaCoupling::compute(alpha, eta, distribution))))
+        static CACHE: CoatingCache<MitsubaCoupling> = Mutex::new(None);
+        cached(&CACHE, alpha, eta, distribution, MitsubaCoupling::compute)
     }
 }
 
