@@ -347,10 +347,11 @@ fn chi2_rough_dielectric() {
     check_chi2("rough dielectric α=(0.1, 0.5) η=1.5", &b, &wos_upper(), 290);
 }
 
-/// Beckmann lobes (Mitsuba 3's default distribution): sampling matches evaluation (12 runs),
-/// reciprocity, and a white conductor's albedo by sampling and by quadrature agree and stay ≤ 1.
+/// Beckmann lobes (Mitsuba 3's default distribution): sampling matches evaluation (15 runs), a
+/// white-based Beckmann plastic returns all the light, and a white conductor's albedo by sampling
+/// and by quadrature agree and stay ≤ 1 (their reciprocity is in `reciprocity`).
 #[test]
-fn beckmann_lobes_sample_their_density_are_reciprocal_and_conserve_energy() {
+fn beckmann_lobes_sample_their_density_and_conserve_energy() {
     let beck = |ax: f32, ay: f32| gtr(ax, ay).with_distribution(Distribution::Beckmann);
     let (eta, k, _) = gold();
     for (i, d) in [beck(0.3, 0.3), beck(0.1, 0.4)].into_iter().enumerate() {
@@ -360,24 +361,6 @@ fn beckmann_lobes_sample_their_density_are_reciprocal_and_conserve_energy() {
     for (i, eta) in [1.5f32, 1.0 / 1.5].into_iter().enumerate() {
         let b = Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: beck(0.3, 0.3), eta }, dispersive: false };
         check_chi2(&format!("Beckmann rough dielectric η={eta}"), &b, &wos_upper(), 420 + 10 * i as u64);
-    }
-    let mut rng = Pcg32::new(19, 5);
-    let b = Bsdf::RoughConductor(RoughConductor { distrib: beck(0.1, 0.5), eta, k });
-    for _ in 0..5000 {
-        let wo = uniform_sphere(rng.next_2d());
-        let mut wi = uniform_sphere(rng.next_2d());
-        if wi.z * wo.z < 0.0 {
-            wi.z = -wi.z;
-        }
-        let (f1, f2) = (b.eval(wo, wi), b.eval(wi, wo));
-        assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1e-3), "{f1} ≠ {f2}");
-    }
-    let d = Bsdf::RoughDielectric { lobe: RoughDielectric { distrib: beck(0.3, 0.3), eta: 1.5 }, dispersive: false };
-    let n = |w: Vec3| if w.z > 0.0 { 1.0 } else { 1.5f32 };
-    for _ in 0..20_000 {
-        let (wo, wi) = (uniform_sphere(rng.next_2d()), uniform_sphere(rng.next_2d()));
-        let (a, c) = (d.eval(wo, wi).x / (n(wo) * n(wo)), d.eval(wi, wo).x / (n(wi) * n(wi)));
-        assert!((a - c).abs() <= 2e-3 * a.abs().max(c.abs()) + 1e-5, "wo {wo} wi {wi}: {a} vs {c}");
     }
     // A Beckmann coating over a white base returns all the light (the diffuse term's
     // normalisation 1 − E_avg uses the coating's own albedo table); its sampling matches.
@@ -544,6 +527,11 @@ fn reciprocity() {
             eta,
             k,
         }),
+        Bsdf::RoughConductor(RoughConductor {
+            distrib: gtr(0.1, 0.5).with_distribution(Distribution::Beckmann),
+            eta,
+            k,
+        }),
         Bsdf::Coated(CoatedDiffuse::new(Vec4::new(0.2, 0.5, 0.8, 0.9), 1.5, 0.0)),
         Bsdf::Coated(CoatedDiffuse::new(Vec4::new(0.2, 0.5, 0.8, 0.9), 1.5, 0.4)),
     ];
@@ -568,10 +556,10 @@ fn reciprocity() {
     }
     assert!(nonzero > 15_000);
     // Rough dielectric, radiance transport: f(wo, wi)/n(wo side)² = f(wi, wo)/n(wi side)² (Veach 1997 eq. 5.14).
-    for eta in [1.5f32, 1.0 / 1.33] {
+    for (eta, distrib) in [(1.5f32, gtr(0.3, 0.3)), (1.0 / 1.33, gtr(0.3, 0.3)), (1.5, gtr(0.3, 0.3).with_distribution(Distribution::Beckmann))] {
         let b = Bsdf::RoughDielectric {
             lobe: RoughDielectric {
-                distrib: gtr(0.3, 0.3),
+                distrib,
                 eta,
             },
             dispersive: false,
@@ -592,7 +580,7 @@ fn reciprocity() {
                 checked += 1;
             }
         }
-        assert!(checked > 1000, "{checked}");
+        assert!(checked > 500, "{checked}"); // (Beckmann's short tails leave fewer large transmission values)
     }
 }
 
