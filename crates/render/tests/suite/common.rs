@@ -34,3 +34,15 @@ pub fn form_factor_corner(a: f64, b: f64, c: f64) -> f64 {
     let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
     (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
 }
+
+/// Asserts that loading a scene failed with a one-line error mentioning every string in `needles`.
+pub fn assert_one_line_error(loaded: anyhow::Result<Scene>, needles: &[&str]) {
+    let e = match loaded {
+        Ok(_) => panic!("expected an error mentioning {needles:?}"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert!(!e.contains('\n'), "error is not one line: {e}");
+    for n in needles {
+        assert!(e.contains(n), "error `{e}` does not mention `{n}`");
+    }
+}

@@ -324,14 +324,7 @@ radiance = {l}
 
 /// Asserts `text` fails with a one-line error mentioning every string in `needles`.
 fn fails_with(text: &str, needles: &[&str]) {
-    let e = match parse(text) {
-        Ok(_) => panic!("expected an error mentioning {needles:?}"),
-        Err(e) => format!("{e:#}"),
-    };
-    assert!(!e.contains('\n'), "error is not one line: {e}");
-    for n in needles {
-        assert!(e.contains(n), "error `{e}` does not mention `{n}`");
-    }
+    crate::common::assert_one_line_error(parse(text), needles);
 }
 
 #[test]
