@@ -10,7 +10,8 @@ it) in both, their ratio with its standard error (from the two renders' per-pixe
 the median and 10th–90th percentile of the per-pixel ratio. Materials (lucent / Mitsuba):
 
 * `rough_conductor`, metal "au", α = 0.2 / `roughconductor`, material "Au", GGX, α = 0.2;
-* `rough_conductor`, metal "cu", α = [0.05, 0.3] is left out (lucent's tangent frame is arbitrary);
+* `rough_conductor`, metal "cu", α = [0.05, 0.3] is left out: both renderers align α_x with ∂p/∂u, but a
+  sphere's (u, v) differ between them (`benches-peers/mitsuba_normalmap.py` compares anisotropy on a mesh);
 * `rough_dielectric`, ior 1.5, α = 0.2 / `roughdielectric`, int_ior 1.5, ext_ior 1, GGX, α = 0.2;
 * the same two with `distribution = "beckmann"`, α = 0.3 and `masking = "separable"` / Mitsuba's
   Beckmann (its default distribution), α = 0.3;

@@ -8,7 +8,7 @@
 use crate::accel::Hit;
 use crate::math::geometry::Ray;
 use crate::math::sampling::Frame;
-use crate::scene::Scene;
+use crate::scene::{Scene, SurfaceFrame};
 use glam::Vec3;
 
 /// Geometry of a shading point, oriented towards the viewer.
@@ -31,6 +31,9 @@ pub struct Shading {
     /// The hit's barycentric coordinates (sphere: its angular parameters), from which
     /// [`Shading::uv`] computes texture coordinates where a texture needs them.
     pub bary: glam::Vec2,
+    /// With a normal or bump map and its shadowing term: the unperturbed shading normal (on the
+    /// side of wo) and α² of the term ([`Shading::terminator`]); α² = 0 without.
+    pub shadow: (Vec3, f32),
 }
 
 impl Shading {
@@ -44,7 +47,78 @@ impl Shading {
         if !(ns.dot(ng) > 0.0) || !ns.is_finite() {
             ns = ng;
         }
-        Shading { p: sp.p, ng, frame: Frame::from_normal(ns), object: sp.object, ng_raw: sp.ng, prim: hit.prim, bary: glam::Vec2::new(hit.u, hit.v) }
+        let mut s = Shading {
+            p: sp.p,
+            ng,
+            frame: Frame::from_normal(ns),
+            object: sp.object,
+            ng_raw: sp.ng,
+            prim: hit.prim,
+            bary: glam::Vec2::new(hit.u, hit.v),
+            shadow: (Vec3::ZERO, 0.0),
+        };
+        if !scene.surface_frames.is_empty() {
+            let material = scene.objects[sp.object as usize].material as usize;
+            if let Some(Some(f)) = scene.surface_frames.get(material) {
+                Self::surface_frame(scene, f, &mut s, flip, -ray.d);
+            }
+        }
+        s
+    }
+
+    /// The factor on the BSDF towards the light direction `wi` (world, unit) that a normal or bump
+    /// map's shadowing term puts on it: Estevez et al. 2019 ("A microfacet-based shadowing
+    /// function to solve the bump terminator problem", Ray Tracing Gems ch. 12), as Mitsuba 3's
+    /// `normalmap` and `bumpmap` apply it by default: G = 2 / (1 + √(1 + α² tan² θ)), θ the angle
+    /// of `wi` from the unperturbed shading normal, α² = min(tan² θ_p / 8, 1) with θ_p the tilt
+    /// of the perturbed normal. 1 without a map.
+    #[inline]
+    pub fn terminator(&self, wi: Vec3) -> f32 {
+        if self.shadow.1 == 0.0 {
+            return 1.0;
+        }
+        let c2 = wi.dot(self.shadow.0).powi(2);
+        if !(c2 > 0.0) {
+            return 0.0;
+        }
+        let tan2 = ((1.0 - c2) / c2).max(0.0);
+        2.0 / (1.0 + (1.0 + self.shadow.1 * tan2).sqrt())
+    }
+
+    /// The shading frame of a material with a [`SurfaceFrame`] (into `s.frame`, and its shadowing
+    /// term into `s.shadow`): first tangent along ∂p/∂u, about the normal tilted by its map, if it
+    /// has one (computed on the surface's stored side and turned with the hit's side, as the plain
+    /// shading normal is). A tilted normal that faces away from `wo` has its tangential part
+    /// mirrored first (`flip_invalid`, Mitsuba 3's `flip_invalid_normals`, after Schüssler et al.
+    /// 2017). The plain frame where the surface has no ∂p/∂u or the tilted normal still falls
+    /// below the geometric surface.
+    #[cold]
+    #[inline(never)]
+    fn surface_frame(scene: &Scene, f: &SurfaceFrame, s: &mut Shading, flip: bool, wo: Vec3) {
+        let Some((dpdu, dpdv)) = scene.accel.position_derivatives(s.object, s.prim, s.bary.x, s.bary.y) else { return };
+        let sign = if flip { -1.0 } else { 1.0 };
+        let n0 = s.frame.n;
+        let mut n = n0;
+        if let Some(map) = &f.map {
+            // On the stored side (where the map's tangent space is defined), then turned.
+            let mut nm = map.perturb(s.uv(scene), sign * n0, dpdu, dpdv, sign * s.ng) * sign;
+            if f.flip_invalid && !(nm.dot(wo) > 0.0) {
+                nm = 2.0 * nm.dot(n0) * n0 - nm;
+            }
+            if !(nm.dot(s.ng) > 0.0) {
+                return;
+            }
+            n = nm;
+            if f.shadowing {
+                let c2 = nm.dot(n0).powi(2).max(1e-12);
+                let alpha2 = (0.125 * (1.0 - c2) / c2).min(1.0);
+                if alpha2 > 0.0 {
+                    s.shadow = (n0, alpha2);
+                }
+            }
+        }
+        let t0 = (dpdu - n * n.dot(dpdu)).normalize_or_zero();
+        s.frame = if t0 == Vec3::ZERO || !t0.is_finite() { Frame::from_normal(n) } else { Frame { s: t0, t: n.cross(t0), n } };
     }
 
     /// Texture coordinates of this point ([`crate::accel::Accel::uv`]); computed on demand, so

@@ -36,6 +36,10 @@ pub struct Scene {
     /// Per material, whether it reflects from its front side only (`two_sided = false`, Mitsuba 3's
     /// plain BSDFs): a hit on its back face sees a black surface ([`Scene::black_behind`]).
     pub one_sided: Vec<bool>,
+    /// Per material, how the shading frame is made ([`crate::interaction::Shading::at`]): the
+    /// normal alone (empty or `None`), or with its tangent along ∂p/∂u and possibly a normal or
+    /// bump map.
+    pub surface_frames: Vec<Option<SurfaceFrame>>,
     /// All lights.
     pub lights: Vec<Light>,
     /// Probability of choosing each light for next-event estimation ([`crate::light::selection_pmf`]: by power, lights at infinity capped).
@@ -73,6 +77,21 @@ pub struct Scene {
     pub source: String,
     /// Hash of the scene text and every file it read (see [`Scene::content_hash`]).
     pub(crate) content_hash: u64,
+}
+
+/// A shading frame tied to the surface's texture coordinates (Mitsuba 3's shading frame): its
+/// first tangent along ∂p/∂u made orthogonal to the normal, so that an anisotropic roughness's
+/// α_x lies along u; with a normal or bump map, about the perturbed normal.
+#[derive(Clone, Debug)]
+pub struct SurfaceFrame {
+    /// The map that tilts the normal, if any.
+    pub map: Option<std::sync::Arc<crate::texture::shading_map::ShadingMap>>,
+    /// With a map: the BSDF carries Estevez et al.'s shadowing term
+    /// ([`crate::interaction::Shading::terminator`]; Mitsuba 3's `use_shadowing_function`).
+    pub shadowing: bool,
+    /// With a map: a tilted normal facing away from the viewer has its tangential part mirrored
+    /// (Mitsuba 3's `flip_invalid_normals`).
+    pub flip_invalid: bool,
 }
 
 impl Scene {

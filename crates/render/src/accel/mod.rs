@@ -1333,6 +1333,46 @@ impl Accel {
         }
     }
 
+    /// Partial derivatives (∂p/∂u, ∂p/∂v) of position (m) with respect to the texture
+    /// coordinates of [`Accel::uv`] at the hit (`prim`, `u`, `v`): constant over a mesh triangle
+    /// (from its vertices' positions and texture coordinates, as pbrt-v4 and Mitsuba 3 compute
+    /// them), analytic on spheres. `None` where there are none: a mesh without texture
+    /// coordinates, a triangle whose texture coordinates are degenerate, a sphere's poles.
+    pub fn position_derivatives(&self, object: u32, prim: u32, u: f32, v: f32) -> Option<(Vec3, Vec3)> {
+        match self.shape(object) {
+            Shape::Sphere(s) => {
+                // p = c + r (sin θ cos φ, cos θ, sin θ sin φ) with φ = 2π(1 − u_tex), θ = π(1 − v_tex)
+                // (`crate::shape::sphere::texture_uv`; the hit's (u, v) are (φ/2π, θ/π)).
+                let (phi, theta) = (u * 2.0 * std::f32::consts::PI, v * std::f32::consts::PI);
+                let (sp, cp) = phi.sin_cos();
+                let (st, ct) = theta.sin_cos();
+                let r = s.radius.abs();
+                if !(st > 1e-6) {
+                    return None;
+                }
+                let dpdu = 2.0 * std::f32::consts::PI * r * st * Vec3::new(sp, 0.0, -cp);
+                let dpdv = -std::f32::consts::PI * r * Vec3::new(ct * cp, -st, ct * sp);
+                Some((dpdu, dpdv))
+            }
+            Shape::Mesh(m) => {
+                let uvs = m.uvs.as_ref()?;
+                let t = m.indices[prim as usize];
+                let [a, b, c] = m.triangle(prim as usize);
+                let (ta, tb, tc) = (uvs[t[0] as usize], uvs[t[1] as usize], uvs[t[2] as usize]);
+                let (d1, d2) = (tb - ta, tc - ta);
+                let (e1, e2) = (b - a, c - a);
+                let det = d1.x * d2.y - d1.y * d2.x;
+                if !(det.abs() > 1e-12 * (d1.length_squared() + d2.length_squared())) {
+                    return None;
+                }
+                let inv = 1.0 / det;
+                let dpdu = (d2.y * e1 - d1.y * e2) * inv;
+                let dpdv = (d1.x * e2 - d2.x * e1) * inv;
+                (dpdu.is_finite() && dpdv.is_finite()).then_some((dpdu, dpdv))
+            }
+        }
+    }
+
     /// Closest hit by testing every primitive (reference for tests).
     pub fn intersect_brute_force(&self, ray: &Ray) -> Option<Hit> {
         let rt = RayTri::new(ray);

@@ -71,7 +71,7 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut
         if bs.terminate_secondary {
             wl.terminate_secondary();
         }
-        let beta = bs.f * (bs.wi.z.abs() / (bs.pdf * nb));
+        let beta = bs.f * (bs.wi.z.abs() * s.terminator(wi) / (bs.pdf * nb));
         let r = s.spawn(scene, wi);
         let (le, light_pdf) = match scene.accel.intersect(&r) {
             None => {

@@ -59,8 +59,9 @@ pub fn sample_light(scene: &Scene, p: Vec3, wl: &SampledWavelengths, rng: &mut P
     Some(LightChoice { ls, pmf })
 }
 
-/// The BSDF at shading point `s` from `wo` towards the light sample's direction, with both
-/// directions in the local frame: (f, wo_local, wi_local). `None` when f is zero or when the
+/// The BSDF at shading point `s` from `wo` towards the light sample's direction (with a normal or
+/// bump map's shadowing term, [`Shading::terminator`]), with both directions in the local frame:
+/// (f, wo_local, wi_local). `None` when f is zero or when the
 /// direction's side of the geometric surface disagrees with its side of the shading frame
 /// (light from below the geometric surface cannot reach a reflecting point's front, whatever the
 /// interpolated normal says).
@@ -72,7 +73,7 @@ pub fn surface_bsdf(s: &Shading, wo: Vec3, bsdf: &Bsdf, wi: Vec3) -> Option<(Sam
     if f == Vec4::ZERO || (wi.dot(s.ng) <= 0.0) != (wi_l.z <= 0.0) {
         return None;
     }
-    Some((f, wo_l, wi_l))
+    Some((f * s.terminator(wi), wo_l, wi_l))
 }
 
 /// One light sample at shading point `s` seen from `wo`, with its visibility tested:

@@ -115,7 +115,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
         if (wi.dot(s.ng) > 0.0) == bs.transmission {
             break;
         }
-        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        beta *= bs.f * (bs.wi.z.abs() * s.terminator(wi) / bs.pdf);
         if bs.transmission {
             eta_scale *= bs.eta * bs.eta;
         }

@@ -796,7 +796,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
             if let Some(c) = nee::sample_light(scene, sp.p, wl, rng) {
                 let ls = &c.ls;
                 let wi_l = frame.to_local(ls.wi);
-                let f = bsdf.eval(wo_l, wi_l);
+                let f = bsdf.eval(wo_l, wi_l) * sp.terminator(ls.wi);
                 if f != Vec4::ZERO && (ls.wi.dot(ng) <= 0.0) == (wi_l.z <= 0.0) {
                     // The shadow ray starts in the medium on the side it leaves to.
                     let m_side = if (ls.wi.dot(ng) >= 0.0) == (wo.dot(ng) >= 0.0) { medium } else { cross(scene, sp.object, front, medium) };
@@ -814,7 +814,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         if (wi.dot(ng) > 0.0) == bs.transmission {
             break;
         }
-        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        beta *= bs.f * (bs.wi.z.abs() * sp.terminator(wi) / bs.pdf);
         if bs.terminate_secondary && !wl.secondary_terminated() {
             wl.terminate_secondary();
             if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
@@ -1008,7 +1008,7 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
         if (wi.dot(ng) > 0.0) == bs.transmission || bs.terminate_secondary {
             return l;
         }
-        num *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        num *= bs.f * (bs.wi.z.abs() * sp.terminator(wi) / bs.pdf);
         if bs.transmission {
             medium = cross(scene, sp.object, front, medium);
         }

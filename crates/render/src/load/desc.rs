@@ -112,6 +112,10 @@ pub(crate) struct MaterialDesc {
     pub(crate) distribution: Option<Spanned<String>>,
     pub(crate) coupling: Option<Spanned<String>>,
     pub(crate) two_sided: Option<bool>,
+    /// `{ texture = "file", … }`: tangent-space normals (see `SpectrumCx::resolve_shading_map`).
+    pub(crate) normal_map: Option<Spanned<toml::Value>>,
+    /// `{ texture = "file", height, … }`: a height field.
+    pub(crate) bump_map: Option<Spanned<toml::Value>>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

@@ -7,17 +7,20 @@ use crate::load::desc::{MaterialDesc, SceneDesc};
 use crate::load::error::{quote, short, Cx};
 use crate::load::spectrum::{as_f64, is_texture, SpectrumCx, SpectrumUse};
 use crate::material::Material;
+use crate::scene::SurfaceFrame;
 use anyhow::Result;
 use optics::spectrum::DenseSpectrum;
 use std::ops::Range;
 use toml::Spanned;
 
-/// The `[materials]` table: the materials, their names and whether each is one-sided
-/// (`two_sided = false`), in the table's (sorted) order.
-pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(Vec<Material>, Vec<String>, Vec<bool>)> {
+/// The `[materials]` table: the materials, their names, whether each is one-sided
+/// (`two_sided = false`) and its shading frame (normal and bump maps, anisotropy along u), in the
+/// table's (sorted) order; `unit_m` is metres per scene unit.
+pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64) -> Result<(Vec<Material>, Vec<String>, Vec<bool>, Vec<Option<SurfaceFrame>>)> {
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
     let mut one_sided = Vec::new();
+    let mut frames = Vec::new();
     for (name, m) in &desc.materials {
         let span = m.span();
         let m = m.get_ref();
@@ -90,12 +93,38 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc) -> Result<(V
                 ))
             }
         };
+        frames.push(surface_frame(cx, sp, m, &field, &mat, unit_m)?);
         materials.push(mat);
         material_names.push(name.clone());
         one_sided.push(m.two_sided == Some(false));
     }
+    if frames.iter().all(|f| f.is_none()) {
+        frames.clear();
+    }
+    Ok((materials, material_names, one_sided, frames))
+}
 
-    Ok((materials, material_names, one_sided))
+/// The shading frame of material `mat`: with its normal or bump map, if it has one; tied to
+/// ∂p/∂u when it is anisotropic (α_x along u, as Mitsuba 3); else `None` (the normal alone).
+fn surface_frame(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, field: &str, mat: &Material, unit_m: f64) -> Result<Option<SurfaceFrame>> {
+    let maps = [("normal_map", &m.normal_map), ("bump_map", &m.bump_map)];
+    let (mut map, mut shadowing, mut flip_invalid) = (None, true, true);
+    for (key, v) in maps {
+        let Some(v) = v else { continue };
+        if matches!(mat, Material::Black | Material::Translucent(_)) || matches!(m.kind.as_str(), "interface" | "null") {
+            return Err(cx.err(&v.span(), &format!("{field}.{key}"), format!("not allowed for a {} material", m.kind)));
+        }
+        if map.is_some() {
+            return Err(cx.err(&v.span(), &format!("{field}.{key}"), "give either normal_map or bump_map, not both"));
+        }
+        let (m, sh, fl) = sp.resolve_shading_map(v, &format!("{field}.{key}"), key, unit_m)?;
+        (map, shadowing, flip_invalid) = (Some(std::sync::Arc::new(m)), sh, fl);
+    }
+    let anisotropic = match mat {
+        Material::Dielectric { distrib, .. } | Material::Conductor { distrib, .. } => distrib.alpha_x != distrib.alpha_y,
+        _ => false,
+    };
+    Ok((map.is_some() || anisotropic).then_some(SurfaceFrame { map, shadowing, flip_invalid }))
 }
 
 /// Dielectric, conductor and plastic materials, see docs/scene-format.md ("Glass, metals, rough

@@ -173,7 +173,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     };
     let sp = SpectrumCx { cx, named: &desc.spectra, files, hash: std::cell::RefCell::new(Fnv1a64::new()) };
     let mut ld = Build { cx, sp, files, unit_m, hash };
-    let (materials, material_names, one_sided) = material::materials(cx, &ld.sp, &desc)?;
+    let (materials, material_names, one_sided, surface_frames) = material::materials(cx, &ld.sp, &desc, unit_m)?;
     let (shapes, mut objects, media, global_medium) = object::objects(&mut ld, &desc, &materials, &material_names)?;
     let (lights, environment) = light::lights(cx, &ld.sp, &desc, unit_m, &shapes, &mut objects)?;
     let spectra_hash = ld.sp.hash.borrow().finish();
@@ -246,6 +246,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         materials,
         material_names,
         one_sided,
+        surface_frames,
         lights,
         light_pmf,
         light_cdf,

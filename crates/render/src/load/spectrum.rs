@@ -245,7 +245,7 @@ impl SpectrumCx<'_> {
             let cb = Checkerboard { squares: squares as u32, even: side("even")?, odd: side("odd")? };
             return Ok(SpectrumTexture::Checkerboard(std::sync::Arc::new(cb)));
         }
-        let (img, wrap, scale, filter) = self.texture_image(t, &span, field)?;
+        let (img, wrap, scale, filter) = self.texture_image(t, &span, field, crate::texture::image::Encoding::Srgb, &[])?;
         let uplift = match usage {
             SpectrumUse::Albedo => Uplift::Reflectance,
             SpectrumUse::Emission => Uplift::Illuminant,
@@ -266,7 +266,7 @@ impl SpectrumCx<'_> {
         if t.contains_key("checkerboard") {
             return Err(self.cx.err(&span, field, "a checkerboard gives spectra, not a number (use an image texture)"));
         }
-        let (img, wrap, scale, filter) = self.texture_image(t, &span, field)?;
+        let (img, wrap, scale, filter) = self.texture_image(t, &span, field, crate::texture::image::Encoding::Srgb, &[])?;
         let f = FloatImage::new(&img, wrap, scale).with_filter(filter);
         if let Some(i) = img.rgb.iter().position(|p| {
             let m = (p[0] + p[1] + p[2]) / 3.0;
@@ -278,12 +278,50 @@ impl SpectrumCx<'_> {
         Ok(Some(FloatTexture::Image(std::sync::Arc::new(f))))
     }
 
-    /// Reads the image of a texture table and its wrap mode and (u, v) scale.
-    fn texture_image(&self, t: &toml::value::Table, span: &Range<usize>, field: &str) -> Result<(crate::image_io::Image, crate::texture::Wrap, glam::Vec2, crate::texture::Filter)> {
+    /// A normal map (`{ texture = "file", wrap, scale, filter, encoding }`, read linearly unless
+    /// `encoding = "srgb"`) or a bump map (`{ texture = "file", height, wrap, scale, encoding }`,
+    /// `height` the scene-unit height of a texel value of 1), as `kind` says ("normal_map" or
+    /// "bump_map"), with its `shadowing` and `flip_invalid_normals` switches (both true unless
+    /// given); `unit_m` is metres per scene unit.
+    pub(crate) fn resolve_shading_map(&self, v: &Spanned<toml::Value>, field: &str, kind: &str, unit_m: f64) -> Result<(crate::texture::shading_map::ShadingMap, bool, bool)> {
+        use crate::texture::image::Encoding;
+        use crate::texture::shading_map::{BumpMap, NormalMap, ShadingMap};
+        use crate::texture::Filter;
+        let span = v.span();
+        let t = v
+            .get_ref()
+            .as_table()
+            .filter(|t| t.contains_key("texture"))
+            .ok_or_else(|| self.cx.err(&span, field, "must be a table with an image file: { texture = \"file.png\", … }"))?;
+        let switch = |key: &str| -> Result<bool> {
+            match t.get(key) {
+                None => Ok(true),
+                Some(b) => b.as_bool().ok_or_else(|| self.cx.err(&span, &format!("{field}.{key}"), "must be true or false")),
+            }
+        };
+        let (shadowing, flip) = (switch("shadowing")?, switch("flip_invalid_normals")?);
+        if kind == "normal_map" {
+            let (img, wrap, scale, filter) = self.texture_image(t, &span, field, Encoding::Linear, &["shadowing", "flip_invalid_normals"])?;
+            return Ok((ShadingMap::Normal(NormalMap::new(&img, wrap, scale, filter)), shadowing, flip));
+        }
+        let height = t.get("height").ok_or_else(|| self.cx.err(&span, &format!("{field}.height"), "missing (the height of a texel value of 1, in the scene unit)"))?;
+        let height = as_f64(height).filter(|h| h.is_finite()).ok_or_else(|| self.cx.err(&span, &format!("{field}.height"), "must be a finite number (scene unit)"))?;
+        let (img, wrap, scale, filter) = self.texture_image(t, &span, field, Encoding::Srgb, &["height", "shadowing", "flip_invalid_normals"])?;
+        if filter != Filter::Bilinear {
+            return Err(self.cx.err(&span, &format!("{field}.filter"), "a bump map is read bilinearly (its slope is the interpolation's derivative)"));
+        }
+        Ok((ShadingMap::Bump(BumpMap::new(&img, wrap, scale, (height * unit_m) as f32)), shadowing, flip))
+    }
+
+    /// Reads the image of a texture table and its wrap mode and (u, v) scale; PNG and JPEG are
+    /// decoded with `default_encoding` unless the table names one; `extra` are further keys the
+    /// caller reads.
+    fn texture_image(&self, t: &toml::value::Table, span: &Range<usize>, field: &str, default_encoding: crate::texture::image::Encoding, extra: &[&str]) -> Result<(crate::image_io::Image, crate::texture::Wrap, glam::Vec2, crate::texture::Filter)> {
         use crate::texture::{image::Encoding, Filter, Wrap};
         for k in t.keys() {
-            if !TEXTURE_KEYS.contains(&k.as_str()) {
-                return Err(self.cx.err(span, field, format!("unknown key `{k}`, expected one of {TEXTURE_KEYS:?}")));
+            if !TEXTURE_KEYS.contains(&k.as_str()) && !extra.contains(&k.as_str()) {
+                let known: Vec<&str> = TEXTURE_KEYS.iter().chain(extra).copied().collect();
+                return Err(self.cx.err(span, field, format!("unknown key `{k}`, expected one of {known:?}")));
             }
         }
         let rel = t["texture"].as_str().ok_or_else(|| self.cx.err(span, &format!("{field}.texture"), "must be an image file name"))?;
@@ -308,7 +346,8 @@ impl SpectrumCx<'_> {
             })?,
         };
         let encoding = match t.get("encoding").map(|e| e.as_str()) {
-            None | Some(Some("srgb")) => Encoding::Srgb,
+            None => default_encoding,
+            Some(Some("srgb")) => Encoding::Srgb,
             Some(Some("linear")) => Encoding::Linear,
             Some(_) => return Err(self.cx.err(span, &format!("{field}.encoding"), "must be \"srgb\" or \"linear\"")),
         };

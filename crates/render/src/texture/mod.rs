@@ -4,10 +4,12 @@
 //! convention; see [`crate::accel::SurfacePoint::uv`] for where they come from). A
 //! [`SpectrumTexture`] gives a spectrum at the path's wavelengths — a constant spectrum, an image
 //! whose RGB texels are uplifted to spectra per texel ([`image`]), or a procedural checkerboard
-//! ([`checkerboard`]); a [`FloatTexture`] gives one number (a roughness).
+//! ([`checkerboard`]); a [`FloatTexture`] gives one number (a roughness); a
+//! [`shading_map::ShadingMap`] tilts the shading normal (normal and bump maps).
 
 pub mod checkerboard;
 pub mod image;
+pub mod shading_map;
 
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
 use glam::Vec2;

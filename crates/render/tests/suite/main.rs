@@ -20,6 +20,7 @@ mod pinned_physics;
 mod projector;
 mod robustness;
 mod scene;
+mod shading_map;
 mod shapes;
 mod subsurface;
 mod subsurface_colour;
