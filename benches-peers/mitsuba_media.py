@@ -8,6 +8,8 @@ in Mitsuba 3 (`scalar_spectral` by default), `max_depth` 64 and roulette from 5 
 * `null`: a sphere (radius 0.6 m) of a Henyey–Greenstein medium (σ_s 2 m⁻¹ rising to 6 m⁻¹ from
   red to blue, σ_a 0.5 m⁻¹, g = 0.6) behind an index-matched boundary (lucent `interface`,
   Mitsuba `null`): light samples pass through the boundary and the medium attenuates them.
+* `rayleigh`: the same sphere with the Rayleigh phase function (lucent `phase = "rayleigh"`,
+  Mitsuba `rayleigh`).
 * `rough`: the same medium in a cube of edge 1.1 m behind a rough dielectric boundary (n = 1.33,
   GGX α = 0.3; lucent `rough_dielectric`, Mitsuba `roughdielectric`).
 * `spherelight`: no medium, a diffuse sphere (albedo 0.6) lit by the sphere lamp (cone sampling
@@ -49,7 +51,8 @@ LAMP = ([1.2, 2.2, -1.0], 0.3, 10.0)
 def lucent_scene(case):
     (lx, ly, lz), lr, le = LAMP
     per_mm = [s / 1000 for s in SIGMA_S_PER_M]
-    medium = (f"medium = {{ g = {G}, sigma_s_per_mm = {{ lambda_nm = {LAMBDA}, values = {per_mm} }}, "
+    phase = 'phase = "rayleigh"' if case == "rayleigh" else f"g = {G}"
+    medium = (f"medium = {{ {phase}, sigma_s_per_mm = {{ lambda_nm = {LAMBDA}, values = {per_mm} }}, "
               f"sigma_a_per_mm = {SIGMA_A_PER_M / 1000} }}")
     s = f"""unit = "m"
 camera = {{ eye = {EYE}, look_at = {TARGET}, up = [0, 1, 0], vfov_deg = {FOV}, width = {W}, height = {H} }}
@@ -87,7 +90,7 @@ radiance = {{ rgb = [{le}, {le}, {le}] }}
 type = "environment"
 radiance = {{ rgb = [0.2, 0.2, 0.2] }}
 """
-    if case == "null":
+    if case in ("null", "rayleigh"):
         s += f"[[objects]]\nmaterial = \"matched\"\nsphere = {{ center = [0, 0.6, 0], radius = 0.6 }}\n{medium}\n"
     elif case in ("rough", "rough_separable"):
         h = 0.55
@@ -132,8 +135,8 @@ def run_mitsuba(case, spp, variant):
     sigma_t = sigma_s + SIGMA_A_PER_M
     fine = lambda v: {"type": "irregular", "wavelengths": ", ".join(map(str, lam)), "values": ", ".join(f"{x:.9g}" for x in v)}
     medium = {"type": "homogeneous", "sigma_t": fine(sigma_t), "albedo": fine(sigma_s / sigma_t),
-              "scale": 1.0, "phase": {"type": "hg", "g": G}}
-    if case == "null":
+              "scale": 1.0, "phase": {"type": "rayleigh"} if case == "rayleigh" else {"type": "hg", "g": G}}
+    if case in ("null", "rayleigh"):
         scene["body"] = {"type": "sphere", "center": [0, 0.6, 0], "radius": 0.6, "bsdf": {"type": "null"}, "interior": medium}
     elif case in ("rough", "rough_separable"):
         scene["body"] = {"type": "cube", "to_world": T().translate([0, 0.551, 0]) @ T().scale(0.55),
@@ -147,7 +150,7 @@ def run_mitsuba(case, spp, variant):
 
 def main():
     a, work, _tmp = peer_args(__doc__, 128)
-    compare_cases(a, ("null", "rough", "rough_separable", "spherelight"),
+    compare_cases(a, ("null", "rayleigh", "rough", "rough_separable", "spherelight"),
                   lambda case: run_lucent(a.lucent, work, case, a.spp), lambda case: run_mitsuba(case, a.spp, a.variant))
 
 

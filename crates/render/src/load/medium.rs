@@ -52,12 +52,16 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
     if kinds.len() != 1 {
         return Err(cx.err(&span, field, format!("give exactly one of sigma_a_per_mm/sigma_s_per_mm/g, milk, recipe, preset (got {kinds:?})")));
     }
+    let rayleigh = t.get("phase").and_then(|p| p.as_str()) == Some("rayleigh");
     let use_table = match t.get("phase") {
         None => true,
         Some(toml::Value::String(p)) if p == "mie" || p == "tabulated" => true,
-        Some(toml::Value::String(p)) if p == "hg" => false,
-        Some(_) => return Err(cx.err(&span, &f("phase"), "must be \"mie\" (tabulated, default) or \"hg\" (Henyey–Greenstein with the Mie g)")),
+        Some(toml::Value::String(p)) if p == "hg" || p == "rayleigh" => false,
+        Some(_) => return Err(cx.err(&span, &f("phase"), "must be \"mie\" (tabulated, default), \"hg\" (Henyey–Greenstein with the Mie g) or \"rayleigh\" (with sigma_s_per_mm)")),
     };
+    if rayleigh && !t.contains_key("sigma_a_per_mm") {
+        return Err(cx.err(&span, &f("phase"), "\"rayleigh\" goes with sigma_a_per_mm and sigma_s_per_mm (milk, recipes and presets have their Mie phase function)"));
+    }
     let num = |tab: &toml::value::Table, key: &str, path: &str| -> Result<f64> {
         let x = tab.get(key).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "missing"))?;
         as_f64(x).filter(|x| x.is_finite()).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "must be a number"))
@@ -71,8 +75,11 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
     };
     match kinds[0] {
         "sigma_a_per_mm" => {
-            if t.contains_key("phase") {
-                return Err(cx.err(&span, &f("phase"), "only with milk, recipe or preset (give g here)"));
+            if t.contains_key("phase") && !rayleigh {
+                return Err(cx.err(&span, &f("phase"), "only \"rayleigh\" here (give g for Henyey–Greenstein; \"mie\" and \"hg\" go with milk, recipe or preset)"));
+            }
+            if rayleigh && t.contains_key("g") {
+                return Err(cx.err(&span, &f("g"), "not allowed with phase = \"rayleigh\" (its g is 0)"));
             }
             let per_mm_to_per_m = 1000.0; // m⁻¹ per mm⁻¹ (coefficients are in mm⁻¹ whatever the scene unit)
             let _ = unit_m;
@@ -90,7 +97,7 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
             if !(g.abs() < 1.0) {
                 return Err(cx.err(&span, &f("g"), format!("must lie in (-1, 1), got {g}")));
             }
-            let phase = PhaseModel::HenyeyGreenstein { g: optics::spectrum::DenseSpectrum::from_fn(|_| g) };
+            let phase = if rayleigh { crate::medium::rayleigh_phase() } else { PhaseModel::HenyeyGreenstein { g: optics::spectrum::DenseSpectrum::from_fn(|_| g) } };
             HomogeneousMedium::new(field, sigma_a, sigma_s, phase).map_err(|e| cx.err(&span, field, format!("{e:#}")))
         }
         "milk" => {
