@@ -13,7 +13,9 @@ cannot see itself). Its material is tilted by
 Each under a diffuse albedo of 0.6 (Mitsuba: `diffuse` inside `normalmap` / `bumpmap`, one-sided)
 a rough gold (GGX α 0.2, `roughconductor` with `distribution = "ggx"` and lucent's
 `masking = "separable"`) and an anisotropic rough copper (α_u 0.05 along ∂p/∂u, α_v 0.3), whose
-unmapped image checks the tangent frame itself. The script prints lucent / Mitsuba of the luminance: the median and
+unmapped image checks the tangent frame itself; and `blend` of the diffuse (weight 0) and the
+gold (weight 1) at weight 0.3 and at a textured weight (the heights image, 0.1–0.9), lucent's
+`blend` against Mitsuba's `blendbsdf`. The script prints lucent / Mitsuba of the luminance: the median and
 the 10th–90th percentiles over 4 × 4 blocks of the pixels that see the square, and the same
 for the plain (unmapped) material, whose image differs, as the check that the maps matter.
 
@@ -67,7 +69,21 @@ MATERIALS = {
     # Anisotropic: alpha_u along dp/du in both (the plain case checks the tangent frame).
     "anisotropic": ('type = "rough_conductor"\nmetal = "cu"\nalpha = [0.05, 0.3]\nmasking = "separable"',
                     {"type": "roughconductor", "material": "Cu", "alpha_u": 0.05, "alpha_v": 0.3, "distribution": "ggx"}),
+    # blendbsdf: the diffuse (weight 0) and the gold (weight 1), by a constant and by a texture.
+    "blend": ('type = "blend"\nmaterials = ["pa", "pb"]\nweight = 0.3', "blend", 0.3),
+    "blend_textured": ('type = "blend"\nmaterials = ["pa", "pb"]\nweight = { texture = "heights.exr" }', "blend", "texture"),
 }
+# The blends' two materials (lucent tables after the blend's own keys).
+BLEND_PARTS = """
+[materials.pa]
+type = "lambertian"
+albedo = 0.6
+[materials.pb]
+type = "rough_conductor"
+metal = "au"
+alpha = 0.2
+masking = "separable"
+"""
 MAPS = {
     "plain": ("", None),
     "normal": ('normal_map = { texture = "normals.exr" }', "normal"),
@@ -85,6 +101,7 @@ max_depth = 2
 two_sided = false
 {MATERIALS[mat][0]}
 {MAPS[mp][0]}
+{BLEND_PARTS if mat.startswith("blend") else ""}
 [[objects]]
 material = "m"
 mesh = "square.obj"
@@ -109,7 +126,12 @@ def render_mitsuba(variant, work, spp, mat, mp):
 
     mi.set_variant(variant)
     T = mi.ScalarTransform4f
-    bsdf = dict(MATERIALS[mat][1])
+    if mat.startswith("blend"):
+        w = MATERIALS[mat][2]
+        weight = {"type": "bitmap", "raw": True, "filename": os.path.join(work, "heights.exr")} if w == "texture" else w
+        bsdf = {"type": "blendbsdf", "weight": weight, "a": dict(MATERIALS["diffuse"][1]), "b": dict(MATERIALS["conductor"][1])}
+    else:
+        bsdf = dict(MATERIALS[mat][1])
     if MAPS[mp][1] == "normal":
         bsdf = {"type": "normalmap", "normalmap": {"type": "bitmap", "raw": True, "filename": os.path.join(work, "normals.exr")}, "bsdf": bsdf}
     elif MAPS[mp][1] == "bump":

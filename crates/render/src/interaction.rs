@@ -121,6 +121,22 @@ impl Shading {
         s.frame = if t0 == Vec3::ZERO || !t0.is_finite() { Frame::from_normal(n) } else { Frame { s: t0, t: n.cross(t0), n } };
     }
 
+    /// A number in [0, 1) fixed by this point and the direction `wo` it is seen from, that
+    /// chooses a blend material's component ([`crate::material::Material::select`]) without
+    /// drawing from the path's random numbers (pbrt-v4 hashes the point and wo for its
+    /// `MixMaterial`): the bits of both through SplitMix64's finaliser.
+    #[inline]
+    pub fn selector(&self, wo: Vec3) -> f32 {
+        let mut h = 0x9e37_79b9_7f4a_7c15u64;
+        for x in [self.p.x, self.p.y, self.p.z, wo.x, wo.y, wo.z] {
+            h = (h ^ x.to_bits() as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+            h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            h ^= h >> 31;
+        }
+        (h >> 40) as f32 / (1u64 << 24) as f32
+    }
+
     /// Texture coordinates of this point ([`crate::accel::Accel::uv`]); computed on demand, so
     /// untextured surfaces never pay for them.
     #[inline]

@@ -197,5 +197,10 @@ fn reflectance(mat: &Material, wl: &SampledWavelengths, front: bool, uv: glam::V
             let bsdf = mat.bsdf(wl, uv).facing(front);
             bsdf.eval(wo_local, Vec3::Z) * std::f32::consts::PI
         }
+        // A blend's reflectance is its components' weighted by w.
+        Material::Blend { a, b, weight } => {
+            let w = weight.eval(uv).clamp(0.0, 1.0);
+            reflectance(a, wl, front, uv, wo_local) * (1.0 - w) + reflectance(b, wl, front, uv, wo_local) * w
+        }
     }
 }

@@ -37,7 +37,8 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut
     let bsdf = if scene.black_behind(obj.material, front) {
         crate::bsdf::Bsdf::Black
     } else {
-        scene.materials[obj.material as usize].bsdf_with(wl, || s.uv(scene)).facing(front) // back face: η → 1/η
+        // A blend's component first; back face: η → 1/η.
+        scene.materials[obj.material as usize].select(|| s.selector(wo), || s.uv(scene)).bsdf_with(wl, || s.uv(scene)).facing(front)
     };
     if bsdf.is_black() {
         return l;

@@ -81,7 +81,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
         if depth >= settings.max_depth {
             break;
         }
-        let mat = &scene.materials[obj.material as usize];
+        let mat = scene.materials[obj.material as usize].select(|| s.selector(wo), || s.uv(scene));
         let bsdf = match (mat.as_translucent(), sss) {
             // Translucent with a BSSRDF: the boundary's surface reflection (mirror, or the rough
             // dielectric's reflection lobe), plus the diffusive term.

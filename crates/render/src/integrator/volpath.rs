@@ -138,7 +138,7 @@ impl Default for VolpathOptions {
 pub fn index_matched(m: &Material) -> bool {
     match m {
         Material::Dielectric { ior, .. } => ior.samples().iter().all(|&x| x == 1.0),
-        Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Translucent(_) => false,
+        Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Translucent(_) | Material::Blend { .. } => false,
     }
 }
 
@@ -761,7 +761,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 l += beta * le * w;
             }
         }
-        let material = &scene.materials[obj.material as usize];
+        let material = scene.materials[obj.material as usize].select(|| sp.selector(wo), || sp.uv(scene));
         if index_matched(material) {
             // Pass-through boundary: change medium, keep going in the same direction.
             depth -= 1;
@@ -991,7 +991,7 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
                 add(&mut l, num, den, le);
             }
         }
-        let material = &scene.materials[obj.material as usize];
+        let material = scene.materials[obj.material as usize].select(|| sp.selector(wo), || sp.uv(scene));
         if index_matched(material) {
             medium = cross(scene, sp.object, front, medium);
             ray = Ray { o: sp.p - ng * scene.ray_epsilon_m, d: ray.d, t_min: 0.0, t_max: f32::INFINITY };

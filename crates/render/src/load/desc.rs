@@ -116,6 +116,9 @@ pub(crate) struct MaterialDesc {
     pub(crate) normal_map: Option<Spanned<toml::Value>>,
     /// `{ texture = "file", height, … }`: a height field.
     pub(crate) bump_map: Option<Spanned<toml::Value>>,
+    /// `blend`: the names of its two materials, and the weight of the second.
+    pub(crate) materials: Option<Spanned<Vec<String>>>,
+    pub(crate) weight: Option<Spanned<toml::Value>>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

@@ -21,19 +21,28 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
     let mut material_names = Vec::new();
     let mut one_sided = Vec::new();
     let mut frames = Vec::new();
+    let mut blends = Vec::new();
     for (name, m) in &desc.materials {
         let span = m.span();
         let m = m.get_ref();
         let field = format!("materials.{}", short(name));
-        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null") {
+        for (key, present) in [("materials", m.materials.is_some()), ("weight", m.weight.is_some())] {
+            if present && m.kind != "blend" {
+                return Err(cx.err(&span, &format!("{field}.{key}"), format!("only allowed for a blend material, not {}", quote(&m.kind))));
+            }
+        }
+        if m.kind == "blend" && m.albedo.is_some() {
+            return Err(cx.err(&span, &format!("{field}.albedo"), "not allowed for a blend material (its materials have theirs)"));
+        }
+        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null" | "blend") {
             for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
                 if present {
                     return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
                 }
             }
         }
-        if m.two_sided.is_some() && !matches!(m.kind.as_str(), "lambertian" | "diffuse" | "plastic" | "conductor" | "rough_conductor") {
-            return Err(cx.err(&span, &format!("{field}.two_sided"), format!("only allowed for a reflecting material (lambertian, plastic, conductor), not {}", quote(&m.kind))));
+        if m.two_sided.is_some() && !matches!(m.kind.as_str(), "lambertian" | "diffuse" | "plastic" | "conductor" | "rough_conductor" | "blend") {
+            return Err(cx.err(&span, &format!("{field}.two_sided"), format!("only allowed for a reflecting material (lambertian, plastic, conductor, blend), not {}", quote(&m.kind))));
         }
         if m.coupling.is_some() && m.kind != "plastic" {
             return Err(cx.err(&span, &format!("{field}.coupling"), format!("only allowed for a plastic material, not {}", quote(&m.kind))));
@@ -85,23 +94,79 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
                 Material::Translucent(std::sync::Arc::new(t))
             }
             "dielectric" | "rough_dielectric" | "thin_dielectric" | "conductor" | "rough_conductor" | "plastic" => bsdf_material(cx, &sp, m, &span, &field)?,
+            // Resolved below, once every other material is built.
+            "blend" => {
+                blends.push((materials.len(), name, m, span.clone(), field.clone()));
+                Material::Black
+            }
             other => {
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, translucent)", quote(other)),
+                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, blend, translucent)", quote(other)),
                 ))
             }
         };
-        frames.push(surface_frame(cx, sp, m, &field, &mat, unit_m)?);
+        // A blend's frame is made once its materials are known (below).
+        frames.push(if m.kind == "blend" { None } else { surface_frame(cx, sp, m, &field, &mat, unit_m)? });
         materials.push(mat);
         material_names.push(name.clone());
         one_sided.push(m.two_sided == Some(false));
+    }
+    for (i, name, m, span, field) in blends {
+        let mat = blend(cx, sp, m, &span, &field, name, &materials, &material_names, &desc.materials)?;
+        frames[i] = surface_frame(cx, sp, m, &field, &mat, unit_m)?;
+        materials[i] = mat;
     }
     if frames.iter().all(|f| f.is_none()) {
         frames.clear();
     }
     Ok((materials, material_names, one_sided, frames))
+}
+
+/// A `blend` material (`materials = ["a", "b"]`, `weight` w ∈ [0, 1] of `b`, a number or a
+/// texture) from the other materials, already built; a blend's materials must be plain
+/// reflecting or transmitting materials (no blend, translucent or interface, and without maps or
+/// `two_sided`, which the blend itself carries).
+#[allow(clippy::too_many_arguments)]
+fn blend(
+    cx: &Cx,
+    sp: &SpectrumCx,
+    m: &MaterialDesc,
+    span: &Range<usize>,
+    field: &str,
+    name: &str,
+    materials: &[Material],
+    names: &[String],
+    descs: &std::collections::BTreeMap<String, Spanned<MaterialDesc>>,
+) -> Result<Material> {
+    let list = m.materials.as_ref().ok_or_else(|| cx.err(span, &format!("{field}.materials"), "missing (a blend needs materials = [\"first\", \"second\"])"))?;
+    if list.get_ref().len() != 2 {
+        return Err(cx.err(&list.span(), &format!("{field}.materials"), format!("must name exactly two materials, got {}", list.get_ref().len())));
+    }
+    let mut parts = Vec::new();
+    for n in list.get_ref() {
+        let at = names.iter().position(|x| x == n).ok_or_else(|| cx.err(&list.span(), &format!("{field}.materials"), format!("unknown material {}", quote(n))))?;
+        let d = descs[n].get_ref();
+        if n == name || matches!(d.kind.as_str(), "blend" | "translucent" | "interface" | "null") {
+            return Err(cx.err(&list.span(), &format!("{field}.materials"), format!("{} is a {} material; a blend takes two plain materials", quote(n), d.kind)));
+        }
+        if d.normal_map.is_some() || d.bump_map.is_some() || d.two_sided.is_some() {
+            return Err(cx.err(&list.span(), &format!("{field}.materials"), format!("{} has a normal or bump map or two_sided; give those to the blend {}", quote(n), quote(name))));
+        }
+        parts.push(Box::new(materials[at].clone()));
+    }
+    let w = m.weight.as_ref().ok_or_else(|| cx.err(span, &format!("{field}.weight"), "missing (the weight of the second material, 0 to 1, or a texture)"))?;
+    let weight = match sp.resolve_float_texture(w, &format!("{field}.weight"), 0.0, 1.0)? {
+        Some(t) => t,
+        None => {
+            let x = as_f64(w.get_ref()).filter(|x| (0.0..=1.0).contains(x)).ok_or_else(|| cx.err(&w.span(), &format!("{field}.weight"), "must be a number in [0, 1] or a texture"))?;
+            crate::texture::FloatTexture::Constant(x as f32)
+        }
+    };
+    let b = parts.pop().expect("two");
+    let a = parts.pop().expect("two");
+    Ok(Material::Blend { a, b, weight })
 }
 
 /// The shading frame of material `mat`: with its normal or bump map, if it has one; tied to
@@ -120,10 +185,14 @@ fn surface_frame(cx: &Cx, sp: &SpectrumCx, m: &MaterialDesc, field: &str, mat: &
         let (m, sh, fl) = sp.resolve_shading_map(v, &format!("{field}.{key}"), key, unit_m)?;
         (map, shadowing, flip_invalid) = (Some(std::sync::Arc::new(m)), sh, fl);
     }
-    let anisotropic = match mat {
-        Material::Dielectric { distrib, .. } | Material::Conductor { distrib, .. } => distrib.alpha_x != distrib.alpha_y,
-        _ => false,
-    };
+    fn anisotropic(mat: &Material) -> bool {
+        match mat {
+            Material::Dielectric { distrib, .. } | Material::Conductor { distrib, .. } => distrib.alpha_x != distrib.alpha_y,
+            Material::Blend { a, b, .. } => anisotropic(a) || anisotropic(b),
+            _ => false,
+        }
+    }
+    let anisotropic = anisotropic(mat);
     Ok((map.is_some() || anisotropic).then_some(SurfaceFrame { map, shadowing, flip_invalid }))
 }
 

@@ -80,6 +80,17 @@ pub enum Material {
         /// ([`CoatedDiffuse::nonlinear`]).
         nonlinear: bool,
     },
+    /// A blend of two materials (Mitsuba 3's `blendbsdf`): f = (1 − w) f_a + w f_b. The
+    /// integrators take one of the two at each shading point, `b` with probability w
+    /// ([`Material::select`], pbrt-v4's `MixMaterial`), which has the blend as its expectation.
+    Blend {
+        /// The material at weight 0.
+        a: Box<Material>,
+        /// The material at weight 1.
+        b: Box<Material>,
+        /// The weight w ∈ [0, 1] of `b`; constant or textured.
+        weight: FloatTexture,
+    },
     /// Translucent object (closed mesh) rendered with a dipole BSSRDF ([`crate::integrator::subsurface`]); as a
     /// BSDF it is its smooth or rough dielectric boundary (what volumetric path tracing sees).
     Translucent(std::sync::Arc<translucent::Translucent>),
@@ -91,7 +102,24 @@ impl Material {
     pub fn as_translucent(&self) -> Option<&std::sync::Arc<translucent::Translucent>> {
         match self {
             Material::Translucent(t) => Some(t),
-            Material::Lambertian { .. } | Material::Black | Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } => None,
+            Material::Lambertian { .. } | Material::Black | Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Blend { .. } => None,
+        }
+    }
+
+    /// The material a shading point uses: a blend's `b` when `u()` (uniform in [0, 1), drawn
+    /// once per shading point) is below its weight at `uv()`, else its `a`; any other material
+    /// is itself. Neither closure is called for a material that is not a blend.
+    #[inline(always)]
+    pub fn select(&self, u: impl FnOnce() -> f32, uv: impl FnOnce() -> Vec2) -> &Material {
+        match self {
+            Material::Blend { a, b, weight } => {
+                if u() < weight.eval_with(uv) {
+                    b
+                } else {
+                    a
+                }
+            }
+            _ => self,
         }
     }
 
@@ -165,7 +193,7 @@ impl Material {
         match self {
             Material::Dielectric { ior, dispersive, distrib, .. } => Some(Material::Dielectric { ior, dispersive, distrib, roughness: Some(roughness) }),
             Material::Conductor { eta, k, distrib, .. } => Some(Material::Conductor { eta, k, distrib, roughness: Some(roughness) }),
-            Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Plastic { .. } | Material::Translucent(_) => None,
+            Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Plastic { .. } | Material::Translucent(_) | Material::Blend { .. } => None,
         }
     }
 
@@ -175,6 +203,7 @@ impl Material {
             Material::Lambertian { albedo } | Material::Plastic { albedo, .. } => albedo.is_textured(),
             Material::Dielectric { roughness, .. } | Material::Conductor { roughness, .. } => roughness.is_some(),
             Material::Black | Material::ThinDielectric { .. } | Material::Translucent(_) => false,
+            Material::Blend { a, b, weight } => matches!(weight, FloatTexture::Image(_)) || a.is_textured() || b.is_textured(),
         }
     }
 
@@ -247,6 +276,12 @@ impl Material {
                 mitsuba: *mitsuba,
             }),
             Material::Translucent(t) => t.boundary_dielectric(),
+            // The integrators choose a blend's component first ([`Material::select`]); here the
+            // component that u = ½ would choose.
+            Material::Blend { .. } => {
+                let uv = uv();
+                self.select(|| 0.5, || uv).bsdf(wl, uv)
+            }
         }
     }
 }

@@ -3,6 +3,8 @@
 use render::integrator::{IntegratorKind, IntegratorSettings};
 use render::scene::Scene;
 use std::path::{Path, PathBuf};
+use glam::Vec3;
+use render::integrator::render_pass;
 
 #[allow(dead_code)]
 pub fn repo() -> PathBuf {
@@ -46,3 +48,70 @@ pub fn assert_one_line_error(loaded: anyhow::Result<Scene>, needles: &[&str]) {
         assert!(e.contains(n), "error `{e}` does not mention `{n}`");
     }
 }
+
+#[allow(dead_code)]
+/// A temporary folder for a test's files.
+pub fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lucent-test-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[allow(dead_code)]
+/// A scene from `text`, its files relative to `dir`.
+pub fn load_in(dir: &Path, text: &str) -> Scene {
+    Scene::from_toml_str(text, "test.toml", dir).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+#[allow(dead_code)]
+/// The quad [−1, 1]² in the plane z = 0, normal +z, u along +x and v along +y (so the tangent
+/// frame is (x, y, z)), seen from `eye`, under `lights`.
+pub fn quad_scene(eye: Vec3, material: &str, lights: &str) -> String {
+    format!(
+        r#"
+        [camera]
+        eye = [{}, {}, {}]
+        look_at = [0, 0, 0]
+        up = [0, 1, 0]
+        vfov_deg = 8
+        width = 16
+        height = 16
+        [integrator]
+        type = "direct"
+        emitter_samples = 1
+        bsdf_samples = 0
+        [materials.m]
+        {material}
+        [[objects]]
+        material = "m"
+        quad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]
+        {lights}
+        "#,
+        eye.x, eye.y, eye.z
+    )
+}
+
+#[allow(dead_code)]
+pub fn directional(to_light: Vec3, e: f64) -> String {
+    let d = -to_light.normalize();
+    format!("[[lights]]\ntype = \"directional\"\ndirection = [{}, {}, {}]\nirradiance = {e}", d.x, d.y, d.z)
+}
+
+#[allow(dead_code)]
+/// Mean luminance Y over the image, and its standard error, from 128 passes: each camera
+/// sample's one light sample is exact, so the noise is only that of the sampled wavelengths.
+pub fn pixels(s: &Scene) -> (f64, f64) {
+    let (w, h) = s.resolution();
+    let mut buf = vec![[0f32; 3]; (w * h) as usize];
+    let passes = 128;
+    let means: Vec<f64> = (0..passes)
+        .map(|p| {
+            render_pass(s, &s.integrator, 1, p, &mut buf);
+            buf.iter().map(|xyz| xyz[1] as f64).sum::<f64>() / buf.len() as f64
+        })
+        .collect();
+    let m = means.iter().sum::<f64>() / passes as f64;
+    let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((passes - 1) * passes) as f64).sqrt();
+    (m, se)
+}
+

@@ -2,6 +2,7 @@
 
 mod common;
 mod aov;
+mod blend;
 mod bsdf;
 mod bsdf_scene;
 mod bvh;

@@ -13,20 +13,9 @@ use crate::common::*;
 
 use glam::Vec3;
 use render::image_io::{write_image, Image};
-use render::integrator::render_pass;
 use render::scene::Scene;
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
-
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lucent-shading-map-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn load(dir: &Path, text: &str) -> Scene {
-    Scene::from_toml_str(text, "test.toml", dir).unwrap_or_else(|e| panic!("{e:#}"))
-}
+use std::path::Path;
 
 /// A 4 × 4 PFM whose every texel is the tangent-space normal `n` stored as (n + 1)/2.
 fn constant_normal_map(dir: &Path, name: &str, n: Vec3) -> String {
@@ -34,55 +23,6 @@ fn constant_normal_map(dir: &Path, name: &str, n: Vec3) -> String {
     let c = [(n.x + 1.0) / 2.0, (n.y + 1.0) / 2.0, (n.z + 1.0) / 2.0];
     write_image(&dir.join(name), &Image::from_rgb(4, 4, vec![c; 16]).unwrap(), 0.0).unwrap();
     name.to_string()
-}
-
-/// The quad [−1, 1]² in the plane z = 0, normal +z, u along +x and v along +y (so the tangent
-/// frame is (x, y, z)), seen from `eye`, under `lights`.
-fn quad_scene(eye: Vec3, material: &str, lights: &str) -> String {
-    format!(
-        r#"
-        [camera]
-        eye = [{}, {}, {}]
-        look_at = [0, 0, 0]
-        up = [0, 1, 0]
-        vfov_deg = 8
-        width = 16
-        height = 16
-        [integrator]
-        type = "direct"
-        emitter_samples = 1
-        bsdf_samples = 0
-        [materials.m]
-        {material}
-        [[objects]]
-        material = "m"
-        quad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]
-        {lights}
-        "#,
-        eye.x, eye.y, eye.z
-    )
-}
-
-fn directional(to_light: Vec3, e: f64) -> String {
-    let d = -to_light.normalize();
-    format!("[[lights]]\ntype = \"directional\"\ndirection = [{}, {}, {}]\nirradiance = {e}", d.x, d.y, d.z)
-}
-
-/// Mean luminance Y over the image, and its standard error, from 128 passes: each camera
-/// sample's one light sample is exact, so the noise is only that of the sampled wavelengths.
-fn pixels(s: &Scene) -> (f64, f64) {
-    let (w, h) = s.resolution();
-    let mut buf = vec![[0f32; 3]; (w * h) as usize];
-    let passes = 128;
-    let means: Vec<f64> = (0..passes)
-        .map(|p| {
-            render_pass(s, &s.integrator, 1, p, &mut buf);
-            buf.iter().map(|xyz| xyz[1] as f64).sum::<f64>() / buf.len() as f64
-        })
-        .collect();
-    let m = means.iter().sum::<f64>() / passes as f64;
-    let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((passes - 1) * passes) as f64).sqrt();
-    (m, se)
 }
 
 fn assert_all(what: &str, (m, se): (f64, f64), expect: f64) {
@@ -101,7 +41,7 @@ fn estevez(cos_p: f64, cos_l: f64) -> f64 {
 
 #[test]
 fn a_constant_normal_map_tilts_the_lambert_cosine() {
-    let dir = tmp_dir("constant");
+    let dir = tmp_dir("shading-map-constant");
     let (rho, e) = (0.6, 3.0);
     let np = Vec3::new(0.5, 0.3, 0.8).normalize();
     let map = constant_normal_map(&dir, "n.pfm", np);
@@ -117,17 +57,17 @@ fn a_constant_normal_map_tilts_the_lambert_cosine() {
         (format!("type = \"lambertian\"\nalbedo = {rho}\nnormal_map = {{ texture = \"{map}\" }}"), tilted * shadow, "normal map"),
         (format!("type = \"lambertian\"\nalbedo = {rho}\nnormal_map = {{ texture = \"{map}\", shadowing = false }}"), tilted, "without shadowing"),
     ] {
-        assert_all(what, pixels(&load(&dir, &quad_scene(eye, &mat, &directional(l, e)))), expect);
+        assert_all(what, pixels(&load_in(&dir, &quad_scene(eye, &mat, &directional(l, e)))), expect);
     }
     // A flat map (0, 0, 1) changes nothing.
     let flat = constant_normal_map(&dir, "flat.pfm", Vec3::Z);
     let mat = format!("type = \"lambertian\"\nalbedo = {rho}\nnormal_map = {{ texture = \"{flat}\" }}");
-    assert_all("flat map", pixels(&load(&dir, &quad_scene(eye, &mat, &directional(l, e)))), plain);
+    assert_all("flat map", pixels(&load_in(&dir, &quad_scene(eye, &mat, &directional(l, e)))), plain);
     // Light above the surface but below the tilted normal: black.
     let steep = constant_normal_map(&dir, "steep.pfm", Vec3::new(0.8, 0.0, 0.6));
     let mat = format!("type = \"lambertian\"\nalbedo = {rho}\nnormal_map = {{ texture = \"{steep}\" }}");
     let below = Vec3::new(-0.9, 0.0, 0.3).normalize();
-    assert_all("light below the tilted normal", pixels(&load(&dir, &quad_scene(eye, &mat, &directional(below, e)))), 0.0);
+    assert_all("light below the tilted normal", pixels(&load_in(&dir, &quad_scene(eye, &mat, &directional(below, e)))), 0.0);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -135,7 +75,7 @@ fn a_constant_normal_map_tilts_the_lambert_cosine() {
 fn a_tilted_normal_facing_away_from_the_viewer_is_mirrored() {
     // Seen from the −x side at a grazing angle, the normal tilted towards +x faces away from the
     // viewer; Mitsuba 3's flip mirrors its tangential part: n' = (−0.8, 0, 0.6).
-    let dir = tmp_dir("flip");
+    let dir = tmp_dir("shading-map-flip");
     let (rho, e) = (0.5, 2.0);
     let np = Vec3::new(0.8, 0.0, 0.6);
     let map = constant_normal_map(&dir, "n.pfm", np);
@@ -145,9 +85,9 @@ fn a_tilted_normal_facing_away_from_the_viewer_is_mirrored() {
     let mirrored = Vec3::new(-0.8, 0.0, 0.6);
     let expect = rho / PI * e * mirrored.dot(l) as f64 * y_of_one() * estevez(0.6, l.z as f64);
     let mat = format!("type = \"lambertian\"\nalbedo = {rho}\nnormal_map = {{ texture = \"{map}\" }}");
-    assert_all("flipped", pixels(&load(&dir, &quad_scene(eye, &mat, &directional(l, e)))), expect);
+    assert_all("flipped", pixels(&load_in(&dir, &quad_scene(eye, &mat, &directional(l, e)))), expect);
     let mat = format!("type = \"lambertian\"\nalbedo = {rho}\nnormal_map = {{ texture = \"{map}\", flip_invalid_normals = false }}");
-    assert_all("not flipped", pixels(&load(&dir, &quad_scene(eye, &mat, &directional(l, e)))), 0.0);
+    assert_all("not flipped", pixels(&load_in(&dir, &quad_scene(eye, &mat, &directional(l, e)))), 0.0);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -156,7 +96,7 @@ fn a_bump_ramp_tilts_the_normal_by_its_slope() {
     // Texel i of 32 holds (i + ½)/32, so the bilinear height is h = H u (in the scene unit, mm
     // here) between the first and last texel centres. On the quad, ∂p/∂u = (2, 0, 0) mm: the
     // bumped normal is (−H/2, 0, 1)/‖…‖, whatever the unit.
-    let dir = tmp_dir("bump");
+    let dir = tmp_dir("shading-map-bump");
     let (rho, e, h) = (0.7, 1.5, 0.8);
     let w = 32;
     let rgb = (0..4).flat_map(|_| (0..w).map(|i| [(i as f32 + 0.5) / w as f32; 3])).collect();
@@ -168,7 +108,7 @@ fn a_bump_ramp_tilts_the_normal_by_its_slope() {
         let mat = format!("type = \"lambertian\"\nalbedo = {rho}\nbump_map = {{ texture = \"h.pfm\", height = {h}, wrap = \"clamp\"{extra} }}");
         let text = format!("unit = \"mm\"\n{}", quad_scene(Vec3::new(0.0, 0.0, 4.0), &mat, &directional(l, e)));
         // The camera's 8° view of the quad at 4 mm covers |x| < 0.28 mm: inside the ramp.
-        assert_all(&format!("bump{extra}"), pixels(&load(&dir, &text)), expect * shadow);
+        assert_all(&format!("bump{extra}"), pixels(&load_in(&dir, &text)), expect * shadow);
     }
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -178,7 +118,7 @@ fn a_normal_mapped_plane_under_a_uniform_sky_sees_its_tilted_view_factor() {
     // ∫ over the directions above both the plane and the tilted normal n_p of (ω·n_p) dω is
     // π (1 + cos θ_p)/2, so a Lambertian plane of albedo ρ under radiance L reflects
     // ρ L (1 + cos θ_p)/2 (without the shadowing term). Path tracing with light and BSDF samples.
-    let dir = tmp_dir("sky");
+    let dir = tmp_dir("shading-map-sky");
     let (rho, l) = (0.8, 1.0);
     let np = Vec3::new(0.8, 0.0, 0.6);
     let map = constant_normal_map(&dir, "n.pfm", np);
@@ -188,7 +128,7 @@ fn a_normal_mapped_plane_under_a_uniform_sky_sees_its_tilted_view_factor() {
         &format!("[[lights]]\ntype = \"environment\"\nradiance = {l}"),
     )
     .replace("type = \"direct\"\n        emitter_samples = 1\n        bsdf_samples = 0", "type = \"path\"\n        max_depth = 2");
-    let s = load(&dir, &text);
+    let s = load_in(&dir, &text);
     let (m, se) = pixels(&s);
     let expect = rho * l * (1.0 + np.z as f64) / 2.0 * y_of_one();
     assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
@@ -202,7 +142,7 @@ fn a_normal_mapped_plane_under_a_uniform_sky_sees_its_tilted_view_factor() {
 fn anisotropic_roughness_follows_the_u_direction() {
     // The same quad with its texture coordinates turned by 90° (u along +y) and α_x, α_y swapped
     // gives the same image; with the tangent frame not tied to u (the normal alone) it would not.
-    let dir = tmp_dir("aniso");
+    let dir = tmp_dir("shading-map-aniso");
     let write = |name: &str, vt: [[f32; 2]; 4]| {
         let mut s = String::from("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n");
         for t in vt {
@@ -218,7 +158,7 @@ fn anisotropic_roughness_follows_the_u_direction() {
     let image = |mesh: &str, alpha: &str| {
         let text = quad_scene(eye, &format!("type = \"rough_conductor\"\nmetal = \"cu\"\nalpha = {alpha}"), &directional(l, 2.0))
             .replace("quad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]", &format!("mesh = \"{mesh}\""));
-        pixels(&load(&dir, &text))
+        pixels(&load_in(&dir, &text))
     };
     let a = image("u_along_x.obj", "[0.05, 0.3]");
     let b = image("u_along_y.obj", "[0.3, 0.05]");
@@ -232,7 +172,7 @@ fn anisotropic_roughness_follows_the_u_direction() {
 
 #[test]
 fn shading_map_errors_are_one_line_and_name_the_field() {
-    let dir = tmp_dir("errors");
+    let dir = tmp_dir("shading-map-errors");
     let map = constant_normal_map(&dir, "n.pfm", Vec3::Z);
     let base = |m: &str| quad_scene(Vec3::new(0.0, 0.0, 4.0), m, &directional(Vec3::Z, 1.0));
     for (mat, needles) in [
