@@ -11,6 +11,8 @@ OpenCV's chessboard corners are refined by cornerSubPix with a (5, 5) window: an
 moves corners by pixels where squares are under about 20 px (docs/scanning.md).
 """
 import argparse, glob, json, os, re, time
+# numpy's OpenBLAS threads spin on the second core between calls and slow both finders: one.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import cv2
 import numpy as np
 import lucent
@@ -72,6 +74,9 @@ def main():
             out[f'calibration_{name}_points'] = {'rms_px': rms, 'fx': k[0, 0], 'fy': k[1, 1], 'cx': k[0, 2], 'cy': k[1, 2], 'dist': dist.ravel().tolist()}
             print(f"calibrateCamera on {name}'s points: RMS {rms:.4f} px, fx {k[0, 0]:.2f}, fy {k[1, 1]:.2f}, cx {k[0, 2]:.2f}, cy {k[1, 2]:.2f}")
     print(f"found: OpenCV {out['opencv_found']} / lucent {out['lucent_found']} of {out['images']}; order differs in {len(out['order_differs'])}")
+    t_cv, t_lu = (sum(r[k] for r in rows) / len(rows) for k in ('opencv_s', 'lucent_s'))
+    out['mean_opencv_s'], out['mean_lucent_s'] = t_cv, t_lu
+    print(f"mean time a view: OpenCV {t_cv * 1e3:.2f} ms, lucent {t_lu * 1e3:.2f} ms (lucent / OpenCV {t_lu / t_cv:.2f})")
     if a.json:
         with open(a.json, 'w') as fh:
             json.dump(out, fh, indent=1)

@@ -43,7 +43,7 @@
 //!
 //! Pixel convention: OpenCV's (integer coordinates at pixel centres).
 
-use super::homography::{apply, fit_homography, Point2};
+use super::homography::{apply, fit_homography_fast, Point2};
 use anyhow::{anyhow, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -104,6 +104,14 @@ impl GrayImage {
     /// crop reaching beyond the image repeats its edge, as [`GrayImage::blur`] does).
     pub fn crop_clamped(&self, x0: isize, y0: isize, width: usize, height: usize) -> GrayImage {
         let mut data = Vec::with_capacity(width * height);
+        if x0 >= 0 && y0 >= 0 && x0 as usize + width <= self.width && y0 as usize + height <= self.height {
+            // Inside the image: row copies.
+            for y in 0..height {
+                let start = (y0 as usize + y) * self.width + x0 as usize;
+                data.extend_from_slice(&self.data[start..start + width]);
+            }
+            return GrayImage { width, height, data };
+        }
         for y in 0..height as isize {
             for x in 0..width as isize {
                 data.push(self.px(x0 + x, y0 + y));
@@ -119,25 +127,31 @@ impl GrayImage {
         let sum: f32 = k.iter().sum();
         let k: Vec<f32> = k.iter().map(|v| v / sum).collect();
         let (w, h) = (self.width, self.height);
-        // Horizontal pass: each pixel sums its taps in the order −r…r (clamped at the borders);
-        // in the interior the taps run in the outer loop, so that the inner one is a vectorisable
-        // multiply-add along the row with the same order of additions per pixel.
+        // Horizontal pass: each pixel sums its taps (clamped at the borders); in the interior the
+        // taps run in the outer loop, so that the inner one is a vectorisable multiply-add along
+        // the row.
         let mut tmp = vec![0f32; w * h];
         let ri = r as usize;
         for (y, row_out) in tmp.chunks_exact_mut(w).enumerate() {
             let row = &self.data[y * w..(y + 1) * w];
+            // The centre tap, then the pairs at ±d (the interior's order of operations).
             let clamped = |x: usize| -> f32 {
-                let mut s = 0.0;
-                for (off, kv) in (-r..=r).zip(&k) {
-                    s += kv * row[(x as isize + off).clamp(0, w as isize - 1) as usize];
+                let mut s = k[ri] * row[x];
+                for d in 1..=ri {
+                    s += k[ri + d] * (row[x.saturating_sub(d)] + row[(x + d).min(w - 1)]);
                 }
                 s
             };
             if w > 2 * ri {
-                for (j, &kv) in k.iter().enumerate() {
-                    let src = &row[j..j + w - 2 * ri];
-                    for (o, &v) in row_out[ri..w - ri].iter_mut().zip(src) {
-                        *o += kv * v;
+                // The kernel is symmetric: the taps at ±d share one multiply.
+                let n = w - 2 * ri;
+                for (o, &v) in row_out[ri..w - ri].iter_mut().zip(&row[ri..ri + n]) {
+                    *o = k[ri] * v;
+                }
+                for d in 1..=ri {
+                    let (lo, hi) = (&row[ri - d..ri - d + n], &row[ri + d..ri + d + n]);
+                    for ((o, &a), &b) in row_out[ri..w - ri].iter_mut().zip(lo).zip(hi) {
+                        *o += k[ri + d] * (a + b);
                     }
                 }
                 for x in (0..ri).chain(w - ri..w) {
@@ -149,13 +163,21 @@ impl GrayImage {
                 }
             }
         }
-        // Vertical pass: the same taps, accumulated a row at a time (the same sums per pixel).
+        // Vertical pass: the same taps, accumulated a row at a time.
         let mut out = vec![0f32; w * h];
+        let row_at = |y: isize| -> &[f32] {
+            let yy = y.clamp(0, h as isize - 1) as usize;
+            &tmp[yy * w..(yy + 1) * w]
+        };
         for (y, row_out) in out.chunks_exact_mut(w).enumerate() {
-            for (off, kv) in (-r..=r).zip(&k) {
-                let yy = (y as isize + off).clamp(0, h as isize - 1) as usize;
-                for (o, v) in row_out.iter_mut().zip(&tmp[yy * w..(yy + 1) * w]) {
-                    *o += kv * v;
+            let y = y as isize;
+            for (o, &v) in row_out.iter_mut().zip(row_at(y)) {
+                *o = k[ri] * v;
+            }
+            for d in 1..=r {
+                let kv = k[ri + d as usize];
+                for ((o, &a), &b) in row_out.iter_mut().zip(row_at(y - d)).zip(row_at(y + d)) {
+                    *o += kv * (a + b);
                 }
             }
         }
@@ -178,15 +200,17 @@ fn candidates(smooth: &GrayImage) -> Vec<Candidate> {
     let mut s = vec![0f32; w * h];
     let mut smax = 0f32;
     for y in 1..h.saturating_sub(1) {
+        // Rows y − 1, y, y + 1 as slices, so that the loop runs without bounds checks.
+        let d = &smooth.data;
+        let (up, row, down) = (&d[(y - 1) * w..y * w], &d[y * w..(y + 1) * w], &d[(y + 1) * w..(y + 2) * w]);
+        let out = &mut s[y * w..(y + 1) * w];
         for x in 1..w.saturating_sub(1) {
-            let i = y * w + x;
-            let d = &smooth.data;
-            let c = d[i];
-            let ixx = d[i + 1] - 2.0 * c + d[i - 1];
-            let iyy = d[i + w] - 2.0 * c + d[i - w];
-            let ixy = 0.25 * (d[i + w + 1] - d[i + w - 1] - d[i - w + 1] + d[i - w - 1]);
+            let c = row[x];
+            let ixx = row[x + 1] - 2.0 * c + row[x - 1];
+            let iyy = down[x] - 2.0 * c + up[x];
+            let ixy = 0.25 * (down[x + 1] - down[x - 1] - up[x + 1] + up[x - 1]);
             let v = ixy * ixy - ixx * iyy;
-            s[i] = v;
+            out[x] = v;
             smax = smax.max(v);
         }
     }
@@ -198,6 +222,16 @@ fn candidates(smooth: &GrayImage) -> Vec<Candidate> {
             let v = s[y * w + x];
             if !(v > thr) {
                 continue;
+            }
+            // The 3 × 3 neighbours first (most pixels above the threshold lie on a peak's flank
+            // and fail there), then the whole window; the same test, in a cheaper order.
+            for dy in -1..=1isize {
+                for dx in -1..=1isize {
+                    let j = (y as isize + dy) as usize * w + (x as isize + dx) as usize;
+                    if s[j] > v || (s[j] == v && j < y * w + x) {
+                        continue 'px;
+                    }
+                }
             }
             for dy in -nms..=nms {
                 for dx in -nms..=nms {
@@ -220,7 +254,10 @@ fn ring_test(img: &GrayImage, x: f64, y: f64) -> Option<[f64; 4]> {
     const N: usize = 32;
     const R: f64 = 5.0;
     let ang = |k: f64| k * std::f64::consts::TAU / N as f64;
-    let v: Vec<f64> = (0..N).map(|k| img.bilinear(x + R * ang(k as f64).cos(), y + R * ang(k as f64).sin())).collect();
+    // The circle's offsets, computed once.
+    static RING: std::sync::OnceLock<[(f64, f64); N]> = std::sync::OnceLock::new();
+    let ring = RING.get_or_init(|| std::array::from_fn(|k| (R * ang(k as f64).cos(), R * ang(k as f64).sin())));
+    let v: Vec<f64> = ring.iter().map(|&(dx, dy)| img.bilinear(x + dx, y + dy)).collect();
     let (lo, hi) = v.iter().fold((f64::MAX, f64::MIN), |a, &b| (a.0.min(b), a.1.max(b)));
     if !(hi - lo > 10.0) {
         return None;
@@ -405,7 +442,7 @@ fn predict(cands: &[Candidate], at: &BTreeMap<(i32, i32), usize>, q: (i32, i32))
         near = at.iter().map(|(k, &c)| ([k.0 as f64, k.1 as f64], cands[c].p)).collect();
     }
     let (src, dst): (Vec<Point2>, Vec<Point2>) = near.into_iter().unzip();
-    let h = fit_homography(&src, &dst)?;
+    let h = fit_homography_fast(&src, &dst)?;
     let qf = [q.0 as f64, q.1 as f64];
     let p = apply(&h, qf);
     let px = apply(&h, [qf[0] + 1.0, qf[1]]);
@@ -549,15 +586,21 @@ fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, ite
     let (w, h) = (img.width, img.height);
     let mut gx = GrayImage { width: w, height: h, data: vec![0.0; w * h] };
     let mut gy = gx.clone();
-    for y in 0..h as isize {
-        for x in 0..w as isize {
-            let i = y as usize * w + x as usize;
-            gx.data[i] = 0.5 * (img.px(x + 1, y) - img.px(x - 1, y));
-            gy.data[i] = 0.5 * (img.px(x, y + 1) - img.px(x, y - 1));
+    // Central differences, the border's with the clamped neighbour.
+    for y in 0..h {
+        let (up, down) = (y.saturating_sub(1), (y + 1).min(h - 1));
+        let (row, rup, rdown) = (&img.data[y * w..(y + 1) * w], &img.data[up * w..(up + 1) * w], &img.data[down * w..(down + 1) * w]);
+        let (ox, oy) = (&mut gx.data[y * w..(y + 1) * w], &mut gy.data[y * w..(y + 1) * w]);
+        for x in 0..w {
+            let (l, r) = (x.saturating_sub(1), (x + 1).min(w - 1));
+            ox[x] = 0.5 * (row[r] - row[l]);
+            oy[x] = 0.5 * (rdown[x] - rup[x]);
         }
     }
     let hw = half as isize;
     let sig2 = (half as f64 * 0.5).powi(2).max(1.0);
+    // The window's Gaussian weights, row-major over (dy, dx).
+    let weights: Vec<f64> = (-hw..=hw).flat_map(|dy| (-hw..=hw).map(move |dx| (-((dx * dx + dy * dy) as f64) / (2.0 * sig2)).exp())).collect();
     for c in corners.iter_mut() {
         let start = *c;
         let mut q = *c;
@@ -567,17 +610,41 @@ fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, ite
                 break;
             }
             let (mut a, mut b, mut d, mut bx, mut by) = (0.0, 0.0, 0.0, 0.0, 0.0);
-            for dy in -hw..=hw {
-                for dx in -hw..=hw {
-                    let wt = (-((dx * dx + dy * dy) as f64) / (2.0 * sig2)).exp();
-                    let (px, py) = (q[0] + dx as f64, q[1] + dy as f64);
-                    let (u, v) = (gx.bilinear(px, py), gy.bilinear(px, py));
-                    let (guu, guv, gvv) = (wt * u * u, wt * u * v, wt * v * v);
-                    a += guu;
-                    b += guv;
-                    d += gvv;
-                    bx += guu * px + guv * py;
-                    by += guv * px + gvv * py;
+            let (fx, fy) = (q[0].floor(), q[1].floor());
+            let (ix, iy) = (fx as isize, fy as isize);
+            let mut acc = |wt: f64, px: f64, py: f64, u: f64, v: f64| {
+                let (guu, guv, gvv) = (wt * u * u, wt * u * v, wt * v * v);
+                a += guu;
+                b += guv;
+                d += gvv;
+                bx += guu * px + guv * py;
+                by += guv * px + gvv * py;
+            };
+            if ix - hw >= 0 && iy - hw >= 0 && ix + hw + 1 < w as isize && iy + hw + 1 < h as isize {
+                // The whole window inside: every sample shares q's fractional offset, so the
+                // bilinear weights are the same for all (no clamping, no floor per sample).
+                let (ax, ay) = (q[0] - fx, q[1] - fy);
+                let mut k = 0;
+                for dy in -hw..=hw {
+                    let i0 = (iy + dy) as usize * w;
+                    for dx in -hw..=hw {
+                        let i = i0 + (ix + dx) as usize;
+                        let bil = |g: &[f32]| {
+                            let (p00, p10, p01, p11) = (g[i] as f64, g[i + 1] as f64, g[i + w] as f64, g[i + w + 1] as f64);
+                            (p00 * (1.0 - ax) + p10 * ax) * (1.0 - ay) + (p01 * (1.0 - ax) + p11 * ax) * ay
+                        };
+                        acc(weights[k], q[0] + dx as f64, q[1] + dy as f64, bil(&gx.data), bil(&gy.data));
+                        k += 1;
+                    }
+                }
+            } else {
+                let mut k = 0;
+                for dy in -hw..=hw {
+                    for dx in -hw..=hw {
+                        let (px, py) = (q[0] + dx as f64, q[1] + dy as f64);
+                        acc(weights[k], px, py, gx.bilinear(px, py), gy.bilinear(px, py));
+                        k += 1;
+                    }
                 }
             }
             let det = a * d - b * b;

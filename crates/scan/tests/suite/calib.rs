@@ -4,7 +4,7 @@
 use crate::common::{board, observe, rig, Pcg};
 use nalgebra::{Matrix3, Vector3};
 use scan::calib::bundle::{rms, State, ViewObs};
-use scan::calib::homography::{apply, fit_homography, fit_homography_robust};
+use scan::calib::homography::{apply, fit_homography, fit_homography_fast, fit_homography_robust};
 use scan::calib::model::Lens;
 use scan::calib::zhang::{intrinsics, pose_from_homography};
 use scan::calib::{calibrate_corners, CaptureCorners, ProcamCalibration, Rig};
@@ -28,6 +28,19 @@ fn homography_from_exact_correspondences_is_exact() {
     assert!((f4 - h).norm() < 1e-9 * h.norm());
     let line: Vec<[f64; 2]> = (0..8).map(|k| [k as f64, 2.0 * k as f64]).collect();
     assert!(fit_homography(&line, &line).is_none());
+    // The H₃₃ = 1 fit of the chessboard search: the same on exact points, and no fit for a line.
+    for (s, d) in [(&src[..], &dst[..]), (&four.map(|i| src[i])[..], &four.map(|i| dst[i])[..])] {
+        let f = fit_homography_fast(s, d).unwrap();
+        assert!((f - h).norm() < 1e-9 * h.norm(), "{f} vs {h}");
+    }
+    assert!(fit_homography_fast(&line, &line).is_none());
+    // Noisy points: both fits predict a lattice node alike (the algebraic errors differ).
+    let mut rng = Pcg::new(3);
+    let noisy: Vec<[f64; 2]> = dst.iter().map(|p| [p[0] + 0.5 * (rng.uniform() - 0.5), p[1] + 0.5 * (rng.uniform() - 0.5)]).collect();
+    let (fa, fb) = (fit_homography(&src, &noisy).unwrap(), fit_homography_fast(&src, &noisy).unwrap());
+    let q = [200.0, 180.0];
+    let (a, b) = (apply(&fa, q), apply(&fb, q));
+    assert!((a[0] - b[0]).abs() < 0.05 && (a[1] - b[1]).abs() < 0.05, "{a:?} vs {b:?}");
 }
 
 #[test]
