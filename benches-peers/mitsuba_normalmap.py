@@ -27,13 +27,12 @@ Needs numpy and mitsuba==3.9.1.
 
 import json
 import os
-import subprocess
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from peer_common import blocks, read_pfm, peer_args  # noqa: E402
+from peer_common import blocks, peer_args, render_luminance  # noqa: E402
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 N_CAM, N_TEX, FOV_DEG, DIST, HEIGHT = 96, 64, 40.0, 3.0, 0.12
@@ -113,12 +112,7 @@ irradiance = 3.0
 type = "environment"
 radiance = 0.05
 """
-    path = os.path.join(work, f"lucent-{mat}-{mp}.toml")
-    with open(path, "w") as f:
-        f.write(scene)
-    out = os.path.join(work, f"lucent-{mat}-{mp}.pfm")
-    subprocess.run([lucent, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
-    return read_pfm(out)
+    return render_luminance(lucent, work, f"lucent-{mat}-{mp}", scene, spp)
 
 
 def render_mitsuba(variant, work, spp, mat, mp):
@@ -164,7 +158,7 @@ def main():
     plain = {}
     for mat in MATERIALS:
         for mp in MAPS:
-            L = render_lucent(a.lucent, work, a.spp, mat, mp) @ LUMA
+            L = render_lucent(a.lucent, work, a.spp, mat, mp)
             M = render_mitsuba(a.variant, work, a.spp, mat, mp) @ LUMA
             if mp == "plain":
                 plain[mat] = M

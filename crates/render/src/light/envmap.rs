@@ -96,6 +96,10 @@ pub struct EnvMap {
     cell_pdf: Vec<f32>,
     /// ∫ Y(ω) dω over the sphere of the map's luminance, before `scale` (sr).
     luminance_integral_sr: f64,
+    /// A constant radiance added in every direction (a constant environment beside the map,
+    /// W·m⁻²·sr⁻¹·nm⁻¹), and the probability with which [`EnvMap::sample`] draws a direction
+    /// uniformly over the sphere for it (its share of the luminance integral).
+    ambient: Option<(DenseSpectrum, f32)>,
 }
 
 impl std::fmt::Debug for EnvMap {
@@ -183,7 +187,29 @@ impl EnvMap {
             conditional,
             cell_pdf,
             luminance_integral_sr,
+            ambient: None,
         })
+    }
+
+    /// This map with the constant radiance `radiance` added in every direction (a constant
+    /// environment and a map together, as two emitters at infinity add): sampled uniformly over
+    /// the sphere with probability Y(radiance)·4π / (Y(radiance)·4π + scale·∫Y_map dω), the
+    /// map's own distribution otherwise (one-sample MIS: the density is the mixture). A black
+    /// constant changes nothing.
+    pub fn with_ambient(mut self, radiance: DenseSpectrum) -> EnvMap {
+        let y = crate::math::spectral::xyz_of(|l| radiance.eval(l))[1].max(0.0);
+        if !(y > 0.0) {
+            return self;
+        }
+        let ambient = 4.0 * std::f64::consts::PI * y;
+        let map = self.scale as f64 * self.luminance_integral_sr;
+        self.ambient = Some((radiance, (ambient / (ambient + map)) as f32));
+        self
+    }
+
+    /// The constant radiance added to the map, if any ([`EnvMap::with_ambient`]).
+    pub fn ambient(&self) -> Option<&DenseSpectrum> {
+        self.ambient.as_ref().map(|a| &a.0)
     }
 
     /// Resolution (width, height) in texels, after padding a one-row image to two rows.
@@ -215,9 +241,20 @@ impl EnvMap {
         self.radiance_uv(uv, wl)
     }
 
-    /// Spectral radiance at image coordinates (u, v): bilinear in the texels' spectra.
+    /// Spectral radiance at image coordinates (u, v): bilinear in the texels' spectra, plus the
+    /// constant radiance, if any.
     #[inline]
     pub fn radiance_uv(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
+        let map = self.map_radiance_uv(uv, wl);
+        match &self.ambient {
+            None => map,
+            Some((a, _)) => map + wl.eval(a),
+        }
+    }
+
+    /// The image's part of [`EnvMap::radiance_uv`].
+    #[inline]
+    fn map_radiance_uv(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
         let (w, h) = (self.width, self.height);
         let x = uv.x * w as f32 - 0.5;
         let xf = x.floor();
@@ -237,6 +274,20 @@ impl EnvMap {
     /// per steradian). `None` for a black map or a sample at a pole.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let Some((_, q)) = self.ambient else { return self.sample_map(u) };
+        // One of the two distributions, by the first number, rescaled to [0, 1) for the choice.
+        let d = if u.x < q {
+            crate::math::sampling::uniform_sphere(Vec2::new(u.x / q, u.y))
+        } else {
+            self.sample_map(Vec2::new(((u.x - q) / (1.0 - q)).min(1.0 - f32::EPSILON), u.y))?.0
+        };
+        let pdf = self.pdf(d);
+        (pdf > 0.0).then_some((d, pdf))
+    }
+
+    /// A direction from the image's luminance distribution alone, and its density.
+    #[inline]
+    fn sample_map(&self, u: Vec2) -> Option<(Vec3, f32)> {
         if !(self.luminance_integral_sr > 0.0) {
             return None;
         }
@@ -262,6 +313,15 @@ impl EnvMap {
     /// Density per steradian with which [`EnvMap::sample`] returns world direction `wi`.
     #[inline]
     pub fn pdf(&self, wi: Vec3) -> f32 {
+        match self.ambient {
+            None => self.pdf_map(wi),
+            Some((_, q)) => q / (4.0 * PI) + (1.0 - q) * self.pdf_map(wi),
+        }
+    }
+
+    /// The image's distribution's density alone.
+    #[inline]
+    fn pdf_map(&self, wi: Vec3) -> f32 {
         if !(self.luminance_integral_sr > 0.0) {
             return 0.0;
         }
@@ -285,6 +345,7 @@ impl EnvMap {
     /// `scene_radius_m`: π r² ∫ L dω dλ, L taken as luminance × normalised D65.
     pub fn power_w(&self, scene_radius_m: f32) -> f32 {
         let d65: f64 = (0..=470).map(|i| self.d65.eval(360.0 + i as f32) as f64).sum();
-        (std::f64::consts::PI * (scene_radius_m as f64).powi(2) * self.luminance_integral_sr * d65 * self.scale as f64) as f32
+        let ambient: f64 = self.ambient.as_ref().map_or(0.0, |(a, _)| 4.0 * std::f64::consts::PI * (0..=470).map(|i| a.eval(360.0 + i as f32) as f64).sum::<f64>());
+        (std::f64::consts::PI * (scene_radius_m as f64).powi(2) * (self.luminance_integral_sr * d65 * self.scale as f64 + ambient)) as f32
     }
 }

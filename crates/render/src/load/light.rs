@@ -156,27 +156,31 @@ pub(crate) fn lights(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64, sh
                 }
                 Light::Directional { direction: d, irradiance: scaled(need(&l.irradiance, "irradiance")?, 1.0)? }
             }
-            "environment" => {
-                check_keys(&["radiance"])?;
-                if environment.is_some() {
-                    return Err(cx.err(&span, &field, "only one environment light is allowed"));
-                }
+            "environment" | "envmap" => {
+                check_keys(if l.kind == "environment" { &["radiance"] } else { &["file", "transform"] })?;
                 if l.power_w.is_some() {
                     return Err(cx.err(&span, &format!("{field}.power_w"), "an environment has no finite power: use scale"));
                 }
-                environment = Some(lights.len() as u32);
-                Light::Environment { radiance: scaled(need(&l.radiance, "radiance")?, 1.0)? }
-            }
-            "envmap" => {
-                check_keys(&["file", "transform"])?;
-                if environment.is_some() {
-                    return Err(cx.err(&span, &field, "only one environment light is allowed"));
+                let new = if l.kind == "environment" {
+                    Light::Environment { radiance: scaled(need(&l.radiance, "radiance")?, 1.0)? }
+                } else {
+                    Light::EnvMap(std::sync::Arc::new(envmap(cx, sp, &span, &field, l)?))
+                };
+                // A constant environment and a map add up (two emitters at infinity, as Mitsuba 3
+                // allows): one map with the constant radiance added in every direction.
+                if let Some(e) = environment {
+                    let old = std::mem::replace(&mut lights[e as usize], Light::Environment { radiance: DenseSpectrum::from_fn(|_| 0.0) });
+                    lights[e as usize] = match (old, new) {
+                        (Light::Environment { radiance }, Light::EnvMap(map)) | (Light::EnvMap(map), Light::Environment { radiance }) => {
+                            let map = std::sync::Arc::try_unwrap(map).unwrap_or_else(|_| unreachable!("a map being loaded has one owner"));
+                            Light::EnvMap(std::sync::Arc::new(map.with_ambient(radiance)))
+                        }
+                        _ => return Err(cx.err(&span, &field, "at most one environment and one envmap (two of the same kind: merge them into one)")),
+                    };
+                    continue;
                 }
-                if l.power_w.is_some() {
-                    return Err(cx.err(&span, &format!("{field}.power_w"), "an environment has no finite power: use scale"));
-                }
                 environment = Some(lights.len() as u32);
-                Light::EnvMap(std::sync::Arc::new(envmap(cx, sp, &span, &field, l)?))
+                new
             }
             "area" => {
                 check_keys(&["object", "radiance", "two_sided"])?;

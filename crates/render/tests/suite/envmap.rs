@@ -439,3 +439,72 @@ fn bad_envmap_input_is_one_line_naming_the_field() {
     let e = format!("{:#}", Scene::from_toml_str(&text, "bad.toml", &dir).err().unwrap());
     assert!(e.contains("lights[0] (point).file"), "{e}");
 }
+
+#[test]
+fn a_constant_environment_and_a_map_add_up() {
+    // Two emitters at infinity (pbrt-v4 allows several): the image of a sphere under a patchy
+    // map and a constant environment together is the sum of its images under each alone, by
+    // light sampling alone (`direct`: the mixture of the map's distribution and the uniform one)
+    // and with MIS (`path`), over 4 × 4 blocks; the mixture's density is what `sample` returns and
+    // integrates to 1 over the sphere.
+    let dir = tmp_dir("ambient");
+    write_image(&dir.join("patch.pfm"), &image(32, 17, |x, y| {
+        if (20..22).contains(&x) && (4..6).contains(&y) { [200.0, 150.0, 100.0] } else { [0.05 + 0.01 * y as f32, 0.05, 0.08] }
+    }), 0.0).unwrap();
+    let map = "[[lights]]\ntype = \"envmap\"\nfile = \"patch.pfm\"\ntransform = { rotate = [0, 1, 0, 200] }\n";
+    let constant = "[[lights]]\ntype = \"environment\"\nradiance = 0.4\n";
+    let both = load(&dir, &format!("{SPHERE_SCENE}\n{constant}{map}"));
+    let both_other_order = load(&dir, &format!("{SPHERE_SCENE}\n{map}{constant}"));
+    let map_only = load(&dir, &format!("{SPHERE_SCENE}\n{map}"));
+    let constant_only = load(&dir, &format!("{SPHERE_SCENE}\n{constant}"));
+    assert_eq!(both.lights.len(), 1, "the two merge into one light");
+    // The density: sample/pdf agreement and the normalisation E_uniform[4π p] = 1.
+    let Light::EnvMap(m) = env_light(&both) else { panic!("an envmap") };
+    assert!(m.ambient().is_some());
+    let mut rng = Pcg32::new(5, 9);
+    let (mut s1, n) = (0.0f64, 200_000);
+    for _ in 0..n {
+        s1 += 4.0 * PI * m.pdf(uniform_sphere(rng.next_2d())) as f64;
+        if let Some((d, p)) = m.sample(rng.next_2d()) {
+            assert!((p / m.pdf(d) - 1.0).abs() < 1e-3, "sample pdf {p} vs pdf {}", m.pdf(d));
+        }
+    }
+    assert!((s1 / n as f64 - 1.0).abs() < 0.02, "∫ p dω = {}", s1 / n as f64);
+    let blocks = |scene: &Scene, kind: IntegratorKind, seed: u64| -> Vec<(f64, f64)> {
+        let (w, h) = scene.resolution();
+        let s = settings(kind, 2, 100);
+        let passes = 64u64;
+        let mut buf = vec![[0.0f32; 3]; (w * h) as usize];
+        let mut acc = vec![(0.0f64, 0.0f64); 16];
+        for pass in 0..passes {
+            render_pass(scene, &s, seed, pass, &mut buf);
+            let mut b = [0.0f64; 16];
+            for (k, p) in buf.iter().enumerate() {
+                let (x, y) = (k as u32 % w, k as u32 / w);
+                b[(y * 4 / h * 4 + x * 4 / w) as usize] += p[1] as f64 / ((w * h / 16) as f64);
+            }
+            for (a, v) in acc.iter_mut().zip(b) {
+                a.0 += v;
+                a.1 += v * v;
+            }
+        }
+        acc.iter().map(|(s1, s2)| {
+            let m = s1 / passes as f64;
+            (m, ((s2 / passes as f64 - m * m).max(0.0) / (passes - 1) as f64).sqrt())
+        }).collect()
+    };
+    for kind in [IntegratorKind::Direct, IntegratorKind::Path] {
+        let (a, b, c, d) = (blocks(&map_only, kind, 1), blocks(&constant_only, kind, 2), blocks(&both, kind, 3), blocks(&both_other_order, kind, 4));
+        for k in 0..16 {
+            let sum = a[k].0 + b[k].0;
+            for (name, x) in [("map + constant", c[k]), ("constant + map", d[k])] {
+                let se = (a[k].1.powi(2) + b[k].1.powi(2) + x.1.powi(2)).sqrt();
+                assert!((x.0 - sum).abs() < 4.5 * se + 1e-9, "{kind:?} block {k} {name}: {} ± {} vs {sum} ± {}", x.0, x.1, (a[k].1.powi(2) + b[k].1.powi(2)).sqrt());
+            }
+        }
+    }
+    // Two of the same kind stay an error.
+    let twice = Scene::from_toml_str(&format!("{SPHERE_SCENE}\n{constant}{constant}"), "t.toml", &dir).err().map(|e| format!("{e:#}")).unwrap_or_default();
+    assert!(twice.contains("at most one environment and one envmap") && !twice.contains('\n'), "{twice}");
+    std::fs::remove_dir_all(&dir).ok();
+}
