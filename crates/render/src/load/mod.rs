@@ -174,7 +174,9 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     let sp = SpectrumCx { cx, named: &desc.spectra, files, hash: std::cell::RefCell::new(Fnv1a64::new()) };
     let mut ld = Build { cx, sp, files, unit_m, hash };
     let (materials, material_names, one_sided, surface_frames) = material::materials(cx, &ld.sp, &desc, unit_m)?;
-    let (shapes, mut objects, media, global_medium) = object::objects(&mut ld, &desc, &materials, &material_names)?;
+    // Materials with a normal or bump map: their meshes need texture coordinates.
+    let mapped: Vec<bool> = (0..materials.len()).map(|i| matches!(surface_frames.get(i), Some(Some(f)) if f.map.is_some())).collect();
+    let (shapes, mut objects, media, global_medium) = object::objects(&mut ld, &desc, &materials, &material_names, &mapped)?;
     let (lights, environment) = light::lights(cx, &ld.sp, &desc, unit_m, &shapes, &mut objects)?;
     let spectra_hash = ld.sp.hash.borrow().finish();
     ld.hash.write(&spectra_hash.to_le_bytes());

@@ -183,6 +183,7 @@ pub(crate) fn objects(
     desc: &SceneDesc,
     materials: &[Material],
     material_names: &[String],
+    mapped: &[bool],
 ) -> Result<(Vec<Shape>, Vec<ObjectInfo>, Vec<crate::medium::HomogeneousMedium>, Option<u32>)> {
     let (cx, files, unit_m) = (b.cx, b.files, b.unit_m);
     let sp = &b.sp;
@@ -279,6 +280,9 @@ pub(crate) fn objects(
             }
             if mesh.uvs.is_none() && materials[material as usize].is_textured() {
                 return Err(cx.err(&span, &format!("{field}.mesh"), format!("material `{}` is textured but the mesh has no texture coordinates (OBJ vt, PLY u/v)", o.material)));
+            }
+            if mesh.uvs.is_none() && mapped.get(material as usize).copied().unwrap_or(false) {
+                return Err(cx.err(&span, &format!("{field}.mesh"), format!("material `{}` has a normal or bump map but the mesh has no texture coordinates (OBJ vt, PLY u/v)", o.material)));
             }
             let translucent = matches!(materials[material as usize], Material::Translucent(_));
             if o.medium.is_some() || translucent {

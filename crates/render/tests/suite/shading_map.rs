@@ -187,5 +187,10 @@ fn shading_map_errors_are_one_line_and_name_the_field() {
     ] {
         assert_one_line_error(Scene::from_toml_str(&base(&mat), "test.toml", &dir), &needles);
     }
+    // A mesh without texture coordinates cannot carry a map.
+    std::fs::write(dir.join("bare.obj"), "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+    let text = base(&format!("type = \"lambertian\"\nalbedo = 0.5\nnormal_map = {{ texture = \"{map}\" }}"))
+        .replace("quad = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]", "mesh = \"bare.obj\"");
+    assert_one_line_error(Scene::from_toml_str(&text, "test.toml", &dir), &["objects[0]", ".mesh", "normal or bump map", "texture coordinates"]);
     std::fs::remove_dir_all(&dir).ok();
 }
