@@ -127,14 +127,7 @@ impl Shading {
     /// `MixMaterial`): the bits of both through SplitMix64's finaliser.
     #[inline]
     pub fn selector(&self, wo: Vec3) -> f32 {
-        let mut h = 0x9e37_79b9_7f4a_7c15u64;
-        for x in [self.p.x, self.p.y, self.p.z, wo.x, wo.y, wo.z] {
-            h = (h ^ x.to_bits() as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
-            h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            h ^= h >> 31;
-        }
-        (h >> 40) as f32 / (1u64 << 24) as f32
+        crate::math::hash::hash_unit(self.p, wo, 0)
     }
 
     /// Texture coordinates of this point ([`crate::accel::Accel::uv`]); computed on demand, so
@@ -159,7 +152,7 @@ impl Shading {
         if !(r.t_max > 0.0) {
             return true;
         }
-        !scene.accel.occluded(&r)
+        !scene.occluded(&r)
     }
 }
 

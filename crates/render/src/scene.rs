@@ -40,6 +40,9 @@ pub struct Scene {
     /// normal alone (empty or `None`), or with its tangent along ∂p/∂u and possibly a normal or
     /// bump map.
     pub surface_frames: Vec<Option<SurfaceFrame>>,
+    /// Per material, its opacity where it is a mask (Mitsuba 3's `mask`; empty when no material
+    /// is): a ray passes a masked surface with probability 1 − opacity ([`Scene::intersect`]).
+    pub opacity: Vec<Option<crate::texture::FloatTexture>>,
     /// All lights.
     pub lights: Vec<Light>,
     /// Probability of choosing each light for next-event estimation ([`crate::light::selection_pmf`]: by power, lights at infinity capped).
@@ -79,6 +82,9 @@ pub struct Scene {
     pub(crate) content_hash: u64,
 }
 
+/// The salt of the masks' hash, apart from the blends' (whose choice it must not correlate with).
+const MASK_SALT: u64 = 0x6d61_736b;
+
 /// A shading frame tied to the surface's texture coordinates (Mitsuba 3's shading frame): its
 /// first tangent along ∂p/∂u made orthogonal to the normal, so that an anisotropic roughness's
 /// α_x lies along u; with a normal or bump map, about the perturbed normal.
@@ -95,6 +101,50 @@ pub struct SurfaceFrame {
 }
 
 impl Scene {
+    /// The closest hit along `ray` (as [`Accel::intersect`]) that is not passed through: a hit on
+    /// a masked material ([`Scene::opacity`]) stops the ray with probability opacity(uv), decided
+    /// by a hash of the hit point and the ray's direction (pbrt-v4's stochastic alpha test), so
+    /// that shadow rays, camera rays and BSDF samples all see one surface with the same
+    /// expected visibility 1 − opacity; the ray then goes on from just past it.
+    #[inline]
+    pub fn intersect(&self, ray: &crate::math::geometry::Ray) -> Option<crate::accel::Hit> {
+        let hit = self.accel.intersect(ray)?;
+        if self.opacity.is_empty() {
+            return Some(hit);
+        }
+        self.through_masks(ray, hit)
+    }
+
+    /// Whether anything stops `ray` before `t_max` ([`Accel::occluded`], masks passed as in
+    /// [`Scene::intersect`]).
+    #[inline]
+    pub fn occluded(&self, ray: &crate::math::geometry::Ray) -> bool {
+        if self.opacity.is_empty() {
+            self.accel.occluded(ray)
+        } else {
+            self.intersect(ray).is_some()
+        }
+    }
+
+    /// [`Scene::intersect`] after the first hit `hit`, for scenes with masks.
+    #[cold]
+    #[inline(never)]
+    fn through_masks(&self, ray: &crate::math::geometry::Ray, mut hit: crate::accel::Hit) -> Option<crate::accel::Hit> {
+        let mut r = *ray;
+        for _ in 0..256 {
+            let material = self.objects[hit.object as usize].material as usize;
+            let Some(Some(opacity)) = self.opacity.get(material) else { return Some(hit) };
+            let alpha = opacity.eval_with(|| self.accel.uv(hit.object, hit.prim, hit.u, hit.v));
+            if crate::math::hash::hash_unit(r.at(hit.t), r.d, MASK_SALT) < alpha {
+                return Some(hit);
+            }
+            // Passed: on from just beyond the surface.
+            r.t_min = hit.t + self.ray_epsilon_m;
+            hit = self.accel.intersect(&r)?;
+        }
+        Some(hit)
+    }
+
     /// Whether a hit on material `material` from its back (`front` false) sees black: the
     /// material is one-sided ([`Scene::one_sided`]).
     #[inline]

@@ -11,7 +11,7 @@ use crate::scene::Scene;
 /// Ambient occlusion: 1 if a cosine-distributed direction at the first hit escapes within the
 /// scene's AO distance, else 0 (0 also when the camera ray misses everything).
 pub fn ao_visibility(scene: &Scene, ray: Ray, rng: &mut Pcg32) -> f32 {
-    let Some(hit) = scene.accel.intersect(&ray) else { return 0.0 };
+    let Some(hit) = scene.intersect(&ray) else { return 0.0 };
     let s = Shading::at(scene, &ray, &hit);
     let d = s.frame.to_world(cosine_hemisphere(rng.next_2d()));
     if d.dot(s.ng) <= 0.0 {
@@ -19,7 +19,7 @@ pub fn ao_visibility(scene: &Scene, ray: Ray, rng: &mut Pcg32) -> f32 {
     }
     let mut r = s.spawn(scene, d);
     r.t_max = scene.ao_distance_m;
-    if scene.accel.occluded(&r) {
+    if scene.occluded(&r) {
         0.0
     } else {
         1.0

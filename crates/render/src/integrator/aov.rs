@@ -156,7 +156,7 @@ const ALBEDO_SETS: usize = 4;
 /// The first-hit record of camera ray `ray`; `u_lambda` is the sample's wavelength number (the
 /// albedo's wavelengths are stratified around it).
 pub fn first_hit(scene: &Scene, ray: &Ray, u_lambda: f32) -> FirstHit {
-    let Some(hit) = scene.accel.intersect(ray) else { return FirstHit::MISS };
+    let Some(hit) = scene.intersect(ray) else { return FirstHit::MISS };
     let s = Shading::at(scene, ray, &hit);
     let obj = &scene.objects[s.object as usize];
     let mat = &scene.materials[obj.material as usize];

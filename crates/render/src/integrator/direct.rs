@@ -20,7 +20,7 @@ use glam::{Vec3, Vec4};
 /// A BSDF sample refracted through dispersive glass leaves only the hero wavelength in `wl`, as
 /// the path tracer does: convert the result with `wl` as it is on return.
 pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
-    let Some(hit) = scene.accel.intersect(&ray) else {
+    let Some(hit) = scene.intersect(&ray) else {
         return match scene.environment {
             Some(ei) => scene.lights[ei as usize].le(Vec3::ZERO, -ray.d, || glam::Vec2::ZERO, wl),
             None => Vec4::ZERO,
@@ -74,7 +74,7 @@ pub fn li_direct(scene: &Scene, ray: Ray, wl: &mut SampledWavelengths, rng: &mut
         }
         let beta = bs.f * (bs.wi.z.abs() * s.terminator(wi) / (bs.pdf * nb));
         let r = s.spawn(scene, wi);
-        let (le, light_pdf) = match scene.accel.intersect(&r) {
+        let (le, light_pdf) = match scene.intersect(&r) {
             None => {
                 let Some(ei) = scene.environment else { continue };
                 (scene.lights[ei as usize].le(Vec3::ZERO, -wi, || glam::Vec2::ZERO, wl), nee::environment_light_pdf(scene, ei, s.p, wi))

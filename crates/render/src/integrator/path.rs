@@ -57,7 +57,7 @@ pub fn li_path_mode(scene: &Scene, settings: &IntegratorSettings, mut ray: Ray, 
     // radiance scaling that `beta` carries (pbrt-v4's etaScale, Mitsuba 3's η²).
     let mut eta_scale = 1.0f32;
     loop {
-        let hit = scene.accel.intersect(&ray);
+        let hit = scene.intersect(&ray);
         depth += 1;
         let Some(hit) = hit else {
             l += nee::environment_emission(scene, &ray, beta, prev_p, prev_pdf, prev_delta, wl);

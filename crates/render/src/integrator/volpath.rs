@@ -254,7 +254,7 @@ fn shadow_transmittance(scene: &Scene, mut o: Vec3, d: Vec3, dist: f32, mut medi
             return Some(tr);
         }
         let ray = Ray { o, d, t_min: 0.0, t_max: remaining };
-        let hit = scene.accel.intersect(&ray);
+        let hit = scene.intersect(&ray);
         let seg = hit.map(|h| h.t).unwrap_or(remaining);
         if let Some(m) = medium {
             let (_, sigma_t) = scene.media[m as usize].coefficients(wl);
@@ -525,7 +525,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         let grid = scene.medium_grid(medium).filter(|_| options.free_flight_grid);
         let surely_inside = t_coll.is_finite()
             && grid.is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || free.contains(scene, g, ray.o, ray.o + ray.d * t_coll, med.map_or(0.0, |m| 1.0 / m.2.x)));
-        let hit = if surely_inside { None } else { scene.accel.intersect(&ray) };
+        let hit = if surely_inside { None } else { scene.intersect(&ray) };
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
                 // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u). The
@@ -939,7 +939,7 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
             (mm.pure_absorber, mm.coefficients(wl).1)
         });
         ray.t_max = f32::INFINITY;
-        let hit = scene.accel.intersect(&ray);
+        let hit = scene.intersect(&ray);
         if let Some((pure, sigma_t)) = coeffs {
             let seg = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
             if pure {

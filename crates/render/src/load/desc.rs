@@ -119,6 +119,9 @@ pub(crate) struct MaterialDesc {
     /// `blend`: the names of its two materials, and the weight of the second.
     pub(crate) materials: Option<Spanned<Vec<String>>>,
     pub(crate) weight: Option<Spanned<toml::Value>>,
+    /// `mask`: the material it masks, and its opacity.
+    pub(crate) material: Option<Spanned<String>>,
+    pub(crate) opacity: Option<Spanned<toml::Value>>,
     /// Interior of a `translucent` material (see `subsurface::translucent_from_toml`).
     pub(crate) subsurface: Option<Spanned<toml::Value>>,
 }

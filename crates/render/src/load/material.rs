@@ -13,28 +13,36 @@ use optics::spectrum::DenseSpectrum;
 use std::ops::Range;
 use toml::Spanned;
 
+/// What the `[materials]` table gives: the materials, their names, whether each is one-sided, its
+/// shading frame and its opacity (masks).
+pub(crate) type Materials = (Vec<Material>, Vec<String>, Vec<bool>, Vec<Option<SurfaceFrame>>, Vec<Option<crate::texture::FloatTexture>>);
+
 /// The `[materials]` table: the materials, their names, whether each is one-sided
 /// (`two_sided = false`) and its shading frame (normal and bump maps, anisotropy along u), in the
 /// table's (sorted) order; `unit_m` is metres per scene unit.
-pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64) -> Result<(Vec<Material>, Vec<String>, Vec<bool>, Vec<Option<SurfaceFrame>>)> {
+pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64) -> Result<Materials> {
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
     let mut one_sided = Vec::new();
     let mut frames = Vec::new();
     let mut blends = Vec::new();
+    let mut masks = Vec::new();
     for (name, m) in &desc.materials {
         let span = m.span();
         let m = m.get_ref();
         let field = format!("materials.{}", short(name));
-        for (key, present) in [("materials", m.materials.is_some()), ("weight", m.weight.is_some())] {
-            if present && m.kind != "blend" {
-                return Err(cx.err(&span, &format!("{field}.{key}"), format!("only allowed for a blend material, not {}", quote(&m.kind))));
+        for (key, present, kind) in [("materials", m.materials.is_some(), "blend"), ("weight", m.weight.is_some(), "blend"), ("material", m.material.is_some(), "mask"), ("opacity", m.opacity.is_some(), "mask")] {
+            if present && m.kind != kind {
+                return Err(cx.err(&span, &format!("{field}.{key}"), format!("only allowed for a {kind} material, not {}", quote(&m.kind))));
             }
         }
-        if m.kind == "blend" && m.albedo.is_some() {
-            return Err(cx.err(&span, &format!("{field}.albedo"), "not allowed for a blend material (its materials have theirs)"));
+        if matches!(m.kind.as_str(), "blend" | "mask") && m.albedo.is_some() {
+            return Err(cx.err(&span, &format!("{field}.albedo"), format!("not allowed for a {} material (its materials have theirs)", m.kind)));
         }
-        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null" | "blend") {
+        if m.kind == "mask" && (m.two_sided.is_some() || m.normal_map.is_some() || m.bump_map.is_some()) {
+            return Err(cx.err(&span, &field, "a mask takes its material's two_sided and maps: give them to that material"));
+        }
+        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null" | "blend" | "mask") {
             for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
                 if present {
                     return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
@@ -99,16 +107,20 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
                 blends.push((materials.len(), name, m, span.clone(), field.clone()));
                 Material::Black
             }
+            "mask" => {
+                masks.push((materials.len(), name, m, span.clone(), field.clone()));
+                Material::Black
+            }
             other => {
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, blend, translucent)", quote(other)),
+                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, blend, mask, translucent)", quote(other)),
                 ))
             }
         };
         // A blend's frame is made once its materials are known (below).
-        frames.push(if m.kind == "blend" { None } else { surface_frame(cx, sp, m, &field, &mat, unit_m)? });
+        frames.push(if matches!(m.kind.as_str(), "blend" | "mask") { None } else { surface_frame(cx, sp, m, &field, &mat, unit_m)? });
         materials.push(mat);
         material_names.push(name.clone());
         one_sided.push(m.two_sided == Some(false));
@@ -118,10 +130,34 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
         frames[i] = surface_frame(cx, sp, m, &field, &mat, unit_m)?;
         materials[i] = mat;
     }
+    let mut opacity = vec![None; materials.len()];
+    for (i, name, m, span, field) in masks {
+        let target = m.material.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.material"), "missing (the name of the material it masks)"))?;
+        let t = target.get_ref();
+        let at = material_names.iter().position(|x| x == t).ok_or_else(|| cx.err(&target.span(), &format!("{field}.material"), format!("unknown material {}", quote(t))))?;
+        let kind = desc.materials[t].get_ref().kind.as_str();
+        if t == name || matches!(kind, "mask" | "translucent" | "interface" | "null") {
+            return Err(cx.err(&target.span(), &format!("{field}.material"), format!("{} is a {kind} material; a mask takes a reflecting or transmitting one", quote(t))));
+        }
+        let o = m.opacity.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.opacity"), "missing (0 to 1: 0 lets every ray through, or a texture)"))?;
+        opacity[i] = Some(match sp.resolve_float_texture(o, &format!("{field}.opacity"), 0.0, 1.0)? {
+            Some(tex) => tex,
+            None => {
+                let x = as_f64(o.get_ref()).filter(|x| (0.0..=1.0).contains(x)).ok_or_else(|| cx.err(&o.span(), &format!("{field}.opacity"), "must be a number in [0, 1] or a texture"))?;
+                crate::texture::FloatTexture::Constant(x as f32)
+            }
+        });
+        materials[i] = materials[at].clone();
+        frames[i] = frames[at].clone();
+        one_sided[i] = one_sided[at];
+    }
     if frames.iter().all(|f| f.is_none()) {
         frames.clear();
     }
-    Ok((materials, material_names, one_sided, frames))
+    if opacity.iter().all(|o| o.is_none()) {
+        opacity.clear();
+    }
+    Ok((materials, material_names, one_sided, frames, opacity))
 }
 
 /// A `blend` material (`materials = ["a", "b"]`, `weight` w ∈ [0, 1] of `b`, a number or a
@@ -148,7 +184,7 @@ fn blend(
     for n in list.get_ref() {
         let at = names.iter().position(|x| x == n).ok_or_else(|| cx.err(&list.span(), &format!("{field}.materials"), format!("unknown material {}", quote(n))))?;
         let d = descs[n].get_ref();
-        if n == name || matches!(d.kind.as_str(), "blend" | "translucent" | "interface" | "null") {
+        if n == name || matches!(d.kind.as_str(), "blend" | "mask" | "translucent" | "interface" | "null") {
             return Err(cx.err(&list.span(), &format!("{field}.materials"), format!("{} is a {} material; a blend takes two plain materials", quote(n), d.kind)));
         }
         if d.normal_map.is_some() || d.bump_map.is_some() || d.two_sided.is_some() {

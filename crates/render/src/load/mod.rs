@@ -173,11 +173,21 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
     };
     let sp = SpectrumCx { cx, named: &desc.spectra, files, hash: std::cell::RefCell::new(Fnv1a64::new()) };
     let mut ld = Build { cx, sp, files, unit_m, hash };
-    let (materials, material_names, one_sided, surface_frames) = material::materials(cx, &ld.sp, &desc, unit_m)?;
-    // Materials with a normal or bump map: their meshes need texture coordinates.
-    let mapped: Vec<bool> = (0..materials.len()).map(|i| matches!(surface_frames.get(i), Some(Some(f)) if f.map.is_some())).collect();
+    let (materials, material_names, one_sided, surface_frames, opacity) = material::materials(cx, &ld.sp, &desc, unit_m)?;
+    // Materials with a normal or bump map or a textured opacity: their meshes need texture coordinates.
+    let mapped: Vec<bool> = (0..materials.len())
+        .map(|i| matches!(surface_frames.get(i), Some(Some(f)) if f.map.is_some()) || matches!(opacity.get(i), Some(Some(crate::texture::FloatTexture::Image(_)))))
+        .collect();
     let (shapes, mut objects, media, global_medium) = object::objects(&mut ld, &desc, &materials, &material_names, &mapped)?;
     let (lights, environment) = light::lights(cx, &ld.sp, &desc, unit_m, &shapes, &mut objects)?;
+    // A mask lets rays through its surface: it cannot bound a medium (whose crossings `volpath`
+    // counts) or emit (light samples would land where rays pass).
+    for (k, (o, d)) in objects.iter().zip(&desc.objects).enumerate() {
+        if matches!(opacity.get(o.material as usize), Some(Some(_))) && (o.interior_medium.is_some() || o.light.is_some()) {
+            let what = if o.light.is_some() { "an area light" } else { "a medium's boundary" };
+            return Err(cx.err(&d.span(), &format!("objects[{k}] ({})", error::short(&o.name)), format!("a mask material cannot be on {what}")));
+        }
+    }
     let spectra_hash = ld.sp.hash.borrow().finish();
     ld.hash.write(&spectra_hash.to_le_bytes());
     let camera = camera::camera(&mut ld, &desc)?;
@@ -249,6 +259,7 @@ fn build(cx: &Cx, desc: SceneDesc, files: &dyn SceneFiles) -> Result<Scene> {
         material_names,
         one_sided,
         surface_frames,
+        opacity,
         lights,
         light_pmf,
         light_cdf,

@@ -282,7 +282,7 @@ pub(crate) fn objects(
                 return Err(cx.err(&span, &format!("{field}.mesh"), format!("material `{}` is textured but the mesh has no texture coordinates (OBJ vt, PLY u/v)", o.material)));
             }
             if mesh.uvs.is_none() && mapped.get(material as usize).copied().unwrap_or(false) {
-                return Err(cx.err(&span, &format!("{field}.mesh"), format!("material `{}` has a normal or bump map but the mesh has no texture coordinates (OBJ vt, PLY u/v)", o.material)));
+                return Err(cx.err(&span, &format!("{field}.mesh"), format!("material `{}` has a normal or bump map or a textured opacity but the mesh has no texture coordinates (OBJ vt, PLY u/v)", o.material)));
             }
             let translucent = matches!(materials[material as usize], Material::Translucent(_));
             if o.medium.is_some() || translucent {

@@ -34,3 +34,17 @@ impl Fnv1a64 {
         self.0
     }
 }
+
+/// A number in [0, 1) fixed by a point, a direction and a `salt`: their bits through SplitMix64's
+/// finaliser (blend choices and mask tests, which must not draw from a path's random numbers).
+#[inline]
+pub fn hash_unit(p: glam::Vec3, d: glam::Vec3, salt: u64) -> f32 {
+    let mut h = 0x9e37_79b9_7f4a_7c15u64 ^ salt;
+    for x in [p.x, p.y, p.z, d.x, d.y, d.z] {
+        h = (h ^ x.to_bits() as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^= h >> 31;
+    }
+    (h >> 40) as f32 / (1u64 << 24) as f32
+}

@@ -132,3 +132,70 @@ fn blend_errors_are_one_line_and_name_the_field() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A floor (lambertian, albedo 0.5) seen from straight above, and a quad of the masked material
+/// `mask` at height 1 over x ∈ [0.5, 3]: out of the camera's view, across the shadow rays of a
+/// directional light from (1, 0, 1) (45°).
+fn masked_floor(mask: &str, integrator: &str) -> String {
+    let light = directional(Vec3::new(1.0, 0.0, 1.0), 2.0);
+    quad_scene(Vec3::new(0.0, 0.0, 4.0), "type = \"lambertian\"\nalbedo = 0.5", &light)
+        .replace("type = \"direct\"\n        emitter_samples = 1\n        bsdf_samples = 0", integrator)
+        + &format!("\n[materials.shade]\n{mask}\n[materials.grey]\ntype = \"lambertian\"\nalbedo = 0.3\n[[objects]]\nmaterial = \"shade\"\nquad = [[0.5, -3, 1], [3, -3, 1], [3, 3, 1], [0.5, 3, 1]]\n")
+}
+
+#[test]
+fn a_mask_lets_its_transparent_share_of_the_light_through() {
+    // The floor under the mask's shadow: ρ/π · E cos 45° · (1 − opacity), by light samples alone
+    // (`direct`) and with MIS (`path`): the mask's test is the same for shadow rays and paths.
+    let dir = tmp_dir("mask-shadow");
+    let full = 0.5 / PI * 2.0 * std::f64::consts::FRAC_1_SQRT_2 * y_of_one();
+    for (integrator, what) in [("type = \"direct\"\n        emitter_samples = 1\n        bsdf_samples = 0", "direct"), ("type = \"path\"\n        max_depth = 3", "path")] {
+        for opacity in [0.0, 0.3, 1.0] {
+            let text = masked_floor(&format!("type = \"mask\"\nmaterial = \"grey\"\nopacity = {opacity}"), integrator);
+            let (m, se) = pixels(&load_in(&dir, &text));
+            let expect = full * (1.0 - opacity);
+            assert!((m - expect).abs() < 4.0 * se + 1e-4 * full, "{what}, opacity {opacity}: {m} ± {se} vs {expect}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_fully_transparent_mask_changes_no_pixel() {
+    // Opacity 0: every ray passes the quad, drawing no random number, so the image is the one
+    // without it, bit for bit (camera rays through it, shadow rays through it).
+    let dir = tmp_dir("mask-clear");
+    let with = load_in(&dir, &masked_floor("type = \"mask\"\nmaterial = \"grey\"\nopacity = 0", "type = \"path\"\n        max_depth = 3").replace("[[0.5, -3, 1], [3, -3, 1], [3, 3, 1], [0.5, 3, 1]]", "[[-3, -3, 1], [3, -3, 1], [3, 3, 1], [-3, 3, 1]]"));
+    let without = load_in(&dir, &masked_floor("type = \"lambertian\"\nalbedo = 0.3", "type = \"path\"\n        max_depth = 3").replace("quad = [[0.5, -3, 1], [3, -3, 1], [3, 3, 1], [0.5, 3, 1]]", "sphere = { center = [0, 0, -50], radius = 0.001 }"));
+    let (w, h) = with.resolution();
+    let (mut a, mut b) = (vec![[0f32; 3]; (w * h) as usize], vec![[0f32; 3]; (w * h) as usize]);
+    for p in 0..4 {
+        render::integrator::render_pass(&with, &with.integrator, 9, p, &mut a);
+        render::integrator::render_pass(&without, &without.integrator, 9, p, &mut b);
+        assert!(a.iter().zip(&b).all(|(x, y)| (0..3).all(|c| (x[c] - y[c]).abs() <= 1e-6 * y[c].abs().max(1e-3))), "pass {p}");
+        assert!(a.iter().any(|x| x[1] > 0.05));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn mask_errors_are_one_line_and_name_the_field() {
+    let dir = tmp_dir("mask-errors");
+    let base = |m: &str| masked_floor(m, "type = \"path\"");
+    for (mat, needles) in [
+        ("type = \"mask\"\nopacity = 0.5", vec!["materials.shade.material", "missing"]),
+        ("type = \"mask\"\nmaterial = \"grey\"", vec!["materials.shade.opacity", "missing"]),
+        ("type = \"mask\"\nmaterial = \"nope\"\nopacity = 0.5", vec!["materials.shade.material", "unknown material"]),
+        ("type = \"mask\"\nmaterial = \"grey\"\nopacity = 2", vec!["materials.shade.opacity", "[0, 1]"]),
+        ("type = \"mask\"\nmaterial = \"shade\"\nopacity = 0.5", vec!["materials.shade.material", "mask material"]),
+        ("type = \"mask\"\nmaterial = \"grey\"\nopacity = 0.5\ntwo_sided = false", vec!["materials.shade", "two_sided"]),
+        ("type = \"lambertian\"\nalbedo = 0.5\nopacity = 0.5", vec!["materials.shade.opacity", "only allowed for a mask"]),
+    ] {
+        assert_one_line_error(Scene::from_toml_str(&base(mat), "test.toml", &dir), &needles);
+    }
+    // A mask on an area light.
+    let lamp = base("type = \"mask\"\nmaterial = \"grey\"\nopacity = 0.5").replace("material = \"shade\"\nquad", "name = \"lamp\"\nmaterial = \"shade\"\nquad")
+        + "[[lights]]\ntype = \"area\"\nobject = \"lamp\"\nradiance = 1\n";
+    assert_one_line_error(Scene::from_toml_str(&lamp, "test.toml", &dir), &["objects[1]", "area light"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

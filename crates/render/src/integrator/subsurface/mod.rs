@@ -663,7 +663,7 @@ fn sample_light_at(
     let eps = scene.ray_epsilon_m;
     let t_max = shadow_t_max(ls.dist, eps, true);
     if t_max > 0.0
-        && scene.accel.occluded(&Ray {
+        && scene.occluded(&Ray {
             o: offset_origin(p, n, ls.wi, eps),
             d: ls.wi,
             t_min: 0.0,
