@@ -56,6 +56,33 @@ fn load(dir: &std::path::Path, text: &str) -> Scene {
     Scene::from_toml_str(text, "envmap-test.toml", dir).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
+/// Mean Y and its standard error over each of 4 × 4 blocks of the image, from `passes` passes of
+/// `kind` to depth 2 (roulette off).
+fn block_means(scene: &Scene, kind: IntegratorKind, seed: u64, passes: u64) -> Vec<(f64, f64)> {
+    let (w, h) = scene.resolution();
+    let s = settings(kind, 2, 100);
+    let mut buf = vec![[0.0f32; 3]; (w * h) as usize];
+    let mut acc = vec![(0.0f64, 0.0f64); 16];
+    for pass in 0..passes {
+        render_pass(scene, &s, seed, pass, &mut buf);
+        let mut b = [0.0f64; 16];
+        for (k, p) in buf.iter().enumerate() {
+            let (x, y) = (k as u32 % w, k as u32 / w);
+            b[(y * 4 / h * 4 + x * 4 / w) as usize] += p[1] as f64 / ((w * h / 16) as f64);
+        }
+        for (a, v) in acc.iter_mut().zip(b) {
+            a.0 += v;
+            a.1 += v * v;
+        }
+    }
+    acc.iter()
+        .map(|(s1, s2)| {
+            let m = s1 / passes as f64;
+            (m, ((s2 / passes as f64 - m * m).max(0.0) / (passes - 1) as f64).sqrt())
+        })
+        .collect()
+}
+
 fn env_light(scene: &Scene) -> &Light {
     &scene.lights[scene.environment.expect("scene has an environment") as usize]
 }
@@ -319,31 +346,8 @@ fn light_sampling_alone_matches_mis_on_a_patchy_map() {
         if (20..22).contains(&x) && (4..6).contains(&y) { [400.0, 300.0, 200.0] } else { [0.05 + 0.01 * y as f32, 0.05, 0.08] }
     }), 0.0).unwrap();
     let scene = load(&dir, &format!("{SPHERE_SCENE}\n[[lights]]\ntype = \"envmap\"\nfile = \"patch.pfm\"\ntransform = {{ rotate = [0, 1, 0, 200] }}\n"));
-    let block_means = |kind: IntegratorKind, seed: u64| -> Vec<(f64, f64)> {
-        let (w, h) = scene.resolution();
-        let s = settings(kind, 2, 100);
-        let passes = 96u64;
-        let mut buf = vec![[0.0f32; 3]; (w * h) as usize];
-        let mut acc = vec![(0.0f64, 0.0f64); 16];
-        for pass in 0..passes {
-            render_pass(&scene, &s, seed, pass, &mut buf);
-            let mut b = [0.0f64; 16];
-            for (k, p) in buf.iter().enumerate() {
-                let (x, y) = (k as u32 % w, k as u32 / w);
-                b[(y * 4 / h * 4 + x * 4 / w) as usize] += p[1] as f64 / ((w * h / 16) as f64);
-            }
-            for (a, v) in acc.iter_mut().zip(b) {
-                a.0 += v;
-                a.1 += v * v;
-            }
-        }
-        acc.iter().map(|(s1, s2)| {
-            let m = s1 / passes as f64;
-            (m, ((s2 / passes as f64 - m * m).max(0.0) / (passes - 1) as f64).sqrt())
-        }).collect()
-    };
-    let light_only = block_means(IntegratorKind::Direct, 1);
-    let mis = block_means(IntegratorKind::Path, 2);
+    let light_only = block_means(&scene, IntegratorKind::Direct, 1, 96);
+    let mis = block_means(&scene, IntegratorKind::Path, 2, 96);
     let mut lit = 0;
     for (k, ((a, ea), (b, eb))) in light_only.iter().zip(&mis).enumerate() {
         let se = (ea * ea + eb * eb).sqrt();
@@ -470,29 +474,7 @@ fn a_constant_environment_and_a_map_add_up() {
         }
     }
     assert!((s1 / n as f64 - 1.0).abs() < 0.02, "∫ p dω = {}", s1 / n as f64);
-    let blocks = |scene: &Scene, kind: IntegratorKind, seed: u64| -> Vec<(f64, f64)> {
-        let (w, h) = scene.resolution();
-        let s = settings(kind, 2, 100);
-        let passes = 64u64;
-        let mut buf = vec![[0.0f32; 3]; (w * h) as usize];
-        let mut acc = vec![(0.0f64, 0.0f64); 16];
-        for pass in 0..passes {
-            render_pass(scene, &s, seed, pass, &mut buf);
-            let mut b = [0.0f64; 16];
-            for (k, p) in buf.iter().enumerate() {
-                let (x, y) = (k as u32 % w, k as u32 / w);
-                b[(y * 4 / h * 4 + x * 4 / w) as usize] += p[1] as f64 / ((w * h / 16) as f64);
-            }
-            for (a, v) in acc.iter_mut().zip(b) {
-                a.0 += v;
-                a.1 += v * v;
-            }
-        }
-        acc.iter().map(|(s1, s2)| {
-            let m = s1 / passes as f64;
-            (m, ((s2 / passes as f64 - m * m).max(0.0) / (passes - 1) as f64).sqrt())
-        }).collect()
-    };
+    let blocks = |scene: &Scene, kind: IntegratorKind, seed: u64| block_means(scene, kind, seed, 64);
     for kind in [IntegratorKind::Direct, IntegratorKind::Path] {
         let (a, b, c, d) = (blocks(&map_only, kind, 1), blocks(&constant_only, kind, 2), blocks(&both, kind, 3), blocks(&both_other_order, kind, 4));
         for k in 0..16 {
