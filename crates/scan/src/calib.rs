@@ -391,6 +391,7 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
         refine(obj, &views, &init, free, MAX_RMS_PX).with_context(|| what.to_string())
     };
     let views: Vec<ViewObs> = captures.iter().map(|c| ViewObs { cam: c.cam.clone(), proj: c.proj.clone() }).collect();
+    let mut outliers = Vec::new();
     let start = match init {
         Some(c) => {
             // Terms the model leaves out start (and stay) at 0.
@@ -404,7 +405,11 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
             let r = nalgebra::Matrix3::from_fn(|i, j| c.rotation[i][j]);
             State { cam, proj: Some(lens(&c.projector, 1)), stereo: model::Pose::from_rt(&r, nalgebra::Vector3::from(c.translation)), poses }
         }
-        None => stereo_start(captures, rig, &mono, devices)?,
+        None => {
+            let (state, out) = stereo_start(captures, rig, &mono, devices)?;
+            outliers = out;
+            state
+        }
     };
     let mut start = start;
     if let (true, true, Some(p)) = (free.same_focal, free.lenses, start.proj.as_mut()) {
@@ -415,8 +420,22 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
             (*a, *b) = ((*a + *b) / 2.0, (*a + *b) / 2.0);
         }
     }
-    let fit = refine(obj, &views, &start, free, MAX_RMS_PX).context("stereo")?;
+    let fit = match refine(obj, &views, &start, free, MAX_RMS_PX) {
+        Ok(fit) => fit,
+        Err(e) if !outliers.is_empty() => bail!("stereo: {e:#}; {}", outlier_clause(captures, &outliers, devices)),
+        Err(e) => return Err(e).context("stereo"),
+    };
     let c = finish(rig, captures, obj, &views, &fit, coefficient_count(free))?;
+    // A capture whose relative pose disagrees and that the joint fit leaves above 1 px: the two
+    // devices did not see the target in one pose (photographs paired out of order, a board moved
+    // during a capture). The joint fit spreads such a capture's error over all the others, so
+    // its own RMS need not stand out; the separate fits' relative poses do (a rigid pair's agree
+    // to about a degree: 0.7–0.8° on the shared projector–camera captures).
+    let bad: Vec<(usize, f64)> = outliers.iter().copied().filter(|&(i, _)| c.captures[i].rms_px > 1.0).collect();
+    if !bad.is_empty() {
+        let worst = c.captures.iter().map(|p| p.rms_px).fold(0.0, f64::max);
+        bail!("stereo: reprojection RMS {:.3} px over all captures, {worst:.3} px at the worst; {}", c.rms_px, outlier_clause(captures, &bad, devices));
+    }
     // A rational denominator that reaches 0, or a tilt that turns part of the image beyond the
     // horizon, fits the corners but maps no ray there (render::camera::OpenCv's check, which
     // triangulation and rendering rely on).
@@ -448,21 +467,61 @@ pub(crate) fn usable(fx: f64, fy: f64, cx: f64, cy: f64, dist: &[f64], width: u3
 
 type MonoFit<'a> = dyn Fn(&dyn Fn(&CaptureCorners) -> &Vec<homography::Point2>, (u32, u32), &str) -> anyhow::Result<bundle::State> + 'a;
 
-/// Per-device fits and the stereo pose averaged over the captures.
-fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit, devices: [&str; 2]) -> anyhow::Result<bundle::State> {
+/// Per-device fits and the stereo pose averaged over the captures, with the captures whose
+/// relative pose disagrees with the others' ([`pose_outliers`]).
+fn stereo_start(captures: &[CaptureCorners], rig: &Rig, mono: &MonoFit, devices: [&str; 2]) -> anyhow::Result<(bundle::State, Vec<(usize, f64)>)> {
     let cam = mono(&|c| &c.cam, rig.camera, devices[0])?;
     let proj = mono(&|c| &c.proj, rig.projector, devices[1])?;
     let mut rsum = nalgebra::Matrix3::zeros();
     let mut tsum = nalgebra::Vector3::zeros();
+    let mut rel = Vec::new();
     for (pc, pp) in cam.poses.iter().zip(&proj.poses) {
         let r = pp.r() * pc.r().transpose();
         rsum += r;
         tsum += pp.t - r * pc.t;
+        rel.push(r);
     }
     let r = model::nearest_rotation(&rsum);
     let t = tsum / captures.len() as f64;
     let stereo = model::Pose::from_rt(&r, t);
-    Ok(bundle::State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() })
+    Ok((bundle::State { cam: cam.cam, proj: Some(proj.cam), stereo, poses: cam.poses.clone() }, pose_outliers(&rel)))
+}
+
+/// Above this angle (degrees) a capture's relative rotation of the two devices, from their
+/// separate fits, counts as disagreeing with the others'.
+const PAIR_DISAGREEMENT_DEG: f64 = 3.0;
+
+/// The captures whose relative rotation R_p,i R_c,iᵀ (from the two devices' separate fits) lies
+/// more than [`PAIR_DISAGREEMENT_DEG`] from the lower median of its angles to the other captures'
+/// relative rotations, with that median (degrees). A rigid pair gives every capture the same
+/// relative pose up to the fits' noise (tenths of a degree); photographs paired out of order give
+/// the paired captures the rotation between their two board poses.
+fn pose_outliers(rel: &[nalgebra::Matrix3<f64>]) -> Vec<(usize, f64)> {
+    let angle = |a: &nalgebra::Matrix3<f64>, b: &nalgebra::Matrix3<f64>| (((a * b.transpose()).trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
+    let mut out = Vec::new();
+    for (i, a) in rel.iter().enumerate() {
+        let mut d: Vec<f64> = rel.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, b)| angle(a, b)).collect();
+        d.sort_by(f64::total_cmp);
+        // The lower median: a capture agreeing with half of the others is not an outlier.
+        if let Some(&m) = d.get(d.len().saturating_sub(1) / 2) {
+            if m > PAIR_DISAGREEMENT_DEG {
+                out.push((i, m));
+            }
+        }
+    }
+    out
+}
+
+/// One clause naming the captures of [`pose_outliers`], for an error.
+fn outlier_clause(captures: &[CaptureCorners], outliers: &[(usize, f64)], devices: [&str; 2]) -> String {
+    let names: Vec<String> = outliers.iter().map(|&(i, deg)| format!("{} ({deg:.1}°)", captures[i].name)).collect();
+    format!(
+        "the {} and {} of {} are turned against each other differently than in the other captures: {}; were they taken at the same moment?",
+        devices[0],
+        devices[1],
+        if outliers.len() == 1 { "this capture" } else { "these captures" },
+        names.join(", ")
+    )
 }
 
 /// How many of OpenCV's distortion coefficients a fit with `free` writes, as OpenCV does: 14 with

@@ -402,7 +402,8 @@ fn calibrate_camera_from_asymmetric_circle_grids() {
 /// left out with one warning, the baseline comes back within 0.5 % and the rotation within 0.1°,
 /// and the JSON and FileStorage files read back (`ProcamCalibration::read`) as the same
 /// calibration; without it the blank photograph is a one-line error, as are unequal counts. The
-/// same photographs given for both cameras calibrate with a one-line warning (zero baseline).
+/// same photographs given for both cameras calibrate with a one-line warning (zero baseline);
+/// photographs paired out of order are a one-line error naming the pairs.
 #[test]
 fn calibrate_stereo_from_circle_grid_pairs() {
     use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -457,6 +458,29 @@ fn calibrate_stereo_from_circle_grid_pairs() {
     assert!(e.contains("r4.png") && e.contains("asymmetric circle grid"), "{e}");
     let e = fails_on_one_line(&["scan", "calibrate-stereo", "--left", &left[0], &left[1], &left[2], "--right", &right[0], &right[1], "--corners", "4x11", "--square", "10"]);
     assert!(e.contains("--left has 3") && e.contains("--right 2"), "{e}");
+    // Photographs paired out of order: two pairs swapped, and one right photograph of a pose 10°
+    // from its left one. Each is a one-line error naming those pairs alone and no others, whether
+    // the joint fit diverges (the swap) or converges at a few pixels (the 10°).
+    let names = |order: &[usize]| -> Vec<&str> {
+        let mut m: Vec<&str> = vec!["scan", "calibrate-stereo", "--left"];
+        m.extend(left.iter().map(|f| f.as_str()));
+        m.push("--right");
+        m.extend(order.iter().map(|&i| right[i].as_str()));
+        m.extend(["--corners", "4x11", "--square", "10", "--pattern", "acircles", "--out", &json]);
+        m
+    };
+    std::fs::remove_file(&json).unwrap();
+    grid_photo(&right[4], &kr, 45.0, (-0.3, -0.1), Some((r_lr, t_lr)));
+    let ok = lucent().args(names(&[0, 1, 2, 3, 4])).output().unwrap();
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    std::fs::remove_file(&json).unwrap();
+    let e = fails_on_one_line(&names(&[0, 2, 1, 3, 4]));
+    assert!(e.contains("l1.png + ") && e.contains("r2.png") && e.contains("l2.png + ") && e.contains("same moment"), "{e}");
+    assert!(!e.contains("l0.png") && !e.contains("l3.png") && !e.contains("l4.png"), "{e}");
+    grid_photo(&right[4], &kr, 55.0, (-0.3, -0.1), Some((r_lr, t_lr)));
+    let e = fails_on_one_line(&names(&[0, 1, 2, 3, 4]));
+    assert!(e.contains("l4.png + ") && e.contains("(10.0°)") && e.contains("same moment") && !e.contains("l0.png") && !e.contains("l3.png"), "{e}");
+    assert!(!Path::new(&json).exists());
 }
 
 /// `scan undistort` on a shared capture's white frame: the PNG it writes is the library's remap of
