@@ -496,7 +496,7 @@ const PAIR_DISAGREEMENT_DEG: f64 = 3.0;
 /// relative rotations, with that median (degrees). A rigid pair gives every capture the same
 /// relative pose up to the fits' noise (tenths of a degree); photographs paired out of order give
 /// the paired captures the rotation between their two board poses.
-fn pose_outliers(rel: &[nalgebra::Matrix3<f64>]) -> Vec<(usize, f64)> {
+pub(crate) fn pose_outliers(rel: &[nalgebra::Matrix3<f64>]) -> Vec<(usize, f64)> {
     let angle = |a: &nalgebra::Matrix3<f64>, b: &nalgebra::Matrix3<f64>| (((a * b.transpose()).trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
     let mut out = Vec::new();
     for (i, a) in rel.iter().enumerate() {
@@ -514,7 +514,12 @@ fn pose_outliers(rel: &[nalgebra::Matrix3<f64>]) -> Vec<(usize, f64)> {
 
 /// One clause naming the captures of [`pose_outliers`], for an error.
 fn outlier_clause(captures: &[CaptureCorners], outliers: &[(usize, f64)], devices: [&str; 2]) -> String {
-    let names: Vec<String> = outliers.iter().map(|&(i, deg)| format!("{} ({deg:.1}°)", captures[i].name)).collect();
+    disagreement_clause(&|i| captures[i].name.clone(), outliers, devices)
+}
+
+/// One clause naming the captures of [`pose_outliers`] (`name` of a capture's index), for an error.
+pub(crate) fn disagreement_clause(name: &dyn Fn(usize) -> String, outliers: &[(usize, f64)], devices: [&str; 2]) -> String {
+    let names: Vec<String> = outliers.iter().map(|&(i, deg)| format!("{} ({deg:.1}°)", name(i))).collect();
     format!(
         "the {} and {} of {} are turned against each other differently than in the other captures: {}; were they taken at the same moment?",
         devices[0],

@@ -894,7 +894,7 @@ fn calibrate_camera_fisheye_from_chessboards() {
 /// image on the rows of the same corners in the right one (found again in the rectified 8-bit
 /// images): the mean row difference within 0.05 px and its rms within 0.15 px, through the
 /// fitted and through the true calibration; its --json projections are the library's. Pinhole
-/// flags and a pinhole scaling are one-line errors.
+/// flags, a pinhole scaling and two pairs swapped are one-line errors.
 #[test]
 fn calibrate_stereo_and_rectify_a_fisheye_pair() {
     use nalgebra::{Rotation3, Vector3};
@@ -1001,6 +1001,16 @@ fn calibrate_stereo_and_rectify_a_fisheye_pair() {
     let e = fails_on_one_line(&["scan", "rectify", &s.arg("l0.png"), &s.arg("r0.png"), "--calibration", &out, "--out-left", &s.arg("x.png"), "--out-right", &s.arg("y.png"), "--alpha", "0"]);
     assert!(e.contains("--alpha") && e.contains("fisheye"), "{e}");
     assert!(!s.path("x.png").exists());
+    // Two pairs swapped: a one-line error naming them alone.
+    let mut swapped: Vec<String> = vec!["scan".into(), "calibrate-stereo".into(), "--left".into()];
+    swapped.extend((0..poses.len()).map(|i| s.arg(&format!("l{i}.png"))));
+    swapped.push("--right".into());
+    swapped.extend([0, 1, 3, 2, 4, 5, 6].map(|i| s.arg(&format!("r{i}.png"))));
+    swapped.extend(["--corners", "9x6", "--square", "30", "--fisheye", "--out", &s.arg("swapped.json")].map(String::from));
+    let e = fails_on_one_line(&swapped.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    assert!(e.contains("l2.png + ") && e.contains("l3.png + ") && e.contains("same moment"), "{e}");
+    assert!(!e.contains("l0.png") && !e.contains("l1.png") && !e.contains("l4.png"), "{e}");
+    assert!(!s.path("swapped.json").exists());
 }
 
 /// Calibrations that the commands cannot use are refused on one line naming the field, before any

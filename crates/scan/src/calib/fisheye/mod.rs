@@ -283,6 +283,9 @@ pub struct FisheyeStereoFit {
     pub poses: Vec<Pose>,
     /// RMS reprojection error (pixels).
     pub rms_px: f64,
+    /// The views whose relative pose of the two cameras, from their separate fits, disagrees
+    /// with the others' (`calib::pose_outliers`), with the angle (degrees).
+    pub disagreeing: Vec<(usize, f64)>,
 }
 
 /// The residuals of a fisheye stereo fit: per view, the first camera's points, then the
@@ -385,11 +388,13 @@ pub fn stereo_calibrate_fisheye(obj: &[Point2], views: [&[Vec<Point2>]; 2], widt
     let count = |vs: &[Vec<Point2>]| vs.iter().flatten().filter(|q| observed(**q)).count() as f64;
     let (n1, n2) = (count(views[0]), count(views[1]));
     let rms_px = ((e1 * e1 * n1 + e2 * e2 * n2) / (n1 + n2).max(1.0)).sqrt();
+    let disagreeing = crate::calib::pose_outliers(&rel.iter().map(|p| p.r()).collect::<Vec<_>>());
     if !(rms_px <= max_rms_px) {
-        bail!("the fisheye stereo calibration did not converge: reprojection RMS {rms_px:.3} px exceeds {max_rms_px} px");
+        let why = if disagreeing.is_empty() { String::new() } else { format!("; {}", crate::calib::disagreement_clause(&|i| format!("view {i}"), &disagreeing, ["camera 1", "camera 2"])) };
+        bail!("the fisheye stereo calibration did not converge: reprojection RMS {rms_px:.3} px exceeds {max_rms_px} px{why}");
     }
     if lens.iter().any(|l| !(l.fx > 0.0 && l.fy > 0.0)) {
         bail!("the fit reached a focal length ≤ 0: fx, fy = {:.4}, {:.4} and {:.4}, {:.4} px", lens[0].fx, lens[0].fy, lens[1].fx, lens[1].fy);
     }
-    Ok(FisheyeStereoFit { lens, stereo, poses, rms_px })
+    Ok(FisheyeStereoFit { lens, stereo, poses, rms_px, disagreeing })
 }

@@ -79,8 +79,13 @@ pub fn calibrate_fisheye_pair(obj: &[Point2], pairs: &[(String, Vec<Point2>, Vec
     let v1: Vec<Vec<Point2>> = pairs.iter().map(|p| p.1.clone()).collect();
     let v2: Vec<Vec<Point2>> = pairs.iter().map(|p| p.2.clone()).collect();
     let fit = stereo_calibrate_fisheye(obj, [&v1, &v2], width, height, hold, false, [None, None], crate::calib::MAX_RMS_PX).map_err(|e| {
-        // "camera d: view i …" names the photograph pair.
         let msg = e.to_string();
+        if msg.contains("turned against each other") {
+            // The views of a disagreement named by their photograph pairs (higher indices first,
+            // so that "view 1" does not match inside "view 12").
+            return anyhow!("{}", (0..pairs.len()).rev().fold(msg, |m, i| m.replace(&format!("view {i} ("), &format!("{} (", pairs[i].0))));
+        }
+        // "camera d: view i …" names the photograph pair.
         match (0..pairs.len()).find(|i| msg.contains(&format!("view {i} ")) || msg.contains(&format!("view {i}:"))) {
             Some(i) => anyhow!("{}: {msg}", pairs[i].0),
             None => e,
@@ -98,7 +103,7 @@ pub fn calibrate_fisheye_pair(obj: &[Point2], pairs: &[(String, Vec<Point2>, Vec
         distortion: l.k.to_vec(),
         rms_px: rms(l, &obj3, views, poses),
     };
-    let captures = pairs
+    let captures: Vec<CapturePose> = pairs
         .iter()
         .enumerate()
         .map(|(i, (name, a, b))| {
@@ -114,6 +119,13 @@ pub fn calibrate_fisheye_pair(obj: &[Point2], pairs: &[(String, Vec<Point2>, Vec
             }
         })
         .collect();
+    // As for pinhole pairs (`calib::calibrate_planar`): a pair whose relative pose disagrees and
+    // that the joint fit leaves above 1 px was not taken at one moment.
+    let bad: Vec<(usize, f64)> = fit.disagreeing.iter().copied().filter(|&(i, _)| captures[i].rms_px > 1.0).collect();
+    if !bad.is_empty() {
+        let worst = captures.iter().map(|c| c.rms_px).fold(0.0, f64::max);
+        bail!("reprojection RMS {:.3} px over all pairs, {worst:.3} px at the worst; {}", fit.rms_px, crate::calib::disagreement_clause(&|i| pairs[i].0.clone(), &bad, ["left camera", "right camera"]));
+    }
     let r = fit.stereo.r();
     Ok(FisheyeStereoCalibration {
         model: "fisheye".into(),
