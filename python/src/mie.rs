@@ -149,10 +149,17 @@ pub fn mie_flat<'py>(
         return Err(value(format!("x and m: {} and {} elements after broadcasting", x.len(), m.len())));
     }
     let n = x.len();
-    for i in 0..n {
-        positive("x", x[i], i, n)?;
-        index("m", m[i], i, n)?;
-        mie::check_size(Complex64::new(x[i], 0.0), m[i]).with_context(|| format!("x, m{}", at(i, n))).or_py()?;
+    // The first element that fails any check is the one reported. The size check runs inside
+    // `efficiencies` (which returns no terms where it fails), so it is repeated here only for the
+    // elements before the first other failure, or after the computation for the first element
+    // without terms.
+    let size_check = |i: usize| mie::check_size(Complex64::new(x[i], 0.0), m[i]).with_context(|| format!("x, m{}", at(i, n))).or_py();
+    if let Some(j) = (0..n).find(|&i| positive("x", x[i], i, n).is_err() || index("m", m[i], i, n).is_err()) {
+        for i in 0..j {
+            size_check(i)?;
+        }
+        positive("x", x[j], j, n)?;
+        index("m", m[j], j, n)?;
     }
     let angles = angles_vec(angles_deg)?;
     let mu = cosines(angles.as_deref().unwrap_or(&[]))?;
@@ -174,12 +181,17 @@ pub fn mie_flat<'py>(
                         g: e.g,
                         ..Row::default()
                     };
-                    angular(ws, row.x, m[i], &mu, &mut row);
+                    if row.terms > 0 {
+                        angular(ws, row.x, m[i], &mu, &mut row);
+                    }
                     row
                 })
                 .collect::<Vec<Row>>()
         })
     })?;
+    if let Some(i) = rows.iter().position(|r| r.terms == 0) {
+        size_check(i)?;
+    }
     into_dict(py, rows, angles, false)
 }
 

@@ -167,6 +167,10 @@ def test_mie_sphere_broadcasts_and_reduces_to_mie_in_a_clear_host():
         (lambda: lucent.mie(1.0, 1.5, angles_deg=[10.0, 190.0]), "angles_deg: angles must lie in [0, 180], got 190"),
         (lambda: lucent.mie([1.0, 2.0], [1.5, 1.6, 1.7]), "shapes do not broadcast"),
         (lambda: lucent.mie(2e6, 1.5), "needs 2000"),
+        # The first failing element is reported, whichever check it fails.
+        (lambda: lucent.mie([1.0, 2e6], 1.5), "x, m (element 1 of the broadcast arrays): the Mie series"),
+        (lambda: lucent.mie([1.0, 2e6, 0.0], 1.5), "x, m (element 1 of the broadcast arrays): the Mie series"),
+        (lambda: lucent.mie([0.0, 2e6], 1.5), "x: must be positive, got 0 (element 0"),
         (lambda: lucent.mie(1.0, 1.5, threads=0), "threads: must be a whole number ≥ 1"),
         (lambda: lucent.mie_sphere(-1e-6, 500e-9, 1.5), "radius_m: must be positive"),
         (lambda: lucent.mie_sphere(1e-3, 500e-9, 1.5, 1.33 + 0.1j), "n_medium: the host absorbs too strongly"),

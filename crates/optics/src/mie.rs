@@ -71,6 +71,21 @@ pub const MIN_SERIES_SIZE_PARAMETER: f64 = 1e-4;
 /// [`MAX_TERMS`] series terms and a downward-recurrence start of at most [`MAX_DOWNWARD_START`].
 /// The error says which limit is exceeded and by what.
 pub fn check_size(x: Complex64, m: Complex64) -> anyhow::Result<()> {
+    sizes(x, m).map(|_| ())
+}
+
+/// What [`check_size`] computes on the way: |x|, |m·x|, the series' terms M ([`number_of_terms`])
+/// and the start index of the downward recurrence of D_n(mx), so that a caller that checks need
+/// not compute them again.
+#[derive(Clone, Copy, Debug)]
+struct Sizes {
+    x_abs: f64,
+    mx_abs: f64,
+    terms: usize,
+    start: usize,
+}
+
+fn sizes(x: Complex64, m: Complex64) -> anyhow::Result<Sizes> {
     let (xa, mxa) = (x.norm(), (m * x).norm());
     if !(xa.is_finite() && mxa.is_finite() && m.re.is_finite() && m.im.is_finite()) {
         anyhow::bail!("size parameter x = {x} and relative index m = {m} must be finite");
@@ -93,7 +108,9 @@ pub fn check_size(x: Complex64, m: Complex64) -> anyhow::Result<()> {
             "|m·x| = {mxa:.4e} needs the downward recurrence of D_n(mx) to start at n = {start:.3e}, above the supported {MAX_DOWNWARD_START} (|m·x| ≲ 1e7)"
         );
     }
-    Ok(())
+    // As number_of_terms and downward_start compute them (terms ≥ 1 here: |x| is finite and
+    // positive).
+    Ok(Sizes { x_abs: xa, mx_abs: mxa, terms: terms as usize, start: start as usize })
 }
 
 /// Estimated work of one sphere in recurrence steps: the series terms M plus the start index of
@@ -361,9 +378,8 @@ impl Block {
 /// m·D_n + n/x = B/T with B = m·t_{n−1}, T = t_n. Each term has one consistent scale of t
 /// (the pair is rescaled when |t| leaves [1e-30, 1e30]), and a_n, b_n are homogeneous in it.
 /// Lanes past `terms` hold A = B = 1, C = T = 0 (a_n = b_n = ψ_n/ξ_n, finite; their weights are 0).
-fn riccati_downward(x: f64, m: Complex64, terms: usize, rows: &mut Vec<Block>) {
+fn riccati_downward(x: f64, m: Complex64, terms: usize, start: usize, rows: &mut Vec<Block>) {
     let z = m * x;
-    let start = downward_start(terms, z.norm());
     let one = Complex64::new(1.0, 0.0);
     let zero = Complex64::new(0.0, 0.0);
     let blocks = terms.div_ceil(4);
@@ -599,10 +615,11 @@ impl MieWorkspace {
     /// Unsupported sizes ([`check_size`]) give NaN efficiencies with `terms` = 0.
     pub fn efficiencies(&mut self, x: f64, m: Complex64) -> Efficiencies {
         let xc = Complex64::new(x, 0.0);
-        if check_size(xc, m).is_err() {
+        let Ok(size) = sizes(xc, m) else {
             return NAN_EFFICIENCIES;
-        }
-        if is_small(xc, m) {
+        };
+        // is_small, from the magnitudes already computed.
+        if size.x_abs < SMALL_PARTICLE_LIMIT && size.mx_abs < SMALL_PARTICLE_LIMIT {
             let [a1, b1, a2] = small_particle_coefficients(xc, m);
             let z = Complex64::new(0.0, 0.0);
             let mut sums = Sums { terms: 2, ..Default::default() };
@@ -619,8 +636,8 @@ impl MieWorkspace {
                 g: if sums.sca > 0.0 { 2.0 * sums.g_num / sums.sca } else { 0.0 },
             };
         }
-        let terms = number_of_terms(x);
-        riccati_downward(x, m, terms, &mut self.rows);
+        let terms = size.terms;
+        riccati_downward(x, m, terms, size.start, &mut self.rows);
         let sums = series_blocks(x, terms, &self.rows);
         let x2 = x * x;
         let qext = 2.0 * sums.ext.re / x2;
