@@ -59,20 +59,21 @@ pub fn smooth_normals(mesh: &Mesh, keep: &[bool], iterations: usize) -> Vec<[f64
         }
     }
     let mut cur: Vec<[f64; 3]> = n.iter().map(|&v| normalise(v)).collect();
+    // Two buffers, swapped after each pass (a fresh vector per pass spent more time in page
+    // faults than in the sums).
+    let mut next = vec![[0.0f64; 3]; nv];
     for _ in 0..iterations {
-        cur = (0..nv)
-            .into_par_iter()
-            .map(|v| {
-                let mut s = cur[v];
-                for &u in &nb[start[v]..start[v + 1]] {
-                    let q = cur[u as usize];
-                    for k in 0..3 {
-                        s[k] += q[k];
-                    }
+        next.par_iter_mut().enumerate().with_min_len(4096).for_each(|(v, out)| {
+            let mut s = cur[v];
+            for &u in &nb[start[v]..start[v + 1]] {
+                let q = cur[u as usize];
+                for k in 0..3 {
+                    s[k] += q[k];
                 }
-                normalise(s)
-            })
-            .collect();
+            }
+            *out = normalise(s);
+        });
+        std::mem::swap(&mut cur, &mut next);
     }
     cur
 }
@@ -85,29 +86,29 @@ pub fn smooth_depth(mesh: &Mesh, keep: &[bool], normals: &[[f64; 3]], iterations
     let (start, nb) = neighbours(mesh, keep);
     let nv = mesh.positions.len();
     let mut cur = mesh.positions.clone();
+    let mut next = vec![[0.0f64; 3]; nv];
     for _ in 0..iterations {
-        cur = (0..nv)
-            .into_par_iter()
-            .map(|v| {
-                let list = &nb[start[v]..start[v + 1]];
-                let p = cur[v];
-                if list.is_empty() {
-                    return p;
+        next.par_iter_mut().enumerate().with_min_len(4096).for_each(|(v, out)| {
+            let list = &nb[start[v]..start[v + 1]];
+            let p = cur[v];
+            if list.is_empty() {
+                *out = p;
+                return;
+            }
+            let mut m = [0.0; 3];
+            for &u in list {
+                let q = cur[u as usize];
+                for k in 0..3 {
+                    m[k] += q[k];
                 }
-                let mut m = [0.0; 3];
-                for &u in list {
-                    let q = cur[u as usize];
-                    for k in 0..3 {
-                        m[k] += q[k];
-                    }
-                }
-                let inv = 1.0 / list.len() as f64;
-                let m = m.map(|x| x * inv);
-                let n = normals[v];
-                let d = (m[0] - p[0]) * n[0] + (m[1] - p[1]) * n[1] + (m[2] - p[2]) * n[2];
-                [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]]
-            })
-            .collect();
+            }
+            let inv = 1.0 / list.len() as f64;
+            let m = m.map(|x| x * inv);
+            let n = normals[v];
+            let d = (m[0] - p[0]) * n[0] + (m[1] - p[1]) * n[1] + (m[2] - p[2]) * n[2];
+            *out = [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]];
+        });
+        std::mem::swap(&mut cur, &mut next);
     }
     cur
 }
