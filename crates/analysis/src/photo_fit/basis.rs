@@ -106,7 +106,7 @@ pub fn scene_labels(scene: &Scene) -> Result<Vec<Label>> {
                 }
                 None => bail!("materials.{name}: a fitted label must have a constant albedo, not a texture"),
             },
-            Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Translucent(_) | Material::Blend { .. } => {
+            Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Translucent(_) | Material::Blend { .. } | Material::DiffuseTransmitter { .. } => {
                 bail!("materials.{name}: a fitted label must be lambertian or plastic")
             }
         };

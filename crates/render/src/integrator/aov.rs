@@ -7,7 +7,7 @@
 //!
 //! | `--aov` | EXR channels | value of one sample (the pixel holds the mean over its samples) |
 //! |---|---|---|
-//! | `albedo` | `albedo.R`, `.G`, `.B` | linear sRGB (D65) of the first surface's reflectance: Lambertian and plastic: the (base) albedo ρ(λ); other materials π·f(wo, n) towards the shading normal, 0 for smooth glass and mirrors (Mitsuba's `eval_diffuse_reflectance`); black where the ray escapes |
+//! | `albedo` | `albedo.R`, `.G`, `.B` | linear sRGB (D65) of the first surface's reflectance: Lambertian, plastic and diffuse transmitters: the (base) albedo ρ(λ); other materials π·f(wo, n) towards the shading normal, 0 for smooth glass and mirrors (Mitsuba's `eval_diffuse_reflectance`); black where the ray escapes |
 //! | `normal` | `N.X`, `.Y`, `.Z` | world-space unit shading normal, turned to the side the ray arrives from (pbrt-v4 calls it `Ns`); 0 where the ray escapes |
 //! | `depth` | `depth.T` | distance in metres from the ray's origin to the first hit along the ray (Mitsuba's `depth`, the ray parameter t, not the planar z); 0 where the ray escapes |
 //! | `position` | `P.X`, `.Y`, `.Z` | world-space position of the first hit, metres; 0 where the ray escapes |
@@ -192,6 +192,7 @@ pub fn first_hit(scene: &Scene, ray: &Ray, u_lambda: f32) -> FirstHit {
 fn reflectance(mat: &Material, wl: &SampledWavelengths, front: bool, uv: glam::Vec2, wo_local: Vec3) -> SampledSpectrum {
     match mat {
         Material::Lambertian { albedo } | Material::Plastic { albedo, .. } => albedo.eval(wl, uv),
+        Material::DiffuseTransmitter { albedo, .. } => albedo.eval(wl, uv),
         Material::Black => Vec4::ZERO,
         Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Translucent(_) => {
             let bsdf = mat.bsdf(wl, uv).facing(front);

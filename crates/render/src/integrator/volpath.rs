@@ -138,7 +138,7 @@ impl Default for VolpathOptions {
 pub fn index_matched(m: &Material) -> bool {
     match m {
         Material::Dielectric { ior, .. } => ior.samples().iter().all(|&x| x == 1.0),
-        Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Translucent(_) | Material::Blend { .. } => false,
+        Material::Lambertian { .. } | Material::DiffuseTransmitter { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Translucent(_) | Material::Blend { .. } => false,
     }
 }
 

@@ -100,6 +100,8 @@ pub(crate) struct MaterialDesc {
     #[serde(rename = "type")]
     pub(crate) kind: String,
     pub(crate) albedo: Option<Spanned<toml::Value>>,
+    /// `diffuse_transmitter`: its diffuse transmittance.
+    pub(crate) transmittance: Option<Spanned<toml::Value>>,
     // Dielectrics, conductors, plastic (see `bsdf_material`).
     pub(crate) ior: Option<Spanned<toml::Value>>,
     pub(crate) metal: Option<Spanned<String>>,

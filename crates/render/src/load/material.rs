@@ -42,7 +42,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
         if m.kind == "mask" && (m.two_sided.is_some() || m.normal_map.is_some() || m.bump_map.is_some()) {
             return Err(cx.err(&span, &field, "a mask takes its material's two_sided and maps: give them to that material"));
         }
-        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "black" | "interface" | "null" | "blend" | "mask") {
+        if matches!(m.kind.as_str(), "lambertian" | "diffuse" | "diffuse_transmitter" | "black" | "interface" | "null" | "blend" | "mask") {
             for (name, present) in [("ior", m.ior.is_some()), ("metal", m.metal.is_some()), ("eta", m.eta.is_some()), ("k", m.k.is_some()), ("roughness", m.roughness.is_some()), ("alpha", m.alpha.is_some())] {
                 if present {
                     return Err(cx.err(&span, &format!("{field}.{name}"), format!("not allowed for a {} material", m.kind)));
@@ -64,6 +64,10 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
         if m.distribution.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic") {
             return Err(cx.err(&span, &format!("{field}.distribution"), format!("only allowed for a dielectric, conductor or plastic material, not {}", quote(&m.kind))));
         }
+        let transmitter = matches!(m.kind.as_str(), "diffuse_transmitter");
+        if m.transmittance.is_some() && !transmitter {
+            return Err(cx.err(&span, &format!("{field}.transmittance"), format!("only allowed for a diffuse_transmitter material, not {}", quote(&m.kind))));
+        }
         if m.subsurface.is_some() && m.kind != "translucent" {
             return Err(cx.err(&span, &format!("{field}.subsurface"), format!("only allowed for a translucent material, not {}", quote(&m.kind))));
         }
@@ -71,6 +75,25 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
             "lambertian" | "diffuse" => {
                 let albedo = m.albedo.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.albedo"), "missing (a lambertian material needs an albedo)"))?;
                 Material::lambertian(sp.resolve_texture(albedo, &format!("{field}.albedo"), SpectrumUse::Albedo)?)
+            }
+            "diffuse_transmitter" => {
+                let t = m.transmittance.as_ref().ok_or_else(|| cx.err(&span, &format!("{field}.transmittance"), "missing (a diffuse_transmitter material needs a transmittance)"))?;
+                let transmittance = sp.resolve_texture(t, &format!("{field}.transmittance"), SpectrumUse::Albedo)?;
+                // The reflectance defaults to 0 (a pure transmitter).
+                let albedo = match &m.albedo {
+                    Some(a) => sp.resolve_texture(a, &format!("{field}.albedo"), SpectrumUse::Albedo)?,
+                    None => crate::texture::SpectrumTexture::Constant(DenseSpectrum::from_fn(|_| 0.0)),
+                };
+                // ρ + τ ≤ 1 weighted by ȳ (as a grey sheet's plain numbers, or the luminances of
+                // RGB values): an RGB's uplifted spectrum overshoots its values in the far red,
+                // where ȳ is near 0 and no colour depends on it.
+                if let (Some(a), Some(b)) = (albedo.as_constant(), transmittance.as_constant()) {
+                    let y = crate::math::spectral::xyz_of(|l| a.eval(l) + b.eval(l))[1];
+                    if y > 1.0 + 1e-4 {
+                        return Err(cx.err(&span, &format!("{field}.transmittance"), format!("albedo + transmittance is {y:.4} (weighted by the luminous efficiency ȳ): a sheet cannot scatter more than it receives")));
+                    }
+                }
+                Material::DiffuseTransmitter { albedo, transmittance }
             }
             "interface" | "null" => {
                 if m.albedo.is_some() {
@@ -115,7 +138,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
                 return Err(cx.err(
                     &span,
                     &format!("{field}.type"),
-                    format!("unknown material type {} (known: lambertian, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, blend, mask, translucent)", quote(other)),
+                    format!("unknown material type {} (known: lambertian, diffuse_transmitter, black, interface, dielectric, rough_dielectric, thin_dielectric, conductor, rough_conductor, plastic, blend, mask, translucent)", quote(other)),
                 ))
             }
         };

@@ -32,6 +32,15 @@ pub enum Material {
         /// Albedo (directional-hemispherical reflectance), dimensionless; constant or textured.
         albedo: SpectrumTexture,
     },
+    /// Diffuse reflector and transmitter (pbrt-v4's `diffusetransmission`): f = ρ/π on the side
+    /// light comes from, τ/π through to the other (ρ + τ ≤ 1); two-sided.
+    DiffuseTransmitter {
+        /// Diffuse reflectance ρ(λ) ∈ [0, 1] (directional-hemispherical), dimensionless; constant
+        /// or textured.
+        albedo: SpectrumTexture,
+        /// Diffuse transmittance τ(λ) ∈ [0, 1], dimensionless; constant or textured.
+        transmittance: SpectrumTexture,
+    },
     /// Absorbs everything (an emitter with no reflectance, or a light trap).
     Black,
     /// Dielectric interface (glass, water), smooth when α < `microfacet::SMOOTH_ALPHA`, else rough.
@@ -102,7 +111,7 @@ impl Material {
     pub fn as_translucent(&self) -> Option<&std::sync::Arc<translucent::Translucent>> {
         match self {
             Material::Translucent(t) => Some(t),
-            Material::Lambertian { .. } | Material::Black | Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Blend { .. } => None,
+            Material::Lambertian { .. } | Material::DiffuseTransmitter { .. } | Material::Black | Material::Dielectric { .. } | Material::ThinDielectric { .. } | Material::Conductor { .. } | Material::Plastic { .. } | Material::Blend { .. } => None,
         }
     }
 
@@ -193,7 +202,7 @@ impl Material {
         match self {
             Material::Dielectric { ior, dispersive, distrib, .. } => Some(Material::Dielectric { ior, dispersive, distrib, roughness: Some(roughness) }),
             Material::Conductor { eta, k, distrib, .. } => Some(Material::Conductor { eta, k, distrib, roughness: Some(roughness) }),
-            Material::Lambertian { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Plastic { .. } | Material::Translucent(_) | Material::Blend { .. } => None,
+            Material::Lambertian { .. } | Material::DiffuseTransmitter { .. } | Material::Black | Material::ThinDielectric { .. } | Material::Plastic { .. } | Material::Translucent(_) | Material::Blend { .. } => None,
         }
     }
 
@@ -201,6 +210,7 @@ impl Material {
     pub fn is_textured(&self) -> bool {
         match self {
             Material::Lambertian { albedo } | Material::Plastic { albedo, .. } => albedo.is_textured(),
+            Material::DiffuseTransmitter { albedo, transmittance } => albedo.is_textured() || transmittance.is_textured(),
             Material::Dielectric { roughness, .. } | Material::Conductor { roughness, .. } => roughness.is_some(),
             Material::Black | Material::ThinDielectric { .. } | Material::Translucent(_) => false,
             Material::Blend { a, b, weight } => matches!(weight, FloatTexture::Image(_)) || a.is_textured() || b.is_textured(),
@@ -241,6 +251,11 @@ impl Material {
     pub fn bsdf_with(&self, wl: &SampledWavelengths, uv: impl FnOnce() -> Vec2) -> Bsdf {
         match self {
             Material::Lambertian { albedo } => Bsdf::Diffuse { r: albedo.eval_with(wl, uv) },
+            Material::DiffuseTransmitter { albedo, transmittance } => {
+                // One lookup of the texture coordinates for both textures.
+                let uv = if albedo.is_textured() || transmittance.is_textured() { uv() } else { Vec2::ZERO };
+                Bsdf::DiffuseTransmission { r: albedo.eval_with(wl, || uv), t: transmittance.eval_with(wl, || uv) }
+            }
             Material::Black => Bsdf::Black,
             Material::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: wl.eval(ior) }),
             Material::Dielectric { ior, dispersive, distrib, roughness } => {

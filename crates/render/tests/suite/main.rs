@@ -26,4 +26,5 @@ mod shapes;
 mod subsurface;
 mod subsurface_colour;
 mod texture;
+mod transmitter;
 mod volpath;
