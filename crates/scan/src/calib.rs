@@ -422,7 +422,7 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
     }
     let fit = match refine(obj, &views, &start, free, MAX_RMS_PX) {
         Ok(fit) => fit,
-        Err(e) if !outliers.is_empty() => bail!("stereo: {e:#}; {}", outlier_clause(captures, &outliers, devices)),
+        Err(e) if !outliers.is_empty() => bail!("stereo: {e:#}; {}", disagreement_clause(&|i| captures[i].name.clone(), &outliers, devices)),
         Err(e) => return Err(e).context("stereo"),
     };
     let c = finish(rig, captures, obj, &views, &fit, coefficient_count(free))?;
@@ -434,7 +434,7 @@ pub fn calibrate_planar(rig: &Rig, obj: &[homography::Point2], captures: &[Captu
     let bad: Vec<(usize, f64)> = outliers.iter().copied().filter(|&(i, _)| c.captures[i].rms_px > 1.0).collect();
     if !bad.is_empty() {
         let worst = c.captures.iter().map(|p| p.rms_px).fold(0.0, f64::max);
-        bail!("stereo: reprojection RMS {:.3} px over all captures, {worst:.3} px at the worst; {}", c.rms_px, outlier_clause(captures, &bad, devices));
+        bail!("stereo: reprojection RMS {:.3} px over all captures, {worst:.3} px at the worst; {}", c.rms_px, disagreement_clause(&|i| captures[i].name.clone(), &bad, devices));
     }
     // A rational denominator that reaches 0, or a tilt that turns part of the image beyond the
     // horizon, fits the corners but maps no ray there (render::camera::OpenCv's check, which
@@ -510,11 +510,6 @@ pub(crate) fn pose_outliers(rel: &[nalgebra::Matrix3<f64>]) -> Vec<(usize, f64)>
         }
     }
     out
-}
-
-/// One clause naming the captures of [`pose_outliers`], for an error.
-fn outlier_clause(captures: &[CaptureCorners], outliers: &[(usize, f64)], devices: [&str; 2]) -> String {
-    disagreement_clause(&|i| captures[i].name.clone(), outliers, devices)
 }
 
 /// One clause naming the captures of [`pose_outliers`] (`name` of a capture's index), for an error.

@@ -64,8 +64,7 @@ pub(crate) fn materials(cx: &Cx, sp: &SpectrumCx, desc: &SceneDesc, unit_m: f64)
         if m.distribution.is_some() && !matches!(m.kind.as_str(), "dielectric" | "rough_dielectric" | "conductor" | "rough_conductor" | "plastic") {
             return Err(cx.err(&span, &format!("{field}.distribution"), format!("only allowed for a dielectric, conductor or plastic material, not {}", quote(&m.kind))));
         }
-        let transmitter = matches!(m.kind.as_str(), "diffuse_transmitter");
-        if m.transmittance.is_some() && !transmitter {
+        if m.transmittance.is_some() && m.kind != "diffuse_transmitter" {
             return Err(cx.err(&span, &format!("{field}.transmittance"), format!("only allowed for a diffuse_transmitter material, not {}", quote(&m.kind))));
         }
         if m.subsurface.is_some() && m.kind != "translucent" {
