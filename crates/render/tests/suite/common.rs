@@ -101,12 +101,18 @@ pub fn directional(to_light: Vec3, e: f64) -> String {
 /// Mean luminance Y over the image, and its standard error, from 128 passes: each camera
 /// sample's one light sample is exact, so the noise is only that of the sampled wavelengths.
 pub fn pixels(s: &Scene) -> (f64, f64) {
+    pixels_with(s, 128, 1)
+}
+
+#[allow(dead_code)]
+/// Mean luminance Y over the image, and its standard error, from `passes` passes of one sample
+/// per pixel with the render seed `seed`.
+pub fn pixels_with(s: &Scene, passes: u64, seed: u64) -> (f64, f64) {
     let (w, h) = s.resolution();
     let mut buf = vec![[0f32; 3]; (w * h) as usize];
-    let passes = 128;
     let means: Vec<f64> = (0..passes)
         .map(|p| {
-            render_pass(s, &s.integrator, 1, p, &mut buf);
+            render_pass(s, &s.integrator, seed, p, &mut buf);
             buf.iter().map(|xyz| xyz[1] as f64).sum::<f64>() / buf.len() as f64
         })
         .collect();

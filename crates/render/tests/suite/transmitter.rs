@@ -10,6 +10,17 @@ use crate::common::*;
 
 use glam::Vec3;
 use std::f64::consts::PI;
+use std::path::Path;
+
+/// Asserts that the quad of `material` (with `extra` materials), seen from `eye` under a
+/// directional light of irradiance `e` from `to_light`, shows share/π · E · |cos θ| within four
+/// standard errors; returns the mean and its standard error.
+fn assert_lit_share(dir: &Path, eye: Vec3, material: &str, extra: &str, to_light: Vec3, e: f64, share: f64) -> (f64, f64) {
+    let (m, se) = pixels(&load_in(dir, &(quad_scene(eye, material, &directional(to_light, e)) + extra)));
+    let expect = share / PI * e * to_light.normalize().z.abs() as f64 * y_of_one();
+    assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
+    (m, se)
+}
 
 #[test]
 fn a_sheet_lit_from_behind_shows_its_transmittance() {
@@ -19,9 +30,8 @@ fn a_sheet_lit_from_behind_shows_its_transmittance() {
     let material = format!("type = \"diffuse_transmitter\"\ntransmittance = {t}");
     // The light on the far side (z < 0), the camera at z > 0.
     let behind = Vec3::new(0.3, 0.2, -0.9).normalize();
-    let (m, se) = pixels(&load_in(&dir, &quad_scene(eye, &material, &directional(behind, e))));
+    let (m, se) = assert_lit_share(&dir, eye, &material, "", behind, e, t);
     let expect = t / PI * e * behind.z.abs() as f64 * y_of_one();
-    assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
     assert!(expect > 0.1 && (m - 0.5 * expect).abs() > 10.0 * se.max(1e-4));
     // Lit from the camera's side, a pure transmitter returns nothing, and one with albedo ρ
     // returns ρ/π · E · cos θ (its transmittance does not change that).
@@ -30,18 +40,13 @@ fn a_sheet_lit_from_behind_shows_its_transmittance() {
     assert_eq!(m, 0.0);
     let rho = 0.3;
     let with_albedo = format!("{material}\nalbedo = {rho}");
-    let (m, se) = pixels(&load_in(&dir, &quad_scene(eye, &with_albedo, &directional(front, e))));
-    let expect_r = rho / PI * e * front.z.abs() as f64 * y_of_one();
-    assert!((m - expect_r).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect_r}");
-    let (m, se) = pixels(&load_in(&dir, &quad_scene(eye, &with_albedo, &directional(behind, e))));
-    assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
+    assert_lit_share(&dir, eye, &with_albedo, "", front, e, rho);
+    assert_lit_share(&dir, eye, &with_albedo, "", behind, e, t);
     // Seen from behind (the camera on the lit side), the transmitted light leaves the other way:
     // nothing, whichever face the geometric normal marks.
     let (m, _) = pixels(&load_in(&dir, &quad_scene(Vec3::new(0.2, -0.1, -4.0), &material, &directional(behind, e))));
     assert_eq!(m, 0.0);
-    let (m, se) = pixels(&load_in(&dir, &quad_scene(Vec3::new(0.2, -0.1, -4.0), &material, &directional(front, e))));
-    let expect = t / PI * e * front.z.abs() as f64 * y_of_one();
-    assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
+    assert_lit_share(&dir, Vec3::new(0.2, -0.1, -4.0), &material, "", front, e, t);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -53,18 +58,7 @@ fn under_a_uniform_environment_a_sheet_shows_its_albedo_plus_transmittance_times
     let (r, t, l) = (0.25, 0.45, 1.5);
     let text = quad_scene(Vec3::new(0.0, 0.0, 4.0), &format!("type = \"diffuse_transmitter\"\nalbedo = {r}\ntransmittance = {t}"), &format!("[[lights]]\ntype = \"environment\"\nradiance = {l}"))
         .replace("type = \"direct\"\n        emitter_samples = 1\n        bsdf_samples = 0", "type = \"path\"\n        max_depth = 3");
-    let s = load_in(&dir, &text);
-    let (w, h) = s.resolution();
-    let mut buf = vec![[0f32; 3]; (w * h) as usize];
-    let passes = 256;
-    let means: Vec<f64> = (0..passes)
-        .map(|p| {
-            render::integrator::render_pass(&s, &s.integrator, 3, p, &mut buf);
-            buf.iter().map(|xyz| xyz[1] as f64).sum::<f64>() / buf.len() as f64
-        })
-        .collect();
-    let m = means.iter().sum::<f64>() / passes as f64;
-    let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / ((passes - 1) * passes) as f64).sqrt();
+    let (m, se) = pixels_with(&load_in(&dir, &text), 256, 3);
     let expect = (r + t) * l * y_of_one();
     assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
     assert!((m - t * l * y_of_one()).abs() > 10.0 * se && (m - l * y_of_one()).abs() > 10.0 * se);
@@ -82,11 +76,8 @@ fn a_blend_with_a_reflector_reflects_and_transmits_its_shares() {
     let eye = Vec3::new(0.1, 0.2, 4.0);
     let front = Vec3::new(0.2, -0.3, 0.9).normalize();
     let behind = Vec3::new(front.x, front.y, -front.z);
-    for (light, share) in [(front, (1.0 - w) * rho), (behind, w * t)] {
-        let (m, se) = pixels(&load_in(&dir, &(quad_scene(eye, &material, &directional(light, e)) + &parts)));
-        let expect = share / PI * e * light.z.abs() as f64 * y_of_one();
-        assert!((m - expect).abs() < 4.0 * se + 1e-6, "{m} ± {se} vs {expect}");
-    }
+    assert_lit_share(&dir, eye, &material, &parts, front, e, (1.0 - w) * rho);
+    assert_lit_share(&dir, eye, &material, &parts, behind, e, w * t);
     std::fs::remove_dir_all(&dir).ok();
 }
 
