@@ -48,31 +48,21 @@ SIGMA_A_PER_M, G = 0.5, 0.6
 LAMP = ([1.2, 2.2, -1.0], 0.3, 10.0)
 
 
-def lucent_scene(case):
+def lucent_stage(integrator):
+    """The lucent scene's camera, integrator, floor, sphere lamp and environment (materials
+    `floor`, `lamp`, and `matched`, an index-matched boundary)."""
     (lx, ly, lz), lr, le = LAMP
-    per_mm = [s / 1000 for s in SIGMA_S_PER_M]
-    phase = 'phase = "rayleigh"' if case == "rayleigh" else f"g = {G}"
-    medium = (f"medium = {{ {phase}, sigma_s_per_mm = {{ lambda_nm = {LAMBDA}, values = {per_mm} }}, "
-              f"sigma_a_per_mm = {SIGMA_A_PER_M / 1000} }}")
-    s = f"""unit = "m"
+    return f"""unit = "m"
 camera = {{ eye = {EYE}, look_at = {TARGET}, up = [0, 1, 0], vfov_deg = {FOV}, width = {W}, height = {H} }}
 [integrator]
-type = "{'path' if case == 'spherelight' else 'volpath'}"
+type = "{integrator}"
 max_depth = 64
 rr_depth = 5
 [materials.floor]
 type = "lambertian"
 albedo = 0.4
-[materials.ball]
-type = "lambertian"
-albedo = 0.6
 [materials.matched]
 type = "interface"
-[materials.rough]
-type = "rough_dielectric"
-ior = 1.33
-alpha = 0.3
-{'masking = "separable"' if case == "rough_separable" else ""}
 [materials.lamp]
 type = "black"
 [[objects]]
@@ -90,15 +80,36 @@ radiance = {{ rgb = [{le}, {le}, {le}] }}
 type = "environment"
 radiance = {{ rgb = [0.2, 0.2, 0.2] }}
 """
+
+
+def cube_quads(lo, hi):
+    """The six outward-wound faces (counter-clockwise seen from outside) of the box lo–hi, as
+    lucent's `quads`."""
+    c = [[lo[0], lo[1], lo[2]], [hi[0], lo[1], lo[2]], [hi[0], hi[1], lo[2]], [lo[0], hi[1], lo[2]],
+         [lo[0], lo[1], hi[2]], [hi[0], lo[1], hi[2]], [hi[0], hi[1], hi[2]], [lo[0], hi[1], hi[2]]]
+    faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (3, 7, 6, 2), (0, 4, 7, 3), (1, 2, 6, 5)]
+    return ", ".join("[" + ", ".join(str(c[i]) for i in f) + "]" for f in faces)
+
+
+def lucent_scene(case):
+    per_mm = [s / 1000 for s in SIGMA_S_PER_M]
+    phase = 'phase = "rayleigh"' if case == "rayleigh" else f"g = {G}"
+    medium = (f"medium = {{ {phase}, sigma_s_per_mm = {{ lambda_nm = {LAMBDA}, values = {per_mm} }}, "
+              f"sigma_a_per_mm = {SIGMA_A_PER_M / 1000} }}")
+    s = lucent_stage("path" if case == "spherelight" else "volpath") + f"""[materials.ball]
+type = "lambertian"
+albedo = 0.6
+[materials.rough]
+type = "rough_dielectric"
+ior = 1.33
+alpha = 0.3
+{'masking = "separable"' if case == "rough_separable" else ""}
+"""
     if case in ("null", "rayleigh"):
         s += f"[[objects]]\nmaterial = \"matched\"\nsphere = {{ center = [0, 0.6, 0], radius = 0.6 }}\n{medium}\n"
     elif case in ("rough", "rough_separable"):
         h = 0.55
-        c = [[-h, 0.001, -h], [h, 0.001, -h], [h, 0.001 + 2 * h, -h], [-h, 0.001 + 2 * h, -h],
-             [-h, 0.001, h], [h, 0.001, h], [h, 0.001 + 2 * h, h], [-h, 0.001 + 2 * h, h]]
-        # Six outward-wound faces of the cube (counter-clockwise seen from outside).
-        faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (3, 7, 6, 2), (0, 4, 7, 3), (1, 2, 6, 5)]
-        quads = ", ".join("[" + ", ".join(str(c[i]) for i in f) + "]" for f in faces)
+        quads = cube_quads([-h, 0.001, -h], [h, 0.001 + 2 * h, h])
         s += f"[[objects]]\nmaterial = \"rough\"\nquads = [{quads}]\n{medium}\n"
     else:
         s += "[[objects]]\nmaterial = \"ball\"\nsphere = { center = [0, 0.6, 0], radius = 0.6 }\n"
@@ -109,16 +120,13 @@ def run_lucent(binary, work, case, spp):
     return render_luminance(binary, work, case, lucent_scene(case), spp)
 
 
-def run_mitsuba(case, spp, variant):
-    import mitsuba as mi
-
-    mi.set_variant(variant)
+def mitsuba_stage(mi, integrator, spp):
+    """The Mitsuba scene dictionary of `lucent_stage` (the variant already set)."""
     T = mi.ScalarTransform4f
-
     (lx, ly, lz), lr, le = LAMP
-    scene = {
+    return {
         "type": "scene",
-        "integrator": {"type": "path" if case == "spherelight" else "volpath", "max_depth": 64, "rr_depth": 5},
+        "integrator": {"type": integrator, "max_depth": 64, "rr_depth": 5},
         "sensor": {"type": "perspective", "fov": FOV, "fov_axis": "y", "to_world": T().look_at(origin=EYE, target=TARGET, up=[0, 1, 0]),
                    "film": {"type": "hdrfilm", "width": W, "height": H, "pixel_format": "rgb", "rfilter": {"type": "box"}},
                    "sampler": {"type": "independent", "sample_count": spp}},
@@ -128,6 +136,14 @@ def run_mitsuba(case, spp, variant):
                  "emitter": {"type": "area", "radiance": {"type": "d65", "scale": le}}},
         "env": {"type": "constant", "radiance": {"type": "d65", "scale": 0.2}},
     }
+
+
+def run_mitsuba(case, spp, variant):
+    import mitsuba as mi
+
+    mi.set_variant(variant)
+    T = mi.ScalarTransform4f
+    scene = mitsuba_stage(mi, "path" if case == "spherelight" else "volpath", spp)
     # lucent interpolates σ_s linearly between the table's wavelengths; Mitsuba takes σ_t and the
     # albedo, which are not linear in λ between them, so both go to Mitsuba on a 1 nm grid.
     lam = np.arange(360, 831)

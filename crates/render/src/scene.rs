@@ -52,7 +52,7 @@ pub struct Scene {
     /// Index of the environment light, if any (rays that escape see it).
     pub environment: Option<u32>,
     /// Homogeneous participating media (object interiors and the global medium).
-    pub media: Vec<crate::medium::HomogeneousMedium>,
+    pub media: Vec<crate::medium::Medium>,
     /// Per medium, the free-flight distance bounds over its bounding objects (`volpath` skips ray
     /// casts for collisions closer than them); `None` for the global medium and pure absorbers.
     pub medium_grids: Vec<Option<crate::medium::FreeFlightGrid>>,

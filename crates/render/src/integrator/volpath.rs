@@ -1,4 +1,5 @@
-//! `volpath`: volumetric path tracing through homogeneous participating media.
+//! `volpath`: volumetric path tracing through participating media, homogeneous or scaled by a
+//! density grid.
 //!
 //! Media fill closed objects (`ObjectInfo::interior_medium`; the front face of the boundary is its
 //! outside) and, optionally, all remaining space (`Scene::global_medium`). A path tracks the medium
@@ -48,6 +49,13 @@
 //! Media that do not scatter at any wavelength (pure absorbers) are not sampled at all: the
 //! Beer–Lambert transmittance e^{−σ_a t} multiplies the throughput deterministically.
 //!
+//! A medium with a density grid (σ(λ, x) = σ(λ) ρ(x), `medium::grid`) is the homogeneous case in
+//! the density-weighted length τ = ∫ρ ds, which the grid integrates exactly along a ray: flights
+//! are drawn in τ with the hero's σ_t and mapped back to distance, transmittances are
+//! e^{−σ_t τ}, and a collision's ρ(x) is a factor common to every lane's σ_s, σ_t and density,
+//! so the lane weights are the homogeneous ones with τ for t. The deep walk and refraction
+//! guiding are for homogeneous media only.
+//!
 //! Refraction guiding: inside a medium whose boundary is a smooth dielectric, next-event
 //! estimation is blocked, and light is found only by directions that leave towards a light by
 //! chance. At a collision near the boundary a second, short *refracted branch* is played with
@@ -96,7 +104,7 @@ use crate::integrator::nee::{self, environment_emission};
 use crate::integrator::settings::IntegratorSettings;
 use crate::interaction::{offset_origin, shadow_t_max};
 use crate::material::Material;
-use crate::medium::{scattered, FreeFlightGrid, HomogeneousMedium, MediumLanes};
+use crate::medium::{scattered, FreeFlightGrid, Medium, MediumLanes};
 use crate::interaction::Shading;
 use crate::light::refracted::{RefractedLights, RefractingPlane};
 use crate::math::sampling::{power_heuristic, Frame, Pcg32};
@@ -257,8 +265,9 @@ fn shadow_transmittance(scene: &Scene, mut o: Vec3, d: Vec3, dist: f32, mut medi
         let hit = scene.intersect(&ray);
         let seg = hit.map(|h| h.t).unwrap_or(remaining);
         if let Some(m) = medium {
-            let (_, sigma_t) = scene.media[m as usize].coefficients(wl);
-            tr *= transmittance(sigma_t, seg);
+            let mm = &scene.media[m as usize];
+            let (_, sigma_t) = mm.coefficients(wl);
+            tr *= transmittance(sigma_t, mm.depth(o, d, seg));
             if tr == Vec4::ZERO {
                 return None;
             }
@@ -480,7 +489,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     // The current medium's data at this path's wavelengths (computed on entering it).
     let mut lanes: (u32, MediumLanes) = (u32::MAX, MediumLanes::default());
     // Its phase functions on the shared cos θ grid, interpolated between wavelengths once
-    // (`HomogeneousMedium::lane_table`; empty: evaluated per event instead).
+    // (`Medium::lane_table`; empty: evaluated per event instead).
     let mut lane_buf: Vec<Vec4> = Vec::new();
     // Real collisions so far, and the count at which the next event-count roulette is played.
     let mut events = 0u32;
@@ -501,7 +510,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
     let mut exit_hint = 0u32;
     'path: loop {
         // Free flight in the current medium.
-        let med: Option<(&HomogeneousMedium, Vec4, Vec4)> = medium.map(|m| {
+        let med: Option<(&Medium, Vec4, Vec4)> = medium.map(|m| {
             let mm = &scene.media[m as usize];
             if lanes.0 != m {
                 lanes = (m, mm.lanes(wl));
@@ -511,12 +520,22 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         });
         let lane_table = (!lane_buf.is_empty()).then_some(lane_buf.as_slice());
         let mut t_coll = f32::INFINITY;
+        // The density-weighted length of the flight (`Medium::depth`): t_coll itself in a
+        // homogeneous medium; in a density grid the flight is drawn in it and mapped to distance.
+        let mut depth_coll = f32::INFINITY;
         if let Some((mm, _, sigma_t)) = med {
             if !mm.pure_absorber && sigma_t.x > 0.0 {
-                t_coll = match pending_flight.take() {
-                    Some(t) => t,
-                    None => free_flight(sigma_t.x, rng),
-                };
+                match (pending_flight.take(), &mm.density) {
+                    (Some(t), _) => (t_coll, depth_coll) = (t, t),
+                    (None, None) => {
+                        t_coll = free_flight(sigma_t.x, rng);
+                        depth_coll = t_coll;
+                    }
+                    (None, Some(g)) => {
+                        depth_coll = free_flight(sigma_t.x, rng);
+                        t_coll = g.distance_at_depth(ray.o, ray.d, depth_coll).unwrap_or(f32::INFINITY);
+                    }
+                }
             }
         }
         ray.t_max = t_coll;
@@ -532,7 +551,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // vertex's light estimates take the throughput and density ratios after the
                 // collision (`bv`, `rv`); the path's own go on only after the phase sample, with
                 // one renormalisation for both (as the deep walk does, bit for bit).
-                let a = relative_transmittance(sigma_t, t_coll);
+                let a = relative_transmittance(sigma_t, depth_coll);
                 let (mut bv, mut rv, mut lv) = (beta * a * sigma_s, r_u * a * sigma_t, r_l);
                 if !renormalize(&mut bv, &mut rv, &mut lv, wl) {
                     break;
@@ -559,7 +578,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // The refracted branch (module documentation): played with probability α_j, which
                 // depends only on the vertex (not on the plane a probe ray finds), so the main
                 // path finds its own MIS weight by probing only if it reaches an emitter.
-                let guide = if can_nee { None } else { scene.refracted_lights.as_ref().and_then(|rl| guide_probability(scene, rl, p, medium, sigma_t, free.bound(p)).map(|alpha| (rl, alpha))) };
+                // (Not in a density grid: the branch's proposal assumes a homogeneous medium.)
+                let guide = if can_nee || mm.density.is_some() { None } else { scene.refracted_lights.as_ref().and_then(|rl| guide_probability(scene, rl, p, medium, sigma_t, free.bound(p)).map(|alpha| (rl, alpha))) };
                 // Split phase samples (s_j = K g_j² e^{−σ_j d}, K = `refraction_splits`): more
                 // directions from the phase function, traced along the branch's chain only where
                 // the plane refracts them onto a light, so that the forward-peaked lobe meets
@@ -638,7 +658,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // the collisions (no ray cast, no light sample, no branch), so they run here,
                 // each exactly as the general loop would run it; the first flight that does not
                 // qualify goes back to the general loop, already drawn.
-                if let (true, false, None, Some(g), false, true) = (options.deep_walk, can_nee, guide, grid, mm.pure_absorber, sigma_t.x > 0.0) {
+                if let (true, false, None, Some(g), false, true) = (options.deep_walk && mm.density.is_none(), can_nee, guide, grid, mm.pure_absorber, sigma_t.x > 0.0) {
                     let s_min = sigma_t.min_element();
                     // Without refracted lights no vertex plays a branch: any depth will do.
                     let reach = if scene.refracted_lights.is_some() { GUIDE_REACH } else { 0.0 };
@@ -698,7 +718,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 continue;
             }
             // No collision before the surface (or escape).
-            let seg = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+            let seg = mm.depth(ray.o, ray.d, hit.map(|h| h.t).unwrap_or(f32::INFINITY));
             if mm.pure_absorber {
                 beta *= transmittance(sigma_t, seg);
             } else {
@@ -882,7 +902,7 @@ fn roulette(beta: &mut Vec4, eta_scale: f32, depth: u32, settings: &IntegratorSe
 
 /// One light sample at a medium vertex `p` (ray travelling along `d`), MIS-weighted against phase
 /// sampling; returns phase × transmittance × radiance / pdf (to be multiplied by the throughput).
-fn medium_light_sample(scene: &Scene, mm: &HomogeneousMedium, p: Vec3, d: Vec3, medium: Option<u32>, r_u: Vec4, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
+fn medium_light_sample(scene: &Scene, mm: &Medium, p: Vec3, d: Vec3, medium: Option<u32>, r_u: Vec4, wl: &SampledWavelengths, rng: &mut Pcg32) -> SampledSpectrum {
     let Some(c) = nee::sample_light(scene, p, wl, rng) else { return Vec4::ZERO };
     let ls = &c.ls;
     let mu = d.dot(ls.wi);
@@ -936,12 +956,12 @@ fn refracted_branch(scene: &Scene, p: Vec3, w: Vec3, mut medium: Option<u32>, f:
     loop {
         let coeffs = medium.map(|m| {
             let mm = &scene.media[m as usize];
-            (mm.pure_absorber, mm.coefficients(wl).1)
+            (mm.pure_absorber, mm.coefficients(wl).1, mm)
         });
         ray.t_max = f32::INFINITY;
         let hit = scene.intersect(&ray);
-        if let Some((pure, sigma_t)) = coeffs {
-            let seg = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+        if let Some((pure, sigma_t, mm)) = coeffs {
+            let seg = mm.depth(ray.o, ray.d, hit.map(|h| h.t).unwrap_or(f32::INFINITY));
             if pure {
                 num *= transmittance(sigma_t, seg);
             } else {

@@ -1,5 +1,5 @@
 //! Media in scene files: `sigma_a_per_mm` + `sigma_s_per_mm` + `g`, measured presets, milk by
-//! content declaration, Mie recipes; `phase` and `similarity`.
+//! content declaration, Mie recipes; `phase`, `similarity` and a `density` grid.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::type_complexity)]
@@ -9,7 +9,10 @@ use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
 use anyhow::Result;
 use toml::Spanned;
 
-pub(crate) const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase", "similarity"];
+pub(crate) const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase", "similarity", "density"];
+
+/// Keys of `density = { … }`.
+const DENSITY_KEYS: &[&str] = &["file", "resolution", "values", "min", "max", "scale"];
 
 /// Milk presets (fat wt-%, protein wt-%, homogenisation pressure MPa) for `medium = { preset = … }`.
 pub const MILK_PRESETS: &[(&str, f64, f64, f64)] =
@@ -22,14 +25,18 @@ pub fn milk_wavelengths_nm() -> Vec<f64> {
 
 /// Parse a `medium = { … }` value (see docs/scene-format.md); errors name the field. With
 /// `similarity = true` the medium is replaced by its similarity-relation equivalent (an
-/// approximation, see [`crate::medium::HomogeneousMedium::similarity`]).
-pub(crate) fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
+/// approximation, see [`crate::medium::Medium::similarity`]).
+pub(crate) fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::Medium> {
     let similarity = match v.get_ref().as_table().and_then(|t| t.get("similarity")) {
         None => false,
         Some(toml::Value::Boolean(b)) => *b,
         Some(_) => return Err(cx.err(&v.span(), &format!("{field}.similarity"), "must be true or false")),
     };
-    let m = medium_desc_exact(cx, sp, v, field, unit_m)?;
+    let mut m = medium_desc_exact(cx, sp, v, field, unit_m)?;
+    if let Some(d) = v.get_ref().as_table().and_then(|t| t.get("density")) {
+        let grid = density_desc(cx, sp, &v.span(), d, &format!("{field}.density"), unit_m)?;
+        m.density = Some(std::sync::Arc::new(grid));
+    }
     if similarity {
         m.similarity().map_err(|e| cx.err(&v.span(), &format!("{field}.similarity"), format!("{e:#}")))
     } else {
@@ -38,8 +45,8 @@ pub(crate) fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, fi
 }
 
 /// [`medium_desc`] without the similarity option.
-pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::HomogeneousMedium> {
-    use crate::medium::{from_bulk, HomogeneousMedium, PhaseModel};
+pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, field: &str, unit_m: f64) -> Result<crate::medium::Medium> {
+    use crate::medium::{from_bulk, Medium, PhaseModel};
     let span = v.span();
     let t = v.get_ref().as_table().ok_or_else(|| cx.err(&span, field, "expected a table such as { sigma_a_per_mm = 0.01, sigma_s_per_mm = 1, g = 0 } or { milk = { ... } }"))?;
     for k in t.keys() {
@@ -66,7 +73,7 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
         let x = tab.get(key).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "missing"))?;
         as_f64(x).filter(|x| x.is_finite()).ok_or_else(|| cx.err(&span, &format!("{path}.{key}"), "must be a number"))
     };
-    let milk = |fat: f64, protein: f64, pressure: f64, path: &str| -> Result<HomogeneousMedium> {
+    let milk = |fat: f64, protein: f64, pressure: f64, path: &str| -> Result<Medium> {
         optics::milk::validate(fat, protein, pressure).map_err(|e| cx.err(&span, path, format!("{e:#}")))?;
         let l = milk_wavelengths_nm();
         let opts = optics::media::BulkOptions { phase_angles: if use_table { 181 } else { 0 } };
@@ -98,7 +105,7 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
                 return Err(cx.err(&span, &f("g"), format!("must lie in (-1, 1), got {g}")));
             }
             let phase = if rayleigh { crate::medium::rayleigh_phase() } else { PhaseModel::HenyeyGreenstein { g: optics::spectrum::DenseSpectrum::from_fn(|_| g) } };
-            HomogeneousMedium::new(field, sigma_a, sigma_s, phase).map_err(|e| cx.err(&span, field, format!("{e:#}")))
+            Medium::new(field, sigma_a, sigma_s, phase).map_err(|e| cx.err(&span, field, format!("{e:#}")))
         }
         "milk" => {
             for k in ["sigma_s_per_mm", "g"] {
@@ -154,7 +161,7 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
                 let mean = mm.g.iter().sum::<f64>() / 3.0;
                 optics::spectrum::DenseSpectrum::from_fn(move |_| mean)
             };
-            HomogeneousMedium::new(field, uplift(mm.sigma_a_per_m), uplift(mm.sigma_s_per_m), PhaseModel::HenyeyGreenstein { g })
+            Medium::new(field, uplift(mm.sigma_a_per_m), uplift(mm.sigma_s_per_m), PhaseModel::HenyeyGreenstein { g })
                 .map_err(|e| cx.err(&span, &f("preset"), format!("{e:#}")))
         }
         _ => {
@@ -170,4 +177,66 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
             from_bulk(field, &b, use_table).map_err(|e| cx.err(&span, &f("recipe"), format!("{rel}: {e:#}")))
         }
     }
+}
+
+/// Parse `density = { file = "x.vol" | resolution = [nx, ny, nz], values = […], min = […],
+/// max = […], scale = s }` (docs/scene-format.md, "Density grids"): the grid's box in scene
+/// units (from the file when a file gives it and `min`/`max` are left out), its values times
+/// `scale`.
+fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &toml::Value, field: &str, unit_m: f64) -> Result<crate::medium::grid::DensityGrid> {
+    use crate::medium::grid::DensityGrid;
+    let t = v.as_table().ok_or_else(|| cx.err(span, field, "expected a table such as { file = \"smoke.vol\" } or { resolution = [2, 1, 1], values = [0, 1], min = [0, 0, 0], max = [1, 1, 1] }"))?;
+    for k in t.keys() {
+        if !DENSITY_KEYS.contains(&k.as_str()) {
+            return Err(cx.err(span, field, format!("unknown key {}, expected one of {DENSITY_KEYS:?}", quote(k))));
+        }
+    }
+    let f = |k: &str| format!("{field}.{k}");
+    let vec3 = |k: &str| -> Result<Option<[f64; 3]>> {
+        let Some(x) = t.get(k) else { return Ok(None) };
+        let a = x.as_array().filter(|a| a.len() == 3).ok_or_else(|| cx.err(span, &f(k), "must be [x, y, z]"))?;
+        let mut out = [0.0; 3];
+        for (o, e) in out.iter_mut().zip(a) {
+            *o = as_f64(e).filter(|x| x.is_finite()).ok_or_else(|| cx.err(span, &f(k), "must be three numbers"))?;
+        }
+        Ok(Some(out))
+    };
+    let (n, values, file_box) = match (t.get("file"), t.get("resolution")) {
+        (Some(file), None) => {
+            if t.contains_key("values") {
+                return Err(cx.err(span, &f("values"), "not allowed with file"));
+            }
+            let rel = file.as_str().ok_or_else(|| cx.err(span, &f("file"), "must be a file name"))?;
+            let path = sp.files.path(rel).map_err(|e| cx.err(span, &f("file"), format!("{e:#}")))?;
+            let bytes = std::fs::read(&path).map_err(|e| cx.err(span, &f("file"), format!("cannot read {}: {e}", path.display())))?;
+            sp.hash.borrow_mut().write(&bytes);
+            let v = DensityGrid::read_vol(&bytes).map_err(|e| cx.err(span, &f("file"), format!("{rel}: {e:#}")))?;
+            (v.n, v.values, Some((v.min, v.max)))
+        }
+        (None, Some(res)) => {
+            let r = res.as_array().filter(|a| a.len() == 3).ok_or_else(|| cx.err(span, &f("resolution"), "must be [nx, ny, nz]"))?;
+            let mut n = [0usize; 3];
+            for (o, e) in n.iter_mut().zip(r) {
+                *o = e.as_integer().filter(|&k| k >= 1).ok_or_else(|| cx.err(span, &f("resolution"), "must be three whole numbers ≥ 1"))? as usize;
+            }
+            let vals = t.get("values").ok_or_else(|| cx.err(span, &f("values"), "missing (one density per cell, x fastest)"))?;
+            let a = vals.as_array().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers"))?;
+            let values = a.iter().map(|e| as_f64(e).map(|x| x as f32)).collect::<Option<Vec<f32>>>().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers"))?;
+            (n, values, None)
+        }
+        _ => return Err(cx.err(span, field, "give exactly one of file (a Mitsuba .vol grid) or resolution with values")),
+    };
+    let (min, max) = match (vec3("min")?, vec3("max")?, file_box) {
+        (Some(a), Some(b), _) => (a, b),
+        (None, None, Some(b)) => b,
+        (None, None, None) => return Err(cx.err(span, &f("min"), "missing: an inline grid needs its box, min = [x, y, z] and max = [x, y, z] in scene units")),
+        _ => return Err(cx.err(span, field, "give both min and max, or neither (the file's box)")),
+    };
+    let scale = match t.get("scale") {
+        None => 1.0,
+        Some(x) => as_f64(x).filter(|x| x.is_finite() && *x >= 0.0).ok_or_else(|| cx.err(span, &f("scale"), "must be a number ≥ 0"))?,
+    };
+    let values = values.into_iter().map(|x| (x as f64 * scale) as f32).collect();
+    let to_m = |a: [f64; 3]| a.map(|x| x * unit_m);
+    DensityGrid::new(n, values, to_m(min), to_m(max)).map_err(|e| cx.err(span, field, format!("{e:#}")))
 }

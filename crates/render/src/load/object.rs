@@ -184,7 +184,7 @@ pub(crate) fn objects(
     materials: &[Material],
     material_names: &[String],
     mapped: &[bool],
-) -> Result<(Vec<Shape>, Vec<ObjectInfo>, Vec<crate::medium::HomogeneousMedium>, Option<u32>)> {
+) -> Result<(Vec<Shape>, Vec<ObjectInfo>, Vec<crate::medium::Medium>, Option<u32>)> {
     let (cx, files, unit_m) = (b.cx, b.files, b.unit_m);
     let sp = &b.sp;
     let hash = &mut b.hash;
@@ -318,7 +318,11 @@ pub(crate) fn objects(
         }
         let interior_medium = match &o.medium {
             Some(v) => {
-                media.push(medium_desc(cx, &sp, v, &format!("{field}.medium"), unit_m)?);
+                let m = medium_desc(cx, &sp, v, &format!("{field}.medium"), unit_m)?;
+                if m.density.is_some() && matches!(&materials[material as usize], Material::Translucent(t) if t.from_medium) {
+                    return Err(cx.err(&span, &format!("{field}.medium.density"), "not with a translucent material that takes its coefficients from the medium (the BSSRDF needs a homogeneous medium)"));
+                }
+                media.push(m);
                 Some((media.len() - 1) as u32)
             }
             None => None,

@@ -1,5 +1,6 @@
-//! Homogeneous participating media: spectral absorption and scattering coefficients and a phase
-//! function (Henyey–Greenstein with a spectral g, or tabulated per wavelength from Mie theory).
+//! Participating media: spectral absorption and scattering coefficients and a phase function
+//! (Henyey–Greenstein with a spectral g, or tabulated per wavelength from Mie theory), homogeneous
+//! or scaled in space by a density grid ([`grid`]: σ(λ, x) = σ(λ) ρ(x)).
 //!
 //! Coefficients are stored per metre at 1-nm resolution ([`DenseSpectrum`]). A tabulated phase
 //! function is kept at the wavelengths it was computed at (e.g. the Mie module's); at a wavelength
@@ -16,6 +17,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod convex;
+pub mod grid;
 
 use crate::math::sampling::Frame;
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths, N_LAMBDA};
@@ -105,9 +107,10 @@ impl PhaseModel {
     }
 }
 
-/// A homogeneous medium.
+/// A medium: σ_a(λ), σ_s(λ) and a phase function, the same everywhere or multiplied by a
+/// density ρ(x) ([`grid::DensityGrid`]).
 #[derive(Clone, Debug)]
-pub struct HomogeneousMedium {
+pub struct Medium {
     /// Name for messages (the object or `medium`).
     pub name: String,
     /// Absorption coefficient σ_a, m⁻¹.
@@ -118,6 +121,8 @@ pub struct HomogeneousMedium {
     pub phase: PhaseModel,
     /// σ_s = 0 at every wavelength: transmittance is applied deterministically (Beer–Lambert).
     pub pure_absorber: bool,
+    /// Density ρ(x) multiplying σ_a and σ_s (σ_a, σ_s above are at ρ = 1); `None`: homogeneous.
+    pub density: Option<std::sync::Arc<grid::DensityGrid>>,
 }
 
 /// What a path needs of a medium at its carried wavelengths, computed once when it enters the
@@ -160,7 +165,7 @@ pub struct PhaseSample {
     pub pdf: f32,
 }
 
-impl HomogeneousMedium {
+impl Medium {
     /// A medium from σ_a, σ_s (m⁻¹) and a phase function; errors on negative or non-finite
     /// coefficients and on |g| ≥ 1 (messages name the field).
     pub fn new(name: &str, sigma_a_per_m: DenseSpectrum, sigma_s_per_m: DenseSpectrum, phase: PhaseModel) -> Result<Self> {
@@ -185,7 +190,7 @@ impl HomogeneousMedium {
             }
         }
         let pure_absorber = sigma_s_per_m.samples().iter().all(|&x| x == 0.0);
-        Ok(HomogeneousMedium { name: name.to_string(), sigma_a_per_m, sigma_s_per_m, phase, pure_absorber })
+        Ok(Medium { name: name.to_string(), sigma_a_per_m, sigma_s_per_m, phase, pure_absorber, density: None })
     }
 
     /// σ_s, σ_t and the phase-function parameters at the carried wavelengths.
@@ -402,10 +407,23 @@ impl HomogeneousMedium {
     /// high-albedo medium after many scatterings, but not near boundaries or in thin or
     /// low-albedo media, nor in single-scattering angular detail; it needs about 1/(1 − g) times
     /// fewer scattering events (≈ 10× for milk).
-    pub fn similarity(&self) -> Result<HomogeneousMedium> {
+    pub fn similarity(&self) -> Result<Medium> {
         let sigma_s = DenseSpectrum::from_fn(|l| (self.sigma_s_per_m.eval(l as f32) * (1.0 - self.g_at(l as f32))).max(0.0) as f64);
         let g = DenseSpectrum::from_fn(|_| 0.0);
-        HomogeneousMedium::new(&format!("{} (similarity relation)", self.name), self.sigma_a_per_m.clone(), sigma_s, PhaseModel::HenyeyGreenstein { g })
+        let mut m = Medium::new(&format!("{} (similarity relation)", self.name), self.sigma_a_per_m.clone(), sigma_s, PhaseModel::HenyeyGreenstein { g })?;
+        m.density = self.density.clone();
+        Ok(m)
+    }
+
+    /// The density-weighted length ∫ρ ds (m) of the segment o + s·d, s ∈ [0, t] (m; `d` a unit
+    /// vector): t itself in a homogeneous medium. The transmittance over the segment at each
+    /// wavelength is e^{−σ_t(λ) · this}.
+    #[inline]
+    pub fn depth(&self, o: Vec3, d: Vec3, t: f32) -> f32 {
+        match &self.density {
+            None => t,
+            Some(g) => g.depth(o, d, t),
+        }
     }
 
     /// Mean cosine of the phase function at `lambda_nm`.
@@ -520,7 +538,7 @@ pub fn rayleigh_phase() -> PhaseModel {
 /// A medium from per-wavelength bulk properties (the Mie module's output): σ_a, σ_s interpolated
 /// linearly between its wavelengths and held constant beyond them; the tabulated phase function
 /// when present (and `use_table`), else Henyey–Greenstein with the computed g(λ).
-pub fn from_bulk(name: &str, b: &optics::media::BulkProperties, use_table: bool) -> Result<HomogeneousMedium> {
+pub fn from_bulk(name: &str, b: &optics::media::BulkProperties, use_table: bool) -> Result<Medium> {
     let l = b.lambda_nm.clone();
     if l.is_empty() {
         bail!("{name}: no wavelengths in the medium's properties");
@@ -533,7 +551,7 @@ pub fn from_bulk(name: &str, b: &optics::media::BulkProperties, use_table: bool)
         (Some(t), true) => tabulated_from_mie(&l, t)?,
         _ => PhaseModel::HenyeyGreenstein { g: DenseSpectrum::from_fn(|x| interp_clamped(&l, &g, x)) },
     };
-    HomogeneousMedium::new(name, sigma_a, sigma_s, phase)
+    Medium::new(name, sigma_a, sigma_s, phase)
 }
 
 
@@ -785,12 +803,12 @@ mod tests {
         let ok = DenseSpectrum::from_fn(|_| 1.0);
         let neg = DenseSpectrum::from_fn(|l| if l > 600.0 { -1.0 } else { 1.0 });
         let hg = |g: f64| PhaseModel::HenyeyGreenstein { g: DenseSpectrum::from_fn(move |_| g) };
-        assert!(HomogeneousMedium::new("m", ok.clone(), ok.clone(), hg(0.5)).is_ok());
-        let e = HomogeneousMedium::new("m", neg.clone(), ok.clone(), hg(0.0)).unwrap_err().to_string();
+        assert!(Medium::new("m", ok.clone(), ok.clone(), hg(0.5)).is_ok());
+        let e = Medium::new("m", neg.clone(), ok.clone(), hg(0.0)).unwrap_err().to_string();
         assert!(e.contains("sigma_a"), "{e}");
-        assert!(HomogeneousMedium::new("m", ok.clone(), neg, hg(0.0)).unwrap_err().to_string().contains("sigma_s"));
-        assert!(HomogeneousMedium::new("m", ok.clone(), ok.clone(), hg(1.0)).unwrap_err().to_string().contains("g must"));
-        assert!(HomogeneousMedium::new("m", ok.clone(), ok, hg(-1.2)).is_err());
+        assert!(Medium::new("m", ok.clone(), neg, hg(0.0)).unwrap_err().to_string().contains("sigma_s"));
+        assert!(Medium::new("m", ok.clone(), ok.clone(), hg(1.0)).unwrap_err().to_string().contains("g must"));
+        assert!(Medium::new("m", ok.clone(), ok, hg(-1.2)).is_err());
     }
 
     #[test]
@@ -836,12 +854,12 @@ mod tests {
     #[test]
     fn phase_sampling_is_consistent_per_wavelength() {
         let g_spec = DenseSpectrum::from_fn(|l| 0.2 + 0.7 * (l - 360.0) / 470.0);
-        let hgm = HomogeneousMedium::new("hg", DenseSpectrum::from_fn(|_| 0.0), DenseSpectrum::from_fn(|_| 1.0), PhaseModel::HenyeyGreenstein { g: g_spec }).unwrap();
+        let hgm = Medium::new("hg", DenseSpectrum::from_fn(|_| 0.0), DenseSpectrum::from_fn(|_| 1.0), PhaseModel::HenyeyGreenstein { g: g_spec }).unwrap();
         // Two tables: HG 0.3 at 400 nm and a forward lobe (HG 0.8 tabulated finely) at 700 nm.
         let t1 = TabulatedPhase::from_fn(2001, |m| hg(0.3, m as f32) as f64).unwrap();
         let t2 = TabulatedPhase::from_fn(4001, |m| hg(0.8, m as f32) as f64).unwrap();
         let (g1, g2) = (t1.g() as f32, t2.g() as f32);
-        let tab = HomogeneousMedium::new(
+        let tab = Medium::new(
             "tab",
             DenseSpectrum::from_fn(|_| 0.0),
             DenseSpectrum::from_fn(|_| 1.0),
@@ -852,7 +870,7 @@ mod tests {
         let mu: Vec<f64> = (0..3001).map(|k| -1.0 + 2.0 * k as f64 / 3000.0).collect();
         let s1 = TabulatedPhase::new(mu.clone(), mu.iter().map(|&m| hg(0.3, m as f32) as f64).collect()).unwrap();
         let s2 = TabulatedPhase::new(mu.clone(), mu.iter().map(|&m| hg(0.8, m as f32) as f64).collect()).unwrap();
-        let shared = HomogeneousMedium::new(
+        let shared = Medium::new(
             "shared",
             DenseSpectrum::from_fn(|_| 0.0),
             DenseSpectrum::from_fn(|_| 1.0),
@@ -921,7 +939,7 @@ mod tests {
         // Values against 3(1 + μ²)/(16π); the table's mean cosine 0; sampled cosines against the
         // closed-form CDF F(μ) = (μ³ + 3μ + 4)/8 by a χ² test over 20 bins of equal probability
         // (bin edges solve F = k/20 by Cardano's formula), 200 000 samples, fixed seed.
-        let m = HomogeneousMedium::new("air", DenseSpectrum::from_fn(|_| 0.0), DenseSpectrum::from_fn(|_| 1.0), rayleigh_phase()).unwrap();
+        let m = Medium::new("air", DenseSpectrum::from_fn(|_| 0.0), DenseSpectrum::from_fn(|_| 1.0), rayleigh_phase()).unwrap();
         let exact = |mu: f64| 3.0 * (1.0 + mu * mu) / (16.0 * std::f64::consts::PI);
         for k in 0..=1000 {
             let mu = -1.0 + 2.0 * k as f64 / 1000.0;

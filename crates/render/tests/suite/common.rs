@@ -121,3 +121,27 @@ pub fn pixels_with(s: &Scene, passes: u64, seed: u64) -> (f64, f64) {
     (m, se)
 }
 
+
+#[allow(dead_code)]
+/// A ball of radius 1 mm at the origin with boundary material `mat` (TOML lines) and medium
+/// `medium`, seen by the `[camera]` table `camera` (TOML lines, without the header), under a
+/// uniform environment of spectral radiance 1.
+pub fn medium_ball_scene(camera: &str, mat: &str, medium: &str) -> String {
+    format!(
+        r#"
+unit = "mm"
+[camera]
+{camera}
+[materials.boundary]
+{mat}
+[[objects]]
+name = "ball"
+material = "boundary"
+sphere = {{ center = [0, 0, 0], radius = 1 }}
+medium = {medium}
+[[lights]]
+type = "environment"
+radiance = 1
+"#
+    )
+}

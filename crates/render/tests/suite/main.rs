@@ -7,6 +7,7 @@ mod bsdf;
 mod bsdf_scene;
 mod bvh;
 mod camera;
+mod density_grid;
 mod checkpoint;
 mod envmap;
 mod fuzz_corpus;

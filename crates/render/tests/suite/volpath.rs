@@ -29,27 +29,7 @@ fn volpath(max_depth: u32) -> IntegratorSettings {
 /// A sphere of radius 1 mm at the origin with material `mat` and medium `medium`, seen from
 /// z = −5 mm, under a uniform environment of spectral radiance 1.
 fn sphere_scene(mat: &str, medium: &str, w: u32) -> String {
-    format!(
-        r#"
-unit = "mm"
-[camera]
-eye = [0, 0, -5]
-look_at = [0, 0, 0]
-vfov_deg = 14
-width = {w}
-height = {w}
-[materials.boundary]
-{mat}
-[[objects]]
-name = "ball"
-material = "boundary"
-sphere = {{ center = [0, 0, 0], radius = 1 }}
-medium = {medium}
-[[lights]]
-type = "environment"
-radiance = 1
-"#
-    )
+    medium_ball_scene(&format!("eye = [0, 0, -5]\nlook_at = [0, 0, 0]\nvfov_deg = 14\nwidth = {w}\nheight = {w}"), mat, medium)
 }
 
 /// Mean and standard error of X, Y and Z of `passes` one-sample-per-pixel renders (all pixels
@@ -234,12 +214,12 @@ fn refraction_guiding_keeps_the_expected_image() {
 #[test]
 fn split_samples_keep_the_expected_image_with_a_chromatic_phase_function() {
     use optics::spectrum::DenseSpectrum;
-    use render::medium::{HomogeneousMedium, PhaseModel};
+    use render::medium::{Medium, PhaseModel};
     let mk = |guiding: f64| {
         let mut s = scene(&lit_ball_scene(guiding, 32.0, "{ sigma_a_per_mm = 0.02, sigma_s_per_mm = 20 }"));
         let m = &s.media[0];
         let g = DenseSpectrum::from_fn(|l| if l < 550.0 { 0.9 } else { -0.3 });
-        s.media[0] = HomogeneousMedium::new("m", m.sigma_a_per_m.clone(), m.sigma_s_per_m.clone(), PhaseModel::HenyeyGreenstein { g }).unwrap();
+        s.media[0] = Medium::new("m", m.sigma_a_per_m.clone(), m.sigma_s_per_m.clone(), PhaseModel::HenyeyGreenstein { g }).unwrap();
         s
     };
     let off = mk(0.0);
@@ -341,12 +321,12 @@ fn lane_means(s: &Scene, opts: &VolpathOptions, lambdas: [f32; 4], rotate: bool,
 #[test]
 fn chromatic_phase_function_unbiased_and_bounded() {
     use optics::spectrum::DenseSpectrum;
-    use render::medium::{HomogeneousMedium, PhaseModel};
+    use render::medium::{Medium, PhaseModel};
     let base = r#"{ sigma_a_per_mm = 0.3, sigma_s_per_mm = 12, g = 0 }"#;
     let with_g = |g: Box<dyn Fn(f64) -> f64>| -> Scene {
         let mut s = scene(&sphere_scene(r#"type = "interface""#, base, 8));
         let m = &s.media[0];
-        s.media[0] = HomogeneousMedium::new("m", m.sigma_a_per_m.clone(), m.sigma_s_per_m.clone(), PhaseModel::HenyeyGreenstein { g: DenseSpectrum::from_fn(g) }).unwrap();
+        s.media[0] = Medium::new("m", m.sigma_a_per_m.clone(), m.sigma_s_per_m.clone(), PhaseModel::HenyeyGreenstein { g: DenseSpectrum::from_fn(g) }).unwrap();
         s
     };
     let mixed = with_g(Box::new(|l| if l < 550.0 { 0.9 } else { -0.3 }));
