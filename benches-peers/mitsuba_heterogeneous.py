@@ -22,10 +22,16 @@ of the sums over the mask.
 
     /tmp/pyvenv/bin/python benches-peers/mitsuba_heterogeneous.py [--lucent target/release/lucent] [--spp 256]
 
+With EFFICIENCY=1 in the environment it also renders the sphere twice more with each renderer (seeds
+1 and 2, Mitsuba after an untimed 1-spp render) and prints each one's per-pixel noise over the
+medium, CPU seconds per render (lucent: the child process, scene loading included; Mitsuba: the
+Python process) and efficiency 1/(noise² · CPU-s).
+
 Needs numpy and mitsuba==3.9.1.
 """
 import json
 import os
+import resource
 import struct
 import sys
 
@@ -75,7 +81,7 @@ def lucent_scene(case, vol, scale=1.0):
     return lucent_stage("volpath") + f"[[objects]]\nmaterial = \"matched\"\n{body}\n{medium}\n"
 
 
-def run_mitsuba(case, spp, variant, vol):
+def run_mitsuba(case, spp, variant, vol, seed=1):
     import mitsuba as mi
 
     mi.set_variant(variant)
@@ -94,13 +100,40 @@ def run_mitsuba(case, spp, variant, vol):
         centre = [(l + h) / 2 for l, h in zip(lo, hi)]
         scene["body"] = {"type": "cube", "to_world": T().translate(centre) @ T().scale([s / 2 for s in size]),
                          "bsdf": {"type": "null"}, "interior": medium}
-    return np.array(mi.render(mi.load_dict(scene), seed=1), dtype=np.float64) @ np.array(LUMA)
+    return np.array(mi.render(mi.load_dict(scene), seed=seed), dtype=np.float64) @ np.array(LUMA)
 
 
 def ratios(l, m):
     r = l / m
     p10, p50, p90 = np.percentile(r, [10, 50, 90])
     return {"median": p50, "p10": p10, "p90": p90, "count": int(r.size)}
+
+
+def cpu(who):
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+
+
+def efficiency(a, work, vol, mask):
+    """Per-pixel noise over `mask` and CPU seconds of two renders (seeds 1 and 2) by each renderer
+    at --spp (Mitsuba after an untimed 1-spp render that compiles its kernels), and the efficiency
+    1/(noise² · CPU-s) of one render."""
+    out = {}
+    runs = {"lucent": lambda seed: render_luminance(a.lucent, work, "sphere", lucent_scene("sphere", vol), a.spp, seed),
+            "mitsuba": lambda seed: run_mitsuba("sphere", a.spp, a.variant, vol, seed)}
+    run_mitsuba("sphere", 1, a.variant, vol)
+    for name, run in runs.items():
+        who = resource.RUSAGE_CHILDREN if name == "lucent" else resource.RUSAGE_SELF
+        images, seconds = [], []
+        for seed in (1, 2):
+            c0 = cpu(who)
+            images.append(run(seed))
+            seconds.append(cpu(who) - c0)
+        x, y = images[0][mask], images[1][mask]
+        noise = np.sqrt(np.mean((x - y) ** 2) / 2) / np.mean((x + y) / 2)
+        t = float(np.mean(seconds))
+        out[name] = {"noise": float(noise), "cpu_s": t, "efficiency": 1.0 / (noise ** 2 * t), "mean_y": float(np.mean((x + y) / 2))}
+    return out
 
 
 def main():
@@ -118,10 +151,17 @@ def main():
         bm = blocks(mask.astype(float)) == 1.0
         report[case] = {"pixels": ratios(l[mask], m[mask]), "blocks_4x4": ratios(blocks(l)[bm], blocks(m)[bm]),
                         "sum_ratio": l[mask].sum() / m[mask].sum(), "mean_y_lucent": l[mask].mean(), "mean_y_mitsuba": m[mask].mean()}
+        if case == "sphere" and os.environ.get("EFFICIENCY"):
+            report["efficiency"] = efficiency(a, work, vol, mask)
     if a.json:
         print(json.dumps(report, indent=2))
         return
     for case, r in report.items():
+        if case == "efficiency":
+            for name, e in r.items():
+                print(f"sphere, {name}: per-pixel noise {e['noise']:.4f} over the medium, {e['cpu_s']:.2f} CPU-s per render, "
+                      f"efficiency 1/(noise²·CPU-s) {e['efficiency']:.1f}")
+            continue
         p, b = r["pixels"], r["blocks_4x4"]
         print(f"{case:7s} lucent / Mitsuba over the medium: pixels median {p['median']:.4f} ({p['p10']:.4f}–{p['p90']:.4f}, {p['count']} pixels), "
               f"4×4 blocks median {b['median']:.4f} ({b['p10']:.4f}–{b['p90']:.4f}, {b['count']} blocks), sum ratio {r['sum_ratio']:.4f} "

@@ -523,6 +523,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         // The density-weighted length of the flight (`Medium::depth`): t_coll itself in a
         // homogeneous medium; in a density grid the flight is drawn in it and mapped to distance.
         let mut depth_coll = f32::INFINITY;
+        // In a density grid the flight is traced to the first surface at once: that surface
+        // (`Some(None)`: none) and, when the flight passes it, the density-weighted length to it.
+        let mut grid_hit = None;
+        let mut through_depth = None;
         if let Some((mm, _, sigma_t)) = med {
             if !mm.pure_absorber && sigma_t.x > 0.0 {
                 match (pending_flight.take(), &mm.density) {
@@ -533,7 +537,17 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     }
                     (None, Some(g)) => {
                         depth_coll = free_flight(sigma_t.x, rng);
-                        t_coll = g.distance_at_depth(ray.o, ray.d, depth_coll).unwrap_or(f32::INFINITY);
+                        let h = scene.intersect(&Ray { t_max: f32::INFINITY, ..ray });
+                        match g.flight(ray.o, ray.d, depth_coll, h.map_or(f32::INFINITY, |h| h.t)) {
+                            Ok(s) => {
+                                t_coll = s;
+                                grid_hit = Some(None);
+                            }
+                            Err(tau) => {
+                                through_depth = Some(tau);
+                                grid_hit = Some(h);
+                            }
+                        }
                     }
                 }
             }
@@ -544,7 +558,11 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         let grid = scene.medium_grid(medium).filter(|_| options.free_flight_grid);
         let surely_inside = t_coll.is_finite()
             && grid.is_some_and(|g| t_coll < g.free_distance(ray.o) * (1.0 - 1e-4) - scene.ray_epsilon_m || free.contains(scene, g, ray.o, ray.o + ray.d * t_coll, med.map_or(0.0, |m| 1.0 / m.2.x)));
-        let hit = if surely_inside { None } else { scene.intersect(&ray) };
+        let hit = match grid_hit {
+            Some(h) => h,
+            None if surely_inside => None,
+            None => scene.intersect(&ray),
+        };
         if let Some((mm, sigma_s, sigma_t)) = med {
             if hit.is_none() && t_coll.is_finite() {
                 // Real collision: scatter with weight σ_s/σ_t (spectral MIS via r_u). The
@@ -718,7 +736,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 continue;
             }
             // No collision before the surface (or escape).
-            let seg = mm.depth(ray.o, ray.d, hit.map(|h| h.t).unwrap_or(f32::INFINITY));
+            let seg = through_depth.unwrap_or_else(|| mm.depth(ray.o, ray.d, hit.map(|h| h.t).unwrap_or(f32::INFINITY)));
             if mm.pure_absorber {
                 beta *= transmittance(sigma_t, seg);
             } else {

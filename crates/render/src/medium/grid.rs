@@ -9,8 +9,9 @@
 //!
 //! Along a ray the trilinear density is a polynomial of degree ≤ 3 between the points where any
 //! axis crosses a plane of cell centres (on one side of those planes the clamped axis is
-//! constant). [`DensityGrid::depth`] integrates it exactly piece by piece (Simpson's 3/8 rule is
-//! exact for cubics), and [`DensityGrid::distance_at_depth`] inverts that integral (Newton's
+//! constant): within a piece each axis's interpolation weight is linear in the ray parameter,
+//! so the blend of the cell's eight values is a product of three linear factors, whose cubic
+//! [`DensityGrid::depth`] integrates exactly piece by piece, and [`DensityGrid::distance_at_depth`] inverts that integral (Newton's
 //! method on the piece's quartic, kept in its bracket). So a medium with σ(λ, x) = σ(λ) ρ(x)
 //! needs no null collisions: its transmittance at every wavelength is e^{−σ(λ) τ} with the
 //! density-weighted length τ = ∫ρ ds, exactly as a homogeneous medium's is e^{−σ(λ) t}, and free
@@ -49,38 +50,34 @@ pub struct DensityGrid {
 }
 
 /// One piece of a ray's density: between ray parameters `s0` and `s1` (m) the density is the
-/// cubic through the four values at s0, s0 + h/3, s0 + 2h/3 and s1 (h = s1 − s0).
+/// cubic c0 + c1 u + c2 u² + c3 u³ of u = (s − s0)/(s1 − s0) ∈ [0, 1]; a piece reaching to
+/// infinity is the constant c0.
 struct Piece {
     s0: f64,
     s1: f64,
-    f: [f64; 4],
+    c: [f64; 4],
 }
 
 impl Piece {
-    /// ∫ρ ds over the piece (m; Simpson's 3/8 rule, exact for a cubic).
+    /// ∫ρ ds over the piece (m).
     fn integral(&self) -> f64 {
         let h = self.s1 - self.s0;
+        let [c0, c1, c2, c3] = self.c;
         if h.is_infinite() {
-            return if self.f[0] > 0.0 { f64::INFINITY } else { 0.0 };
+            return if c0 > 0.0 { f64::INFINITY } else { 0.0 };
         }
-        h / 8.0 * (self.f[0] + 3.0 * self.f[1] + 3.0 * self.f[2] + self.f[3])
+        h * (c0 + c1 / 2.0 + c2 / 3.0 + c3 / 4.0)
     }
 
     /// The ray parameter s in the piece where ∫_{s0}^{s} ρ = `target` (0 ≤ target ≤ the
     /// piece's integral).
     fn invert(&self, target: f64) -> f64 {
         let h = self.s1 - self.s0;
+        let [c0, c1, c2, c3] = self.c;
         if h.is_infinite() {
             // A constant (clamped) piece to infinity.
-            return self.s0 + target / self.f[0];
+            return self.s0 + target / c0;
         }
-        // ρ(u) = c0 + c1 u + c2 u² + c3 u³ on u = (s − s0)/h ∈ [0, 1], through the four values
-        // at u = 0, ⅓, ⅔, 1 (Newton's divided differences on the equally spaced nodes).
-        let [f0, f1, f2, f3] = self.f;
-        let c0 = f0;
-        let c1 = (-11.0 * f0 + 18.0 * f1 - 9.0 * f2 + 2.0 * f3) / 2.0;
-        let c2 = 9.0 * (2.0 * f0 - 5.0 * f1 + 4.0 * f2 - f3) / 2.0;
-        let c3 = 9.0 * (-f0 + 3.0 * f1 - 3.0 * f2 + f3) / 2.0;
         let g = |u: f64| h * u * (c0 + u * (c1 / 2.0 + u * (c2 / 3.0 + u * c3 / 4.0)));
         let rho = |u: f64| (c0 + u * (c1 + u * (c2 + u * c3))).max(0.0);
         let total = self.integral();
@@ -182,12 +179,53 @@ impl DensityGrid {
         lerp(lerp(c00, c10, w[1]), lerp(c01, c11, w[1]), w[2])
     }
 
+    /// The density along cell-centre coordinates a + b·s for s = s0 + u·h, u ∈ [0, 1], as the
+    /// cubic's coefficients in u, for a piece that no plane of cell centres crosses: each axis's
+    /// interpolation weight is linear in u (or constant where it is clamped), so the trilinear
+    /// blend of the cell's eight values is a product of three linear factors.
+    fn cell_cubic(&self, a: [f64; 3], b: [f64; 3], s0: f64, h: f64) -> [f64; 4] {
+        let mut i0 = [0usize; 3];
+        let mut w = [[0f64; 2]; 3];
+        for k in 0..3 {
+            let n = self.n[k];
+            if n == 1 {
+                continue;
+            }
+            let (start, slope) = (a[k] + b[k] * s0, b[k] * h);
+            let mid = start + 0.5 * slope;
+            let last = (n - 1) as f64;
+            (i0[k], w[k]) = if mid <= 0.0 {
+                (0, [0.0, 0.0])
+            } else if mid >= last {
+                (n - 2, [1.0, 0.0])
+            } else {
+                let i = (mid.floor() as usize).min(n - 2);
+                (i, [start - i as f64, slope])
+            };
+        }
+        let [nx, ny, _] = self.n;
+        let step = |k: usize| usize::from(self.n[k] > 1);
+        // The cell's eight values: offsets along x, y, z from its first corner.
+        let base = (i0[2] * ny + i0[1]) * nx + i0[0];
+        let (dx, dy, dz) = (step(0), step(1) * nx, step(2) * nx * ny);
+        let v = &self.values[base..=base + dx + dy + dz];
+        let at = |x: usize, y: usize, z: usize| v[x * dx + y * dy + z * dz] as f64;
+        // a + (b − a)·w for polynomials a, b of degree < 3 and w linear.
+        let lerp = |p: [f64; 4], q: [f64; 4], w: [f64; 2]| -> [f64; 4] {
+            let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2], q[3] - p[3]];
+            [p[0] + d[0] * w[0], p[1] + d[1] * w[0] + d[0] * w[1], p[2] + d[2] * w[0] + d[1] * w[1], p[3] + d[3] * w[0] + d[2] * w[1]]
+        };
+        let c = |v: f64| [v, 0.0, 0.0, 0.0];
+        let along_x = |y: usize, z: usize| lerp(c(at(0, y, z)), c(at(1, y, z)), w[0]);
+        let along_y = |z: usize| lerp(along_x(0, z), along_x(1, z), w[1]);
+        lerp(along_y(0), along_y(1), w[2])
+    }
+
     /// Calls `visit` with the pieces of the ray o + s·d, s ∈ [0, t_max] (m), in order, until it
     /// returns false; the last piece may reach to infinity (a clamped, constant density).
     fn pieces(&self, o: Vec3, d: Vec3, t_max: f64, mut visit: impl FnMut(&Piece) -> bool) {
         let a = self.to_cells([o.x as f64, o.y as f64, o.z as f64]);
         let b: [f64; 3] = [0, 1, 2].map(|k| [d.x, d.y, d.z][k] as f64 / self.size_m[k] * self.n[k] as f64);
-        let at = |s: f64| self.density_c([0, 1, 2].map(|k| a[k] + b[k] * s));
         // Per axis: the next plane of centres (an integer c in [0, n − 1]) the ray crosses
         // after s, as the ray parameter; infinity when there is none.
         let next = |k: usize, s: f64| -> f64 {
@@ -217,12 +255,11 @@ impl DensityGrid {
         while s < t_max && guard < limit {
             guard += 1;
             let s1 = next(0, s).min(next(1, s)).min(next(2, s)).min(t_max);
+            // Beyond the last plane every axis is clamped or parallel to its planes: constant.
             let piece = if s1.is_infinite() {
-                let f = at(s);
-                Piece { s0: s, s1, f: [f; 4] }
+                Piece { s0: s, s1, c: [self.cell_cubic(a, b, s, 1.0)[0], 0.0, 0.0, 0.0] }
             } else {
-                let h = s1 - s;
-                Piece { s0: s, s1, f: [at(s), at(s + h / 3.0), at(s + 2.0 * h / 3.0), at(s1)] }
+                Piece { s0: s, s1, c: self.cell_cubic(a, b, s, s1 - s) }
             };
             if !visit(&piece) {
                 return;
@@ -258,6 +295,28 @@ impl DensityGrid {
             true
         });
         found
+    }
+
+    /// A free flight along o + s·d that ends where the density-weighted length reaches `tau`
+    /// (m), if that is before `t_max` (m): `Ok(s)`; else `Err(τ over [0, t_max])`. One
+    /// traversal for what [`Self::distance_at_depth`] and [`Self::depth`] give together.
+    pub fn flight(&self, o: Vec3, d: Vec3, tau: f32, t_max: f32) -> Result<f32, f32> {
+        let target = tau as f64;
+        let mut acc = 0.0f64;
+        let mut found = None;
+        self.pieces(o, d, t_max as f64, |p| {
+            let i = p.integral();
+            if acc + i >= target && i > 0.0 {
+                found = Some(p.invert(target - acc) as f32);
+                return false;
+            }
+            acc += i;
+            true
+        });
+        match found {
+            Some(s) if s < t_max => Ok(s),
+            _ => Err(acc as f32),
+        }
     }
 
     /// Reads Mitsuba's volume format ("VOL", version 3, float32, 1 channel), little-endian:
@@ -377,6 +436,62 @@ mod tests {
         let total = g.depth(Vec3::new(-1.0, 1.5, 1.5), Vec3::X, f32::INFINITY);
         assert!((total - 1.0).abs() < 1e-6, "{total}");
         assert_eq!(g.distance_at_depth(Vec3::new(-1.0, 1.5, 1.5), Vec3::X, 1.01), None);
+    }
+
+    /// Rays along the axes, in a plane of cell centres, starting on one, and grids with a
+    /// single cell along an axis: the exact integral still equals the midpoint sum.
+    #[test]
+    fn degenerate_rays_and_grids() {
+        for n in [[5, 4, 7], [1, 3, 2], [1, 1, 1], [4, 1, 1]] {
+            let g = random_grid(7, n);
+            // Cell centres of the grid's box lie at min + (i + ½)·size/n.
+            let centre = |a: usize, i: f32| [-0.1f32, 0.2, -0.3][a] + (i + 0.5) * [0.4f32, 0.3, 0.5][a] / n[a] as f32;
+            let rays = [
+                (Vec3::new(-0.2, 0.3, 0.0), Vec3::X),
+                (Vec3::new(0.5, 0.3, 0.0), -Vec3::X),
+                (Vec3::new(0.1, 0.1, 0.0), Vec3::Y),
+                (Vec3::new(0.1, 0.3, -0.5), Vec3::Z),
+                (Vec3::new(centre(0, 1.0), centre(1, 0.0), -0.5), Vec3::new(0.0, 0.6, 0.8)),
+                (Vec3::new(centre(0, 0.0), centre(1, 1.0), centre(2, 1.0)), Vec3::new(0.6, 0.0, -0.8)),
+            ];
+            for (o, d) in rays {
+                let t_max = 0.9;
+                let exact = g.depth(o, d, t_max) as f64;
+                let steps = 100_000;
+                let h = t_max as f64 / steps as f64;
+                let sum: f64 = (0..steps).map(|i| g.density(o + d * ((i as f64 + 0.5) * h) as f32) as f64 * h).sum();
+                assert!((exact - sum).abs() <= 3e-5 * sum.max(1e-3), "{n:?}, {o} + s·{d}: τ {exact} against {sum}");
+                let s = g.distance_at_depth(o, d, 0.5 * exact as f32).unwrap();
+                assert!((g.depth(o, d, s) as f64 - 0.5 * exact).abs() <= 3e-5 * exact, "{n:?}: inversion at half depth");
+            }
+        }
+    }
+
+    /// `flight` agrees with `distance_at_depth` where the flight ends before t_max, and with
+    /// `depth` where it does not.
+    #[test]
+    fn flight_is_distance_or_depth() {
+        let g = random_grid(3, [4, 5, 3]);
+        let mut rng = Pcg32::new(8, 2);
+        let (mut ended, mut through) = (0, 0);
+        for _ in 0..300 {
+            let o = Vec3::new(rng.next_f32() * 0.4 - 0.1, rng.next_f32() * 0.3 + 0.2, rng.next_f32() * 0.5 - 0.3);
+            let d = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize();
+            let (tau, t_max) = (rng.next_f32() * 0.4, rng.next_f32() * 0.5);
+            match g.flight(o, d, tau, t_max) {
+                Ok(s) => {
+                    ended += 1;
+                    let want = g.distance_at_depth(o, d, tau).unwrap();
+                    assert!((s - want).abs() <= 1e-6 * want.max(1e-3) && s < t_max, "{s} against {want}");
+                }
+                Err(depth) => {
+                    through += 1;
+                    let want = g.depth(o, d, t_max);
+                    assert!((depth - want).abs() <= 1e-6 * want.max(1e-3) && want <= tau * (1.0 + 1e-6), "{depth} against {want}, τ {tau}");
+                }
+            }
+        }
+        assert!(ended > 50 && through > 50, "{ended} flights ended, {through} passed");
     }
 
     #[test]
