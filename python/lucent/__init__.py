@@ -42,6 +42,8 @@ __all__ = [
     "fit_reflectance",
     "fit_particles",
     "compare",
+    "write_vol",
+    "read_vol",
     "project_points",
     "undistort_points",
     "find_chessboard_corners",
@@ -1461,6 +1463,58 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
     k, d = _camera_args(camera_matrix, dist_coeffs)
     out = _lucent.undistort_points_flat(_flat64(q), k, d)
     return _np.asarray(out, dtype=float).reshape(-1, 2)
+
+
+def write_vol(path, density, min=(0.0, 0.0, 0.0), max=(1.0, 1.0, 1.0)) -> None:
+    """Write a density grid as a Mitsuba volume file ("VOL" version 3, float32, one channel),
+    which a scene's ``medium = { …, density = { file = "…" } }`` reads (docs/scene-format.md,
+    "Density grids"; Mitsuba 3's ``gridvolume`` reads it too).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write (written to a temporary name and renamed).
+    density : (nz, ny, nx) array
+        Densities ≥ 0, ``density[z, y, x]``: value (x, y, z) sits at the centre of its cell of
+        the box.
+    min, max : 3 numbers
+        The box stored in the file (the scene's units, used when the scene gives no ``min`` /
+        ``max``).
+    """
+    d = _np.asarray(density, dtype=float)
+    if d.ndim != 3 or 0 in d.shape:
+        raise ValueError(f"density: expected a non-empty (nz, ny, nx) array, got shape {d.shape}")
+    if not _np.all(_np.isfinite(d)) or _np.any(d < 0):
+        raise ValueError("density: values must be finite and >= 0")
+    lo, hi = _np.asarray(min, dtype=float).reshape(-1), _np.asarray(max, dtype=float).reshape(-1)
+    if lo.size != 3 or hi.size != 3 or not _np.all(hi > lo):
+        raise ValueError(f"min, max: expected three numbers each with max > min, got {min}, {max}")
+    nz, ny, nx = d.shape
+    head = b"VOL" + bytes([3]) + _np.array([1, nx, ny, nz, 1], dtype="<i4").tobytes() + _np.concatenate([lo, hi]).astype("<f4").tobytes()
+    tmp = f"{_os.fspath(path)}.tmp{_os.getpid()}"
+    with open(tmp, "wb") as f:
+        f.write(head + _np.ascontiguousarray(d, dtype="<f4").tobytes())
+    _os.replace(tmp, path)
+
+
+def read_vol(path):
+    """Read a Mitsuba volume file of one float32 channel (as :func:`write_vol` writes).
+
+    Returns
+    -------
+    (density, min, max)
+        ``density`` as an (nz, ny, nx) float32 array, and the box stored in the file.
+    """
+    with open(path, "rb") as f:
+        raw = f.read()
+    if len(raw) < 48 or raw[:3] != b"VOL" or raw[3] != 3:
+        raise ValueError(f"{_os.fspath(path)}: not a Mitsuba volume file of version 3")
+    enc, nx, ny, nz, ch = _np.frombuffer(raw[4:24], dtype="<i4")
+    if enc != 1 or ch != 1 or min(nx, ny, nz) <= 0 or len(raw) != 48 + 4 * int(nx) * int(ny) * int(nz):
+        raise ValueError(f"{_os.fspath(path)}: expected float32 data of one channel for {nx}×{ny}×{nz} cells")
+    box = _np.frombuffer(raw[24:48], dtype="<f4").astype(float)
+    d = _np.frombuffer(raw[48:], dtype="<f4").reshape(int(nz), int(ny), int(nx)).copy()
+    return d, box[:3], box[3:]
 
 
 # OpenCV's fisheye model (``cv2.fisheye``), imported last: it uses the helpers above.

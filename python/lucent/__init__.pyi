@@ -70,6 +70,12 @@ def compare(a: npt.ArrayLike, b: npt.ArrayLike, mask: Optional[npt.ArrayLike] = 
             color_correct: Union[None, bool, str] = None, saturation: float = 1.0) -> Result:
     """RMSE, relMSE, PSNR, SSIM, mean ΔE2000 of two (H, W, 3) linear sRGB images."""
 
+def write_vol(path: _Path, density: npt.ArrayLike, min: Sequence[float] = (0.0, 0.0, 0.0), max: Sequence[float] = (1.0, 1.0, 1.0)) -> None:
+    """A (nz, ny, nx) density grid as a Mitsuba volume file (a scene's `density = { file = … }`)."""
+
+def read_vol(path: _Path) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(density (nz, ny, nx), min, max) of a Mitsuba volume file of one float32 channel."""
+
 def project_points(object_points: npt.ArrayLike, rvec: npt.ArrayLike, tvec: npt.ArrayLike, camera_matrix: npt.ArrayLike,
                    dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
     """Pixels of (N, 3) points through an OpenCV camera (cv2.projectPoints), 0–14 distortion terms."""
