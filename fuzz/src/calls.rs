@@ -14,7 +14,7 @@ use std::path::Path;
 pub const MAX_INPUT: usize = 64 * 1024;
 
 /// The targets, by the name of their folder under `fuzz/corpus/` and `fuzz/regressions/`.
-pub const TARGETS: &[&str] = &["scene", "obj", "ply", "medium", "checkpoint", "image"];
+pub const TARGETS: &[&str] = &["scene", "obj", "ply", "medium", "checkpoint", "image", "vol"];
 
 /// Run target `name` on `data`; `repo` is the repository root. Panics on an unknown name.
 pub fn run(name: &str, data: &[u8], repo: &Path) {
@@ -25,6 +25,7 @@ pub fn run(name: &str, data: &[u8], repo: &Path) {
         "medium" => medium(data),
         "checkpoint" => checkpoint(data),
         "image" => image(data),
+        "vol" => vol(data),
         other => panic!("unknown fuzz target {other}"),
     }
 }
@@ -146,6 +147,42 @@ pub fn image(data: &[u8]) {
     }
     for format in [Format::Png, Format::Exr, Format::Pfm] {
         let _ = decode_image(data, format);
+    }
+}
+
+/// Mitsuba volume file: parse, build the density grid on the file's box, and trace rays through
+/// it (from outside and inside, along the axes, a diagonal and a direction taken from the data):
+/// the exact integral, its inversion and a flight to a surface.
+pub fn vol(data: &[u8]) {
+    use glam::Vec3;
+    use render::medium::grid::DensityGrid;
+    if data.len() > MAX_INPUT {
+        return;
+    }
+    let Ok(v) = DensityGrid::read_vol(data) else { return };
+    let Ok(g) = DensityGrid::new(v.n, v.values, v.min, v.max) else { return };
+    let _ = g.max_density();
+    let (lo, hi) = g.bounds_m();
+    let p = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+    let (lo, hi) = (p(lo), p(hi));
+    let centre = 0.5 * (lo + hi);
+    let outside = lo - (hi - lo);
+    let tail = &data[data.len().saturating_sub(12)..];
+    let from_data = Vec3::new(
+        tail.first().copied().unwrap_or(1) as f32 - 127.5,
+        tail.get(5).copied().unwrap_or(2) as f32 - 127.5,
+        tail.get(10).copied().unwrap_or(3) as f32 - 127.5,
+    )
+    .normalize_or(Vec3::X);
+    let reach = (hi - lo).length() * 3.0;
+    for o in [centre, outside, lo, hi] {
+        for d in [Vec3::X, -Vec3::Y, Vec3::Z, Vec3::ONE.normalize(), from_data] {
+            let _ = g.density(o);
+            let tau = g.depth(o, d, reach);
+            let _ = g.depth(o, d, f32::INFINITY);
+            let _ = g.distance_at_depth(o, d, 0.5 * tau);
+            let _ = g.flight(o, d, 0.5 * tau, 0.75 * reach);
+        }
     }
 }
 
