@@ -118,6 +118,25 @@ fn integrators_say_what_they_ignore() {
     assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
 }
 
+/// A medium whose density grid file is cut short: one error line naming the field and the file,
+/// exit status 1, and the image a good run wrote before stays as it was.
+#[test]
+fn a_truncated_density_grid_is_one_line_and_leaves_the_last_image() {
+    use render::medium::grid::DensityGrid;
+    let t = Scratch::new("density");
+    let vol = DensityGrid::write_vol([2, 2, 2], &[0.0, 1.0, 2.0, 1.0, 0.5, 0.0, 3.0, 1.0], [-1.0; 3], [1.0; 3]);
+    std::fs::write(t.path("g.vol"), &vol).unwrap();
+    let medium = r#"medium = { sigma_a_per_mm = 0.0005, sigma_s_per_mm = 0.002, g = 0.3, density = { file = "g.vol" } }"#;
+    std::fs::write(t.path("cloud.toml"), small_scene("type = \"interface\"", medium)).unwrap();
+    let out = t.arg("cloud.pfm");
+    ok(&t.0, &["render", "cloud.toml", "--spp", "2", "--integrator", "volpath", "--out", &out, "--quiet"]);
+    let good = std::fs::read(t.path("cloud.pfm")).unwrap();
+    std::fs::write(t.path("g.vol"), &vol[..70]).unwrap();
+    let e = fails(&t.0, &["render", "cloud.toml", "--spp", "2", "--integrator", "volpath", "--out", &out, "--quiet"], 1);
+    assert!(e.contains("medium.density.file") && e.contains("g.vol") && e.contains("bytes"), "{e}");
+    assert_eq!(std::fs::read(t.path("cloud.pfm")).unwrap(), good, "the failed run changed the image");
+}
+
 #[test]
 fn exr_renders_with_the_same_seed_have_the_same_bytes() {
     let t = Scratch::new("exr");
