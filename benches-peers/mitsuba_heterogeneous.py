@@ -12,6 +12,9 @@ g = 0.5; `max_depth` 64 and roulette from 5 in both.
 * `sphere`: a sphere (radius 0.6 m) behind an index-matched boundary (lucent `interface`,
   Mitsuba `null`); the grid's box is the sphere's bounding box.
 * `cube`: the same grid in a cube of edge 1.2 m, its box the cube.
+* `albedo`: the sphere with a grey medium (σ_s = σ_t at density 1) and a second grid of the same
+  size for the single-scattering albedo, 0.95 at the bottom falling to 0.25 at the top with a
+  dark ball (lucent's `density.albedo`, Mitsuba's `albedo` as a `gridvolume`).
 
 lucent integrates the trilinear density exactly along rays (`medium::grid`), Mitsuba tracks it with
 null collisions against a majorant; both interpolate trilinearly between cell centres and clamp
@@ -64,24 +67,34 @@ def write_vol(path, d, lo, hi):
         f.write(np.ascontiguousarray(d, dtype="<f4").tobytes())
 
 
+def albedo_grid():
+    """Single-scattering albedo at the cell centres, indexed [z, y, x]."""
+    c = (np.arange(N) + 0.5) / N
+    z, y, x = np.meshgrid(c, c, c, indexing="ij")
+    ball = (x - 0.5) ** 2 + (y - 0.5) ** 2 + (z - 0.3) ** 2 < 0.22 ** 2
+    return np.where(ball, 0.3, 0.95 - 0.7 * y).astype(np.float32)
+
+
 def body_box(case):
     if case == "sphere":
         return [-0.6, 0.0, -0.6], [0.6, 1.2, 0.6]
     return [-0.6, 0.001, -0.6], [0.6, 1.201, 0.6]
 
 
-def lucent_scene(case, vol, scale=1.0):
-    sigma_s = [a * SIGMA_T_PER_M / 1000 for a in ALBEDO]
-    sigma_a = [(1 - a) * SIGMA_T_PER_M / 1000 for a in ALBEDO]
+def lucent_scene(case, vol, scale=1.0, albedo_vol=None):
+    albedo = [1.0] * len(ALBEDO) if albedo_vol else ALBEDO
+    sigma_s = [a * SIGMA_T_PER_M / 1000 for a in albedo]
+    sigma_a = [(1 - a) * SIGMA_T_PER_M / 1000 for a in albedo]
     lo, hi = body_box(case)
+    albedo_key = f", albedo = {{ file = \"{albedo_vol}\", min = {lo}, max = {hi} }}" if albedo_vol else ""
     medium = (f"medium = {{ g = {G}, sigma_s_per_mm = {{ lambda_nm = {LAMBDA}, values = {sigma_s} }}, "
               f"sigma_a_per_mm = {{ lambda_nm = {LAMBDA}, values = {sigma_a} }}, "
-              f"density = {{ file = \"{vol}\", min = {lo}, max = {hi}, scale = {scale} }} }}")
-    body = "sphere = { center = [0, 0.6, 0], radius = 0.6 }" if case == "sphere" else f"quads = [{cube_quads(lo, hi)}]"
+              f"density = {{ file = \"{vol}\", min = {lo}, max = {hi}, scale = {scale}{albedo_key} }} }}")
+    body = "sphere = { center = [0, 0.6, 0], radius = 0.6 }" if case != "cube" else f"quads = [{cube_quads(lo, hi)}]"
     return lucent_stage("volpath") + f"[[objects]]\nmaterial = \"matched\"\n{body}\n{medium}\n"
 
 
-def run_mitsuba(case, spp, variant, vol, seed=1):
+def run_mitsuba(case, spp, variant, vol, seed=1, albedo_vol=None):
     import mitsuba as mi
 
     mi.set_variant(variant)
@@ -94,7 +107,9 @@ def run_mitsuba(case, spp, variant, vol, seed=1):
     size = [h - l for l, h in zip(lo, hi)]
     medium = {"type": "heterogeneous", "albedo": fine, "scale": SIGMA_T_PER_M, "phase": {"type": "hg", "g": G},
               "sigma_t": {"type": "gridvolume", "filename": vol, "to_world": T().translate(lo) @ T().scale(size)}}
-    if case == "sphere":
+    if albedo_vol:
+        medium["albedo"] = {"type": "gridvolume", "filename": albedo_vol, "to_world": T().translate(lo) @ T().scale(size)}
+    if case != "cube":
         scene["body"] = {"type": "sphere", "center": [0, 0.6, 0], "radius": 0.6, "bsdf": {"type": "null"}, "interior": medium}
     else:
         centre = [(l + h) / 2 for l, h in zip(lo, hi)]
@@ -140,13 +155,17 @@ def main():
     a, work, _tmp = peer_args(__doc__, 256)
     d = density()
     report = {}
-    for case in ("sphere", "cube"):
+    for case in ("sphere", "cube", "albedo"):
         lo, hi = body_box(case)
         vol = os.path.join(work, f"{case}.vol")
         write_vol(vol, d, lo, hi)
-        l = render_luminance(a.lucent, work, case, lucent_scene(case, vol), a.spp)
-        l0 = render_luminance(a.lucent, work, case + "-empty", lucent_scene(case, vol, 0.0), 64)
-        m = run_mitsuba(case, a.spp, a.variant, vol)
+        avol = None
+        if case == "albedo":
+            avol = os.path.join(work, "albedo-grid.vol")
+            write_vol(avol, albedo_grid(), lo, hi)
+        l = render_luminance(a.lucent, work, case, lucent_scene(case, vol, albedo_vol=avol), a.spp)
+        l0 = render_luminance(a.lucent, work, case + "-empty", lucent_scene(case, vol, 0.0, avol), 64)
+        m = run_mitsuba(case, a.spp, a.variant, vol, albedo_vol=avol)
         mask = np.abs(m - l0) > 0.05 * l0
         bm = blocks(mask.astype(float)) == 1.0
         report[case] = {"pixels": ratios(l[mask], m[mask]), "blocks_4x4": ratios(blocks(l)[bm], blocks(m)[bm]),

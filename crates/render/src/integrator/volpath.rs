@@ -575,6 +575,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     break;
                 }
                 let p = ray.o + ray.d * t_coll;
+                // A density grid's albedo scale a(p): σ_s(p) = a σ_s, σ_t unchanged, so the
+                // scattering weight of every lane takes the factor and the densities do not.
+                let albedo = mm.albedo.as_ref().map_or(1.0, |g| g.density(p));
+                bv *= albedo;
                 depth += 1;
                 events += 1;
                 if depth >= settings.max_depth {
@@ -655,7 +659,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, medium, plane: probed, w: ps.wi, alpha, splits, sigma_t });
                 guide_steps = 0;
                 let aw = a * ps.weight;
-                beta *= aw * sigma_s;
+                beta *= aw * sigma_s * albedo;
                 r_u *= aw * sigma_t;
                 let (wi, pdf) = (ps.wi, ps.pdf);
                 if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {

@@ -12,7 +12,7 @@ use toml::Spanned;
 pub(crate) const MEDIUM_KEYS: &[&str] = &["sigma_a_per_mm", "sigma_s_per_mm", "g", "milk", "recipe", "preset", "phase", "similarity", "density"];
 
 /// Keys of `density = { … }`.
-const DENSITY_KEYS: &[&str] = &["file", "resolution", "values", "min", "max", "scale"];
+const DENSITY_KEYS: &[&str] = &["file", "resolution", "values", "min", "max", "scale", "albedo"];
 
 /// Milk presets (fat wt-%, protein wt-%, homogenisation pressure MPa) for `medium = { preset = … }`.
 pub const MILK_PRESETS: &[(&str, f64, f64, f64)] =
@@ -36,6 +36,14 @@ pub(crate) fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, fi
     if let Some(d) = v.get_ref().as_table().and_then(|t| t.get("density")) {
         let grid = density_desc(cx, sp, &v.span(), d, &format!("{field}.density"), unit_m)?;
         m.density = Some(std::sync::Arc::new(grid));
+        if let Some(a) = d.as_table().and_then(|t| t.get("albedo")) {
+            let path = format!("{field}.density.albedo");
+            let albedo = density_desc(cx, sp, &v.span(), a, &path, unit_m)?;
+            if albedo.max_density() > 1.0 {
+                return Err(cx.err(&v.span(), &path, format!("albedo scales lie in [0, 1], got {}", albedo.max_density())));
+            }
+            m.albedo = Some(std::sync::Arc::new(albedo));
+        }
     }
     if similarity {
         m.similarity().map_err(|e| cx.err(&v.span(), &format!("{field}.similarity"), format!("{e:#}")))
@@ -187,7 +195,7 @@ fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &tom
     use crate::medium::grid::DensityGrid;
     let t = v.as_table().ok_or_else(|| cx.err(span, field, "expected a table such as { file = \"smoke.vol\" } or { resolution = [2, 1, 1], values = [0, 1], min = [0, 0, 0], max = [1, 1, 1] }"))?;
     for k in t.keys() {
-        if !DENSITY_KEYS.contains(&k.as_str()) {
+        if !DENSITY_KEYS.contains(&k.as_str()) || (k == "albedo" && field.ends_with(".albedo")) {
             return Err(cx.err(span, field, format!("unknown key {}, expected one of {DENSITY_KEYS:?}", quote(k))));
         }
     }

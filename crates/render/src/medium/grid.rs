@@ -10,9 +10,10 @@
 //! Along a ray the trilinear density is a polynomial of degree ≤ 3 between the points where any
 //! axis crosses a plane of cell centres (on one side of those planes the clamped axis is
 //! constant): within a piece each axis's interpolation weight is linear in the ray parameter,
-//! so the blend of the cell's eight values is a product of three linear factors, whose cubic
-//! [`DensityGrid::depth`] integrates exactly piece by piece, and [`DensityGrid::distance_at_depth`] inverts that integral (Newton's
-//! method on the piece's quartic, kept in its bracket). So a medium with σ(λ, x) = σ(λ) ρ(x)
+//! so the blend of the cell's eight values is a product of three linear factors.
+//! [`DensityGrid::depth`] integrates that cubic exactly piece by piece, and
+//! [`DensityGrid::distance_at_depth`] inverts the integral (Newton's method on the piece's
+//! quartic, kept in its bracket). So a medium with σ(λ, x) = σ(λ) ρ(x)
 //! needs no null collisions: its transmittance at every wavelength is e^{−σ(λ) τ} with the
 //! density-weighted length τ = ∫ρ ds, exactly as a homogeneous medium's is e^{−σ(λ) t}, and free
 //! flights are drawn in τ with the hero wavelength's σ_t and mapped back to distance.

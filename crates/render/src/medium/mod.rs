@@ -123,6 +123,10 @@ pub struct Medium {
     pub pure_absorber: bool,
     /// Density ρ(x) multiplying σ_a and σ_s (σ_a, σ_s above are at ρ = 1); `None`: homogeneous.
     pub density: Option<std::sync::Arc<grid::DensityGrid>>,
+    /// With `density` only: a(x) ∈ [0, 1] scaling the scattering, σ_s(x, λ) = a(x) ρ(x) σ_s(λ),
+    /// the rest of the extinction absorbed, σ_a(x, λ) = ρ(x) σ_t(λ) − σ_s(x, λ) (σ_t and the
+    /// flights unchanged); `None`: a = 1.
+    pub albedo: Option<std::sync::Arc<grid::DensityGrid>>,
 }
 
 /// What a path needs of a medium at its carried wavelengths, computed once when it enters the
@@ -190,7 +194,7 @@ impl Medium {
             }
         }
         let pure_absorber = sigma_s_per_m.samples().iter().all(|&x| x == 0.0);
-        Ok(Medium { name: name.to_string(), sigma_a_per_m, sigma_s_per_m, phase, pure_absorber, density: None })
+        Ok(Medium { name: name.to_string(), sigma_a_per_m, sigma_s_per_m, phase, pure_absorber, density: None, albedo: None })
     }
 
     /// σ_s, σ_t and the phase-function parameters at the carried wavelengths.
@@ -412,6 +416,7 @@ impl Medium {
         let g = DenseSpectrum::from_fn(|_| 0.0);
         let mut m = Medium::new(&format!("{} (similarity relation)", self.name), self.sigma_a_per_m.clone(), sigma_s, PhaseModel::HenyeyGreenstein { g })?;
         m.density = self.density.clone();
+        m.albedo = self.albedo.clone();
         Ok(m)
     }
 

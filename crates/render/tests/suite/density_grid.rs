@@ -104,6 +104,28 @@ fn constant_grid_equals_the_homogeneous_medium() {
     assert!((ma - mb).abs() < 4.0 * (sa * sa + sb * sb).sqrt(), "grid {ma} ± {sa} against homogeneous {mb} ± {sb}");
 }
 
+/// An albedo grid of constant 0.6 on a constant density grid of 2: the medium is the
+/// homogeneous one with σ_s' = 2 · 0.6 σ_s and σ_a' = 2 (σ_a + 0.4 σ_s) (σ_t unchanged), chromatic
+/// σ_s behind a dielectric boundary; X, Y, Z agree within their standard errors.
+#[test]
+fn constant_albedo_grid_equals_the_homogeneous_medium() {
+    let grid = inline_grid([2, 3, 2], 1.5, |_, _, _| 2.0);
+    let albedo = inline_grid([3, 2, 2], 1.5, |_, _, _| 0.6);
+    let sigma_s = "{ lambda_nm = [360, 550, 551, 830], values = [0.5, 0.5, 6, 6] }";
+    // The density table with the albedo grid as one more key.
+    let with_albedo = format!("{}, albedo = {albedo} }}", grid.strip_suffix(" }").unwrap());
+    let gridded = format!("{{ sigma_a_per_mm = 0.05, sigma_s_per_mm = {sigma_s}, g = 0.6, density = {with_albedo} }}");
+    // σ_s' = 1.2 σ_s; σ_a' = 2 (0.05 + 0.4 σ_s) = 0.1 + 0.8 σ_s.
+    let homogeneous = "{ sigma_a_per_mm = { lambda_nm = [360, 550, 551, 830], values = [0.5, 0.5, 4.9, 4.9] }, sigma_s_per_mm = { lambda_nm = [360, 550, 551, 830], values = [0.6, 0.6, 7.2, 7.2] }, g = 0.6 }";
+    let mat = "type = \"dielectric\"\nior = 1.33";
+    let (ma, sa) = mean_y(scene(&ball_scene(mat, &gridded, 16)), 96, 21);
+    let (mb, sb) = mean_y(scene(&ball_scene(mat, homogeneous, 16)), 96, 22);
+    let (mc, sc) = mean_y(scene(&ball_scene(mat, &format!("{{ sigma_a_per_mm = 0.05, sigma_s_per_mm = {sigma_s}, g = 0.6, density = {grid} }}"), 16)), 96, 23);
+    eprintln!("albedo grid {ma} ± {sa}, homogeneous {mb} ± {sb}, without the albedo grid {mc} ± {sc}");
+    assert!((ma - mb).abs() < 4.0 * (sa * sa + sb * sb).sqrt(), "albedo grid {ma} ± {sa} against homogeneous {mb} ± {sb}");
+    assert!((ma - mc).abs() > 10.0 * (sa * sa + sc * sc).sqrt(), "the albedo grid must darken the medium: {ma} against {mc}");
+}
+
 /// Furnace: a non-absorbing medium whose density varies from 0 to 4 over a few cells (random
 /// values) and whose σ_s differs 60× between wavelengths, in an index-matched and in a dielectric
 /// ball under a uniform environment of radiance 1, gives radiance 1: light is only redistributed.
@@ -159,4 +181,6 @@ fn vol_files_load_and_bad_density_input_is_refused() {
     bad(r#"{ file = "g.vol", scale = -1 }"#, &["medium.density.scale"]);
     bad(r#"{ file = "g.vol", colour = 1 }"#, &["medium.density", "unknown key"]);
     bad(r#"{ file = "g.vol", min = [0, 0, 0] }"#, &["medium.density", "both min and max"]);
+    bad(r#"{ file = "g.vol", albedo = { file = "g.vol" } }"#, &["medium.density.albedo", "[0, 1]"]);
+    bad(r#"{ file = "g.vol", albedo = { file = "g.vol", scale = 0.5, albedo = { file = "g.vol" } } }"#, &["medium.density.albedo", "unknown key"]);
 }
