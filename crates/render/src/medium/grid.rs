@@ -283,19 +283,7 @@ impl DensityGrid {
     /// The distance s (m) along o + s·d at which the density-weighted length reaches `tau` (m),
     /// or `None` when it stays below `tau` all the way to infinity.
     pub fn distance_at_depth(&self, o: Vec3, d: Vec3, tau: f32) -> Option<f32> {
-        let target = tau as f64;
-        let mut acc = 0.0f64;
-        let mut found = None;
-        self.pieces(o, d, f64::INFINITY, |p| {
-            let i = p.integral();
-            if acc + i >= target && i > 0.0 {
-                found = Some(p.invert(target - acc) as f32);
-                return false;
-            }
-            acc += i;
-            true
-        });
-        found
+        self.flight(o, d, tau, f32::INFINITY).ok()
     }
 
     /// A free flight along o + s·d that ends where the density-weighted length reaches `tau`
