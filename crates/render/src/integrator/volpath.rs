@@ -537,17 +537,7 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     }
                     (None, Some(g)) => {
                         depth_coll = free_flight(sigma_t.x, rng);
-                        let h = scene.intersect(&Ray { t_max: f32::INFINITY, ..ray });
-                        match g.flight(ray.o, ray.d, depth_coll, h.map_or(f32::INFINITY, |h| h.t)) {
-                            Ok(s) => {
-                                t_coll = s;
-                                grid_hit = Some(None);
-                            }
-                            Err(tau) => {
-                                through_depth = Some(tau);
-                                grid_hit = Some(h);
-                            }
-                        }
+                        (t_coll, through_depth, grid_hit) = grid_flight(scene, g, &ray, depth_coll);
                     }
                 }
             }
@@ -577,8 +567,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 let p = ray.o + ray.d * t_coll;
                 // A density grid's albedo scale a(p): σ_s(p) = a σ_s, σ_t unchanged, so the
                 // scattering weight of every lane takes the factor and the densities do not.
-                let albedo = mm.albedo.as_ref().map_or(1.0, |g| g.density(p));
-                bv *= albedo;
+                let albedo = mm.albedo.as_ref().map(|g| g.density(p));
+                if let Some(a) = albedo {
+                    bv *= a;
+                }
                 depth += 1;
                 events += 1;
                 if depth >= settings.max_depth {
@@ -659,7 +651,10 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 guide_at = guide.map(|(rl, alpha)| GuidedVertex { rl, p, medium, plane: probed, w: ps.wi, alpha, splits, sigma_t });
                 guide_steps = 0;
                 let aw = a * ps.weight;
-                beta *= aw * sigma_s * albedo;
+                beta *= aw * sigma_s;
+                if let Some(a) = albedo {
+                    beta *= a;
+                }
                 r_u *= aw * sigma_t;
                 let (wi, pdf) = (ps.wi, ps.pdf);
                 if !renormalize(&mut beta, &mut r_u, &mut r_l, wl) {
@@ -877,6 +872,18 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
         }
     }
     l
+}
+
+/// A free flight of density-weighted length `tau` (m) along `ray` in a density grid, traced to the
+/// first surface: (the collision distance or infinity, the density-weighted length to the
+/// surface when the flight passes it, the surface: `Some(None)` where there is none).
+#[inline(never)]
+fn grid_flight(scene: &Scene, g: &crate::medium::grid::DensityGrid, ray: &Ray, tau: f32) -> (f32, Option<f32>, Option<Option<crate::accel::Hit>>) {
+    let h = scene.intersect(&Ray { t_max: f32::INFINITY, ..*ray });
+    match g.flight(ray.o, ray.d, tau, h.map_or(f32::INFINITY, |h| h.t)) {
+        Ok(s) => (s, None, Some(None)),
+        Err(depth) => (f32::INFINITY, Some(depth), Some(h)),
+    }
 }
 
 /// The event-count roulette (module documentation) after `events` real collisions: at the
