@@ -568,8 +568,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 // A density grid's albedo scale a(p): σ_s(p) = a σ_s, σ_t unchanged, so the
                 // scattering weight of every lane takes the factor and the densities do not.
                 let albedo = mm.albedo.as_ref().map(|g| g.density(p));
-                if let Some(a) = albedo {
-                    bv *= a;
+                if let Some(k) = albedo {
+                    bv *= k;
                 }
                 depth += 1;
                 events += 1;
@@ -652,8 +652,8 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                 guide_steps = 0;
                 let aw = a * ps.weight;
                 beta *= aw * sigma_s;
-                if let Some(a) = albedo {
-                    beta *= a;
+                if let Some(k) = albedo {
+                    beta *= k;
                 }
                 r_u *= aw * sigma_t;
                 let (wi, pdf) = (ps.wi, ps.pdf);
