@@ -565,9 +565,9 @@ pub fn li_volpath_with(scene: &Scene, settings: &IntegratorSettings, options: &V
                     break;
                 }
                 let p = ray.o + ray.d * t_coll;
-                // A density grid's albedo scale a(p): σ_s(p) = a σ_s, σ_t unchanged, so the
-                // scattering weight of every lane takes the factor and the densities do not.
-                let albedo = mm.albedo.as_ref().map(|g| g.density(p));
+                // A density grid's albedo factor a(p, λ): σ_s(p) = a σ_s, σ_t unchanged, so each
+                // lane's scattering weight takes its factor and the densities do not.
+                let albedo = mm.albedo.as_ref().map(|g| g.at(p, wl));
                 if let Some(k) = albedo {
                     bv *= k;
                 }

@@ -6,6 +6,8 @@
 
 use crate::load::error::{quote, Cx};
 use crate::load::spectrum::{as_f64, SpectrumCx, SpectrumUse};
+use crate::medium::albedo::AlbedoGrid;
+use crate::medium::grid::DensityGrid;
 use anyhow::Result;
 use toml::Spanned;
 
@@ -34,15 +36,23 @@ pub(crate) fn medium_desc(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Value>, fi
     };
     let mut m = medium_desc_exact(cx, sp, v, field, unit_m)?;
     if let Some(d) = v.get_ref().as_table().and_then(|t| t.get("density")) {
-        let grid = density_desc(cx, sp, &v.span(), d, &format!("{field}.density"), unit_m)?;
+        let path = format!("{field}.density");
+        let g = grid_desc(cx, sp, &v.span(), d, &path, unit_m)?;
+        if g.channels != 1 {
+            return Err(cx.err(&v.span(), &path, format!("a density grid has one value per cell, got {} (a 3-channel grid is an RGB albedo: density.albedo)", g.channels)));
+        }
+        let grid = DensityGrid::new(g.n, g.values, g.min_m, g.max_m).map_err(|e| cx.err(&v.span(), &path, format!("{e:#}")))?;
         m.density = Some(std::sync::Arc::new(grid));
         if let Some(a) = d.as_table().and_then(|t| t.get("albedo")) {
             let path = format!("{field}.density.albedo");
-            let albedo = density_desc(cx, sp, &v.span(), a, &path, unit_m)?;
-            if albedo.max_density() > 1.0 {
-                return Err(cx.err(&v.span(), &path, format!("albedo scales lie in [0, 1], got {}", albedo.max_density())));
-            }
-            m.albedo = Some(std::sync::Arc::new(albedo));
+            let g = grid_desc(cx, sp, &v.span(), a, &path, unit_m)?;
+            let albedo = if g.channels == 3 {
+                let colours: Vec<[f32; 3]> = g.values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+                AlbedoGrid::rgb(g.n, &colours, g.min_m, g.max_m)
+            } else {
+                DensityGrid::new(g.n, g.values, g.min_m, g.max_m).and_then(AlbedoGrid::grey)
+            };
+            m.albedo = Some(std::sync::Arc::new(albedo.map_err(|e| cx.err(&v.span(), &path, format!("{e:#}")))?));
         }
     }
     if similarity {
@@ -187,12 +197,21 @@ pub(crate) fn medium_desc_exact(cx: &Cx, sp: &SpectrumCx, v: &Spanned<toml::Valu
     }
 }
 
+/// A grid as a scene file gives it: cells, values per cell, the values (channels fastest, then
+/// x) and the box in metres.
+struct GridDesc {
+    n: [usize; 3],
+    channels: usize,
+    values: Vec<f32>,
+    min_m: [f64; 3],
+    max_m: [f64; 3],
+}
+
 /// Parse `density = { file = "x.vol" | resolution = [nx, ny, nz], values = […], min = […],
-/// max = […], scale = s }` (docs/scene-format.md, "Density grids"): the grid's box in scene
-/// units (from the file when a file gives it and `min`/`max` are left out), its values times
-/// `scale`.
-fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &toml::Value, field: &str, unit_m: f64) -> Result<crate::medium::grid::DensityGrid> {
-    use crate::medium::grid::DensityGrid;
+/// max = […], scale = s }` or its `albedo` (docs/scene-format.md, "Density grids"): the grid's
+/// box in scene units (from the file when a file gives it and `min`/`max` are left out), its
+/// values times `scale`. Inline values are numbers (one channel) or [r, g, b] triples.
+fn grid_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &toml::Value, field: &str, unit_m: f64) -> Result<GridDesc> {
     let t = v.as_table().ok_or_else(|| cx.err(span, field, "expected a table such as { file = \"smoke.vol\" } or { resolution = [2, 1, 1], values = [0, 1], min = [0, 0, 0], max = [1, 1, 1] }"))?;
     for k in t.keys() {
         if !DENSITY_KEYS.contains(&k.as_str()) || (k == "albedo" && field.ends_with(".albedo")) {
@@ -209,7 +228,7 @@ fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &tom
         }
         Ok(Some(out))
     };
-    let (n, values, file_box) = match (t.get("file"), t.get("resolution")) {
+    let (n, channels, values, file_box) = match (t.get("file"), t.get("resolution")) {
         (Some(file), None) => {
             if t.contains_key("values") {
                 return Err(cx.err(span, &f("values"), "not allowed with file"));
@@ -219,7 +238,7 @@ fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &tom
             let bytes = std::fs::read(&path).map_err(|e| cx.err(span, &f("file"), format!("cannot read {}: {e}", path.display())))?;
             sp.hash.borrow_mut().write(&bytes);
             let v = DensityGrid::read_vol(&bytes).map_err(|e| cx.err(span, &f("file"), format!("{rel}: {e:#}")))?;
-            (v.n, v.values, Some((v.min, v.max)))
+            (v.n, v.channels, v.values, Some((v.min, v.max)))
         }
         (None, Some(res)) => {
             let r = res.as_array().filter(|a| a.len() == 3).ok_or_else(|| cx.err(span, &f("resolution"), "must be [nx, ny, nz]"))?;
@@ -227,10 +246,24 @@ fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &tom
             for (o, e) in n.iter_mut().zip(r) {
                 *o = e.as_integer().filter(|&k| k >= 1).ok_or_else(|| cx.err(span, &f("resolution"), "must be three whole numbers ≥ 1"))? as usize;
             }
-            let vals = t.get("values").ok_or_else(|| cx.err(span, &f("values"), "missing (one density per cell, x fastest)"))?;
-            let a = vals.as_array().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers"))?;
-            let values = a.iter().map(|e| as_f64(e).map(|x| x as f32)).collect::<Option<Vec<f32>>>().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers"))?;
-            (n, values, None)
+            let vals = t.get("values").ok_or_else(|| cx.err(span, &f("values"), "missing (one value per cell, x fastest)"))?;
+            let a = vals.as_array().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers or of [r, g, b]"))?;
+            let triples = a.first().is_some_and(|e| e.is_array());
+            let (channels, values) = if triples {
+                let rgb = |e: &toml::Value| -> Option<Vec<f32>> {
+                    let c = e.as_array().filter(|c| c.len() == 3)?;
+                    c.iter().map(|x| as_f64(x).map(|x| x as f32)).collect()
+                };
+                let v = a.iter().map(rgb).collect::<Option<Vec<Vec<f32>>>>().ok_or_else(|| cx.err(span, &f("values"), "must be all numbers or all [r, g, b]"))?;
+                (3, v.concat())
+            } else {
+                (1, a.iter().map(|e| as_f64(e).map(|x| x as f32)).collect::<Option<Vec<f32>>>().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers or of [r, g, b]"))?)
+            };
+            let cells = n[0] * n[1] * n[2];
+            if values.len() != cells * channels {
+                return Err(cx.err(span, &f("values"), format!("{}×{}×{} cells need {cells} values, got {}", n[0], n[1], n[2], values.len() / channels)));
+            }
+            (n, channels, values, None)
         }
         _ => return Err(cx.err(span, field, "give exactly one of file (a Mitsuba .vol grid) or resolution with values")),
     };
@@ -246,5 +279,5 @@ fn density_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &tom
     };
     let values = values.into_iter().map(|x| (x as f64 * scale) as f32).collect();
     let to_m = |a: [f64; 3]| a.map(|x| x * unit_m);
-    DensityGrid::new(n, values, to_m(min), to_m(max)).map_err(|e| cx.err(span, field, format!("{e:#}")))
+    Ok(GridDesc { n, channels, values, min_m: to_m(min), max_m: to_m(max) })
 }

@@ -6,3 +6,4 @@ pub mod geometry;
 pub mod hash;
 pub mod sampling;
 pub mod spectral;
+pub mod uplift;

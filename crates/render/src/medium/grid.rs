@@ -29,7 +29,9 @@ use glam::Vec3;
 pub struct VolFile {
     /// Cells along x, y, z.
     pub n: [usize; 3],
-    /// Values, x fastest.
+    /// Values per cell: 1 (a density or grey albedo) or 3 (an RGB albedo).
+    pub channels: usize,
+    /// Values, channels fastest, then x: `values[((z · ny + y) · nx + x) · channels + c]`.
     pub values: Vec<f32>,
     /// The box stored in the file (in the file's units): its minimum …
     pub min: [f64; 3],
@@ -146,15 +148,30 @@ impl DensityGrid {
         self.density_c(self.to_cells([p.x as f64, p.y as f64, p.z as f64])) as f32
     }
 
-    /// Cell-centre coordinates of a point: c = u·n − ½ (u in the unit cube), so value i sits
-    /// at c = i.
-    #[inline]
-    fn to_cells(&self, p: [f64; 3]) -> [f64; 3] {
-        [0, 1, 2].map(|a| (p[a] - self.min_m[a]) / self.size_m[a] * self.n[a] as f64 - 0.5)
+    /// The eight cells whose values the trilinear interpolation at `p` (m) blends, and their
+    /// weights (summing to 1); cells repeat along an axis of one cell. Grids of other values
+    /// over the same cells (an RGB albedo) interpolate with these.
+    pub fn corners(&self, p: Vec3) -> ([usize; 8], [f32; 8]) {
+        let c = self.to_cells([p.x as f64, p.y as f64, p.z as f64]);
+        let (i0, w) = self.base_cell(c);
+        let [nx, ny, _] = self.n;
+        let step = |a: usize| usize::from(self.n[a] > 1);
+        let mut idx = [0usize; 8];
+        let mut wt = [0f32; 8];
+        for k in 0..8 {
+            let (bx, by, bz) = (k & 1, (k >> 1) & 1, (k >> 2) & 1);
+            let (x, y, z) = (i0[0] + bx * step(0), i0[1] + by * step(1), i0[2] + bz * step(2));
+            idx[k] = (z * ny + y) * nx + x;
+            let f = |b: usize, t: f64| if b == 1 { t } else { 1.0 - t };
+            wt[k] = (f(bx, w[0]) * f(by, w[1]) * f(bz, w[2])) as f32;
+        }
+        (idx, wt)
     }
 
-    /// The trilinear density at cell-centre coordinates `c` (clamped to the outer centres).
-    fn density_c(&self, c: [f64; 3]) -> f64 {
+    /// The cell (lower corner index per axis) and the interpolation weight of the upper one,
+    /// at cell-centre coordinates `c` (clamped to the outer centres).
+    #[inline]
+    fn base_cell(&self, c: [f64; 3]) -> ([usize; 3], [f64; 3]) {
         let mut i0 = [0usize; 3];
         let mut w = [0f64; 3];
         for a in 0..3 {
@@ -167,6 +184,19 @@ impl DensityGrid {
             i0[a] = i;
             w[a] = x - i as f64;
         }
+        (i0, w)
+    }
+
+    /// Cell-centre coordinates of a point: c = u·n − ½ (u in the unit cube), so value i sits
+    /// at c = i.
+    #[inline]
+    fn to_cells(&self, p: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|a| (p[a] - self.min_m[a]) / self.size_m[a] * self.n[a] as f64 - 0.5)
+    }
+
+    /// The trilinear density at cell-centre coordinates `c` (clamped to the outer centres).
+    fn density_c(&self, c: [f64; 3]) -> f64 {
+        let (i0, w) = self.base_cell(c);
         let [nx, ny, _] = self.n;
         let at = |x: usize, y: usize, z: usize| self.values[(z * ny + y) * nx + x] as f64;
         let step = |a: usize| usize::from(self.n[a] > 1);
@@ -327,27 +357,32 @@ impl DensityGrid {
         if nx <= 0 || ny <= 0 || nz <= 0 {
             bail!("volume size {nx}×{ny}×{nz}: every axis needs at least one cell");
         }
-        if channels != 1 {
-            bail!("{channels} channels per cell (a density grid has 1)");
+        if channels != 1 && channels != 3 {
+            bail!("{channels} channels per cell (lucent reads 1, a density or grey albedo, or 3, an RGB albedo)");
         }
         let n = [nx as usize, ny as usize, nz as usize];
         let count = n[0].checked_mul(n[1]).and_then(|a| a.checked_mul(n[2])).context("too many cells")?;
-        let expected = count.checked_mul(4).and_then(|b| b.checked_add(48)).context("too many cells")?;
+        let expected = count.checked_mul(4 * channels as usize).and_then(|b| b.checked_add(48)).context("too many cells")?;
         if bytes.len() != expected {
-            bail!("{}×{}×{} float32 cells need {expected} bytes, the file has {}", n[0], n[1], n[2], bytes.len());
+            bail!("{}×{}×{} float32 cells of {channels} channel(s) need {expected} bytes, the file has {}", n[0], n[1], n[2], bytes.len());
         }
         let min = [float(24) as f64, float(28) as f64, float(32) as f64];
         let max = [float(36) as f64, float(40) as f64, float(44) as f64];
         let values = bytes[48..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
-        Ok(VolFile { n, values, min, max })
+        Ok(VolFile { n, channels: channels as usize, values, min, max })
     }
 
     /// Mitsuba's volume format of a grid (version 3, float32, 1 channel), with the box `min`–`max`.
     pub fn write_vol(n: [usize; 3], values: &[f32], min: [f32; 3], max: [f32; 3]) -> Vec<u8> {
+        Self::write_vol_channels(n, 1, values, min, max)
+    }
+
+    /// [`Self::write_vol`] of `channels` values per cell (channels fastest).
+    pub fn write_vol_channels(n: [usize; 3], channels: usize, values: &[f32], min: [f32; 3], max: [f32; 3]) -> Vec<u8> {
         let mut out = Vec::with_capacity(48 + 4 * values.len());
         out.extend_from_slice(b"VOL");
         out.push(3);
-        for v in [1i32, n[0] as i32, n[1] as i32, n[2] as i32, 1] {
+        for v in [1i32, n[0] as i32, n[1] as i32, n[2] as i32, channels as i32] {
             out.extend_from_slice(&v.to_le_bytes());
         }
         for v in min.iter().chain(max.iter()) {
@@ -488,13 +523,20 @@ mod tests {
         let values: Vec<f32> = (0..24).map(|i| i as f32 * 0.5).collect();
         let bytes = DensityGrid::write_vol([2, 3, 4], &values, [-1.0, 0.0, 2.0], [1.0, 3.0, 6.0]);
         let v = DensityGrid::read_vol(&bytes).unwrap();
-        assert_eq!(v, VolFile { n: [2, 3, 4], values, min: [-1.0, 0.0, 2.0], max: [1.0, 3.0, 6.0] });
+        assert_eq!(v, VolFile { n: [2, 3, 4], channels: 1, values: values.clone(), min: [-1.0, 0.0, 2.0], max: [1.0, 3.0, 6.0] });
         let err = |b: &[u8]| format!("{:#}", DensityGrid::read_vol(b).unwrap_err());
         assert!(err(&bytes[..60]).contains("need 144 bytes"), "{}", err(&bytes[..60]));
         assert!(err(b"PLY").contains("not a Mitsuba volume"));
         let mut v2 = bytes.clone();
+        v2[20] = 2;
+        assert!(err(&v2).contains("2 channels"));
+        // Three channels: the same bytes are a third as many cells' colours, and a file of that
+        // size reads back with its channels.
         v2[20] = 3;
-        assert!(err(&v2).contains("3 channels"));
+        assert!(err(&v2).contains("need 336 bytes"), "{}", err(&v2));
+        let rgb = DensityGrid::write_vol_channels([2, 1, 4], 3, &values, [0.0; 3], [1.0; 3]);
+        let v = DensityGrid::read_vol(&rgb).unwrap();
+        assert_eq!((v.n, v.channels, v.values.as_slice()), ([2, 1, 4], 3, values.as_slice()));
         let mut v3 = bytes.clone();
         v3[3] = 2;
         assert!(err(&v3).contains("version 2"));

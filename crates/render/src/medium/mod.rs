@@ -16,6 +16,7 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod albedo;
 pub mod convex;
 pub mod grid;
 
@@ -123,10 +124,10 @@ pub struct Medium {
     pub pure_absorber: bool,
     /// Density ρ(x) multiplying σ_a and σ_s (σ_a, σ_s above are at ρ = 1); `None`: homogeneous.
     pub density: Option<std::sync::Arc<grid::DensityGrid>>,
-    /// With `density` only: a(x) ∈ [0, 1] scaling the scattering, σ_s(x, λ) = a(x) ρ(x) σ_s(λ),
-    /// the rest of the extinction absorbed, σ_a(x, λ) = ρ(x) σ_t(λ) − σ_s(x, λ) (σ_t and the
-    /// flights unchanged); `None`: a = 1.
-    pub albedo: Option<std::sync::Arc<grid::DensityGrid>>,
+    /// With `density` only: a(x, λ) ∈ [0, 1] scaling the scattering, σ_s(x, λ) = a(x, λ) ρ(x)
+    /// σ_s(λ), the rest of the extinction absorbed, σ_a(x, λ) = ρ(x) σ_t(λ) − σ_s(x, λ) (σ_t and
+    /// the flights unchanged), grey or from RGB colours ([`albedo::AlbedoGrid`]); `None`: a = 1.
+    pub albedo: Option<std::sync::Arc<albedo::AlbedoGrid>>,
 }
 
 /// What a path needs of a medium at its carried wavelengths, computed once when it enters the

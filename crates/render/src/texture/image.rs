@@ -14,10 +14,11 @@
 use super::{footprint, Filter, Wrap};
 use crate::image_io::{read_image, Image};
 use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
+use crate::math::uplift::{normalized_lambda, sigmoid_shape, uplift_colours};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec2, Vec4};
-use optics::spectrum::{DenseSpectrum, LAMBDA_MAX_NM, LAMBDA_MIN_NM};
-use optics::uplift::{Fit, SigmoidSpectrum};
+use optics::spectrum::DenseSpectrum;
+use optics::uplift::SigmoidSpectrum;
 use std::path::Path;
 
 /// How 8- and 16-bit texel values map to linear values.
@@ -99,39 +100,13 @@ impl SpectralImage {
     /// Uplifts every texel of `img` (linear sRGB). Reflectances must lie in [0, 1]; the error
     /// names the first texel that does not.
     pub fn new(img: &Image, uplift: Uplift, wrap: Wrap, uv_scale: Vec2) -> Result<SpectralImage> {
-        use rayon::prelude::*;
         if uplift == Uplift::Reflectance {
             if let Some(i) = img.rgb.iter().position(|p| p.iter().any(|&c| !(c <= 1.0))) {
                 let (x, y) = (i % img.width as usize, i / img.width as usize);
                 bail!("texel ({x}, {y}) is {:?}: an albedo must lie in [0, 1]", img.rgb[i]);
             }
         }
-        // Photographs repeat colours: fit each distinct colour once.
-        let mut unique: Vec<[u32; 3]> = img.rgb.iter().map(|p| p.map(f32::to_bits)).collect();
-        unique.sort_unstable();
-        unique.dedup();
-        // The coefficient table costs about a second of one core to build, a direct fit about a
-        // millisecond a colour: few colours (a drawn or small texture) are fitted directly.
-        let fit = if unique.len() <= 500 { Fit::Direct } else { Fit::Table };
-        let fitted: Vec<[f32; 4]> = unique
-            .par_iter()
-            .map(|b| {
-                let rgb = b.map(|x| f32::from_bits(x) as f64);
-                let s = match uplift {
-                    Uplift::Reflectance => SigmoidSpectrum::reflectance_by(rgb, fit),
-                    Uplift::Illuminant => SigmoidSpectrum::illuminant_by(rgb, fit),
-                };
-                [s.coeffs[0] as f32, s.coeffs[1] as f32, s.coeffs[2] as f32, s.scale as f32]
-            })
-            .collect();
-        let texels = img
-            .rgb
-            .iter()
-            .map(|p| {
-                let k = unique.binary_search(&p.map(f32::to_bits)).expect("every colour was fitted");
-                fitted[k]
-            })
-            .collect();
+        let texels = uplift_colours(&img.rgb, uplift == Uplift::Illuminant);
         let d65 = match uplift {
             Uplift::Reflectance => None,
             Uplift::Illuminant => Some(DenseSpectrum::from_fn(optics::spectrum::d65_normalized)),
@@ -193,17 +168,14 @@ impl SpectralImage {
     #[inline]
     pub fn eval(&self, wl: &SampledWavelengths, uv: Vec2) -> SampledSpectrum {
         let (idx, w) = footprint(uv, self.uv_scale, self.width, self.height, self.wrap, self.filter);
-        let span = (LAMBDA_MAX_NM - LAMBDA_MIN_NM) as f32;
-        let t = Vec4::from_array(wl.lambda_nm.map(|l| (l - LAMBDA_MIN_NM as f32) / span));
+        let t = normalized_lambda(wl);
         let mut out = Vec4::ZERO;
         for k in 0..4 {
             if w[k] == 0.0 {
                 continue;
             }
             let c = self.texels[idx[k]];
-            let x = (c[0] * t + Vec4::splat(c[1])) * t + Vec4::splat(c[2]);
-            let s = Vec4::from_array(x.to_array().map(|x| 0.5 + x / (2.0 * (1.0 + x * x).sqrt())));
-            out += w[k] * c[3] * s;
+            out += w[k] * c[3] * sigmoid_shape(c, t);
         }
         match &self.d65 {
             Some(d) => out * wl.eval(d),

@@ -183,4 +183,79 @@ fn vol_files_load_and_bad_density_input_is_refused() {
     bad(r#"{ file = "g.vol", min = [0, 0, 0] }"#, &["medium.density", "both min and max"]);
     bad(r#"{ file = "g.vol", albedo = { file = "g.vol" } }"#, &["medium.density.albedo", "[0, 1]"]);
     bad(r#"{ file = "g.vol", albedo = { file = "g.vol", scale = 0.5, albedo = { file = "g.vol" } } }"#, &["medium.density.albedo", "unknown key"]);
+    // RGB albedos: a three-channel file against the same colours inline, bit for bit; a
+    // three-channel grid is no density; colours outside [0, 1] and mixed values are refused.
+    let colours: Vec<f32> = (0..24).map(|i| 0.04 * i as f32).collect();
+    std::fs::write(dir.join("rgb.vol"), DensityGrid::write_vol_channels([2, 2, 2], 3, &colours, [-1.0; 3], [1.0; 3])).unwrap();
+    let triples: Vec<String> = colours.chunks(3).map(|c| format!("[{}, {}, {}]", c[0], c[1], c[2])).collect();
+    let scattering = |albedo: &str| {
+        let medium = format!("{{ sigma_a_per_mm = 0.2, sigma_s_per_mm = 1, density = {{ file = \"g.vol\", albedo = {albedo} }} }}");
+        let s = load_in(&dir, &ball_scene(r#"type = "interface""#, &medium, 8));
+        let mut buf = vec![[0f32; 3]; 64];
+        render_pass(&s, &volpath(), 1, 0, &mut buf);
+        buf
+    };
+    let from_file = scattering(r#"{ file = "rgb.vol" }"#);
+    assert_eq!(from_file, scattering(&format!("{{ resolution = [2, 2, 2], values = [{}], min = [-1, -1, -1], max = [1, 1, 1] }}", triples.join(", "))));
+    assert_ne!(from_file, scattering(r#"{ file = "rgb.vol", scale = 0.5 }"#), "scale must change the image");
+    bad(r#"{ file = "rgb.vol" }"#, &["medium.density", "one value per cell", "albedo"]);
+    bad(r#"{ file = "g.vol", albedo = { file = "rgb.vol", scale = 2 } }"#, &["medium.density.albedo", "[0, 1]"]);
+    bad(r#"{ file = "g.vol", albedo = { resolution = [2, 1, 1], values = [[0.5, 0.5, 0.5], 0.5], min = [0, 0, 0], max = [1, 1, 1] } }"#, &["medium.density.albedo.values", "[r, g, b]"]);
+    bad(r#"{ file = "g.vol", albedo = { resolution = [2, 1, 1], values = [[0.5, 0.5, 0.5]], min = [0, 0, 0], max = [1, 1, 1] } }"#, &["medium.density.albedo.values", "need 2 values"]);
+}
+
+/// Mean X, Y, Z over the image of `passes` one-sample-per-pixel `volpath` renders, and their
+/// standard errors (from the spread of the passes' means).
+fn mean_xyz(mut s: Scene, passes: u64, seed: u64) -> ([f64; 3], [f64; 3]) {
+    s.integrator = volpath();
+    let (w, h) = s.resolution();
+    let mut buf = vec![[0f32; 3]; (w * h) as usize];
+    let means: Vec<[f64; 3]> = (0..passes)
+        .map(|p| {
+            render_pass(&s, &s.integrator, seed, p, &mut buf);
+            let n = buf.len() as f64;
+            [0, 1, 2].map(|c| buf.iter().map(|xyz| xyz[c] as f64).sum::<f64>() / n)
+        })
+        .collect();
+    let m = [0, 1, 2].map(|c| means.iter().map(|x| x[c]).sum::<f64>() / passes as f64);
+    let se = [0, 1, 2].map(|c| (means.iter().map(|x| (x[c] - m[c]).powi(2)).sum::<f64>() / ((passes - 1) * passes) as f64).sqrt());
+    (m, se)
+}
+
+/// A spectrum as an inline 1-nm table over 360–830 nm.
+fn table(f: impl Fn(f64) -> f64) -> String {
+    let l: Vec<String> = (360..=830).map(|l| l.to_string()).collect();
+    let v: Vec<String> = (360..=830).map(|l| format!("{}", f(l as f64))).collect();
+    format!("{{ lambda_nm = [{}], values = [{}] }}", l.join(", "), v.join(", "))
+}
+
+/// An RGB albedo grid of one colour on a constant density grid of 2: the medium is the
+/// homogeneous one with σ_s'(λ) = 2 A(λ) σ_s and σ_a'(λ) = 2 (σ_a + (1 − A(λ)) σ_s), A the
+/// colour's reflectance uplift (Jakob & Hanika 2019, `optics::uplift`), behind a dielectric
+/// boundary; X, Y and Z agree within their standard errors, and the colour shows against the
+/// grey albedo of the same luminance.
+#[test]
+fn constant_rgb_albedo_grid_equals_the_homogeneous_medium() {
+    use optics::uplift::{Fit, SigmoidSpectrum};
+    let colour = [0.85, 0.45, 0.15];
+    let a = SigmoidSpectrum::reflectance_by(colour, Fit::Direct);
+    let grid = inline_grid([2, 3, 2], 1.5, |_, _, _| 2.0);
+    let cells: Vec<String> = (0..12).map(|_| format!("[{}, {}, {}]", colour[0], colour[1], colour[2])).collect();
+    let rgb_albedo = format!("{{ resolution = [3, 2, 2], values = [{}], min = [-1.5, -1.5, -1.5], max = [1.5, 1.5, 1.5] }}", cells.join(", "));
+    let with_albedo = |albedo: &str| format!("{{ sigma_a_per_mm = 0.05, sigma_s_per_mm = 1.5, g = 0.6, density = {}, albedo = {albedo} }} }}", grid.strip_suffix(" }").unwrap());
+    let homogeneous = format!("{{ sigma_a_per_mm = {}, sigma_s_per_mm = {}, g = 0.6 }}", table(|l| 2.0 * (0.05 + 1.5 * (1.0 - a.eval(l)))), table(|l| 2.0 * 1.5 * a.eval(l)));
+    let mat = "type = \"dielectric\"\nior = 1.33";
+    let (ma, sa) = mean_xyz(scene(&ball_scene(mat, &with_albedo(&rgb_albedo), 16)), 96, 31);
+    let (mb, sb) = mean_xyz(scene(&ball_scene(mat, &homogeneous, 16)), 96, 32);
+    // The grey albedo of the colour's luminance.
+    let y = 0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2];
+    let (mc, sc) = mean_xyz(scene(&ball_scene(mat, &with_albedo(&format!("{{ resolution = [1, 1, 1], values = [{y}], min = [-1.5, -1.5, -1.5], max = [1.5, 1.5, 1.5] }}")), 16)), 96, 33);
+    eprintln!("RGB albedo grid {ma:?} ± {sa:?}, homogeneous {mb:?} ± {sb:?}, grey {mc:?} ± {sc:?}");
+    for c in 0..3 {
+        assert!((ma[c] - mb[c]).abs() < 4.0 * (sa[c] * sa[c] + sb[c] * sb[c]).sqrt(), "channel {c}: RGB albedo grid {} ± {} against homogeneous {} ± {}", ma[c], sa[c], mb[c], sb[c]);
+    }
+    // The colour: X/Z of the coloured medium above the grey one's by many standard errors.
+    let (ra, rc) = (ma[0] / ma[2], mc[0] / mc[2]);
+    let se = |m: [f64; 3], s: [f64; 3]| m[0] / m[2] * ((s[0] / m[0]).powi(2) + (s[2] / m[2]).powi(2)).sqrt();
+    assert!(ra - rc > 10.0 * (se(ma, sa).powi(2) + se(mc, sc).powi(2)).sqrt(), "X/Z {ra} with the colour, {rc} grey");
 }
