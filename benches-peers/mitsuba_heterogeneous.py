@@ -15,6 +15,11 @@ g = 0.5; `max_depth` 64 and roulette from 5 in both.
 * `albedo`: the sphere with a grey medium (σ_s = σ_t at density 1) and a second grid of the same
   size for the single-scattering albedo, 0.95 at the bottom falling to 0.25 at the top with a
   dark ball (lucent's `density.albedo`, Mitsuba's `albedo` as a `gridvolume`).
+* `rgb`: the `albedo` case with a colour per cell instead (a three-channel grid: orange at the
+  bottom turning blue at the top, a green ball inside); ratios per channel of linear sRGB.
+  lucent uplifts each cell's colour to a bounded reflectance spectrum, Mitsuba's spectral
+  variants to 2·max(rgb) times the sigmoid of rgb/(2·max), interpolated as spectrum and scale
+  apart: the same colour per cell, other spectra.
 
 lucent integrates the trilinear density exactly along rays (`medium::grid`), Mitsuba tracks it with
 null collisions against a majorant; both interpolate trilinearly between cell centres and clamp
@@ -42,7 +47,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mitsuba_media import cube_quads, lucent_stage, mitsuba_stage  # noqa: E402
-from peer_common import LUMA, blocks, peer_args, render_luminance  # noqa: E402
+from peer_common import LUMA, blocks, peer_args, render_luminance, render_rgb  # noqa: E402
 
 LAMBDA = [360, 450, 550, 650, 830]
 ALBEDO = [0.9, 0.9, 0.7, 0.5, 0.5]
@@ -60,9 +65,10 @@ def density():
 
 
 def write_vol(path, d, lo, hi):
+    channels = 3 if d.ndim == 4 else 1
     with open(path, "wb") as f:
         f.write(b"VOL" + bytes([3]))
-        f.write(struct.pack("<5i", 1, N, N, N, 1))
+        f.write(struct.pack("<5i", 1, N, N, N, channels))
         f.write(struct.pack("<6f", *lo, *hi))
         f.write(np.ascontiguousarray(d, dtype="<f4").tobytes())
 
@@ -73,6 +79,16 @@ def albedo_grid():
     z, y, x = np.meshgrid(c, c, c, indexing="ij")
     ball = (x - 0.5) ** 2 + (y - 0.5) ** 2 + (z - 0.3) ** 2 < 0.22 ** 2
     return np.where(ball, 0.3, 0.95 - 0.7 * y).astype(np.float32)
+
+
+def rgb_albedo_grid():
+    """Linear sRGB albedo at the cell centres, indexed [z, y, x, channel]."""
+    c = (np.arange(N) + 0.5) / N
+    z, y, x = np.meshgrid(c, c, c, indexing="ij")
+    bottom, top, green = np.array([0.9, 0.55, 0.25]), np.array([0.3, 0.5, 0.85]), np.array([0.35, 0.8, 0.35])
+    rgb = bottom + (top - bottom) * y[..., None]
+    ball = (x - 0.5) ** 2 + (y - 0.5) ** 2 + (z - 0.3) ** 2 < 0.22 ** 2
+    return np.where(ball[..., None], green, rgb).astype(np.float32)
 
 
 def body_box(case):
@@ -115,7 +131,7 @@ def run_mitsuba(case, spp, variant, vol, seed=1, albedo_vol=None):
         centre = [(l + h) / 2 for l, h in zip(lo, hi)]
         scene["body"] = {"type": "cube", "to_world": T().translate(centre) @ T().scale([s / 2 for s in size]),
                          "bsdf": {"type": "null"}, "interior": medium}
-    return np.array(mi.render(mi.load_dict(scene), seed=seed), dtype=np.float64) @ np.array(LUMA)
+    return np.array(mi.render(mi.load_dict(scene), seed=seed), dtype=np.float64)
 
 
 def ratios(l, m):
@@ -135,7 +151,7 @@ def efficiency(a, work, vol, mask):
     1/(noise² · CPU-s) of one render."""
     out = {}
     runs = {"lucent": lambda seed: render_luminance(a.lucent, work, "sphere", lucent_scene("sphere", vol), a.spp, seed),
-            "mitsuba": lambda seed: run_mitsuba("sphere", a.spp, a.variant, vol, seed)}
+            "mitsuba": lambda seed: run_mitsuba("sphere", a.spp, a.variant, vol, seed) @ np.array(LUMA)}
     run_mitsuba("sphere", 1, a.variant, vol)
     for name, run in runs.items():
         who = resource.RUSAGE_CHILDREN if name == "lucent" else resource.RUSAGE_SELF
@@ -155,7 +171,7 @@ def main():
     a, work, _tmp = peer_args(__doc__, 256)
     d = density()
     report = {}
-    for case in ("sphere", "cube", "albedo"):
+    for case in ("sphere", "cube", "albedo", "rgb"):
         lo, hi = body_box(case)
         vol = os.path.join(work, f"{case}.vol")
         write_vol(vol, d, lo, hi)
@@ -163,13 +179,21 @@ def main():
         if case == "albedo":
             avol = os.path.join(work, "albedo-grid.vol")
             write_vol(avol, albedo_grid(), lo, hi)
-        l = render_luminance(a.lucent, work, case, lucent_scene(case, vol, albedo_vol=avol), a.spp)
+        elif case == "rgb":
+            avol = os.path.join(work, "rgb-albedo-grid.vol")
+            write_vol(avol, rgb_albedo_grid(), lo, hi)
+        lrgb = render_rgb(a.lucent, work, case, lucent_scene(case, vol, albedo_vol=avol), a.spp)
         l0 = render_luminance(a.lucent, work, case + "-empty", lucent_scene(case, vol, 0.0, avol), 64)
-        m = run_mitsuba(case, a.spp, a.variant, vol, albedo_vol=avol)
+        mrgb = run_mitsuba(case, a.spp, a.variant, vol, albedo_vol=avol)
+        l, m = lrgb @ np.array(LUMA), mrgb @ np.array(LUMA)
         mask = np.abs(m - l0) > 0.05 * l0
         bm = blocks(mask.astype(float)) == 1.0
         report[case] = {"pixels": ratios(l[mask], m[mask]), "blocks_4x4": ratios(blocks(l)[bm], blocks(m)[bm]),
                         "sum_ratio": l[mask].sum() / m[mask].sum(), "mean_y_lucent": l[mask].mean(), "mean_y_mitsuba": m[mask].mean()}
+        if case == "rgb":
+            report[case]["channels"] = {name: {"blocks_4x4": ratios(blocks(lrgb[..., k])[bm], blocks(mrgb[..., k])[bm]),
+                                               "sum_ratio": lrgb[..., k][mask].sum() / mrgb[..., k][mask].sum()}
+                                        for k, name in enumerate("RGB")}
         if case == "sphere" and os.environ.get("EFFICIENCY"):
             report["efficiency"] = efficiency(a, work, vol, mask)
     if a.json:
@@ -185,6 +209,9 @@ def main():
         print(f"{case:7s} lucent / Mitsuba over the medium: pixels median {p['median']:.4f} ({p['p10']:.4f}–{p['p90']:.4f}, {p['count']} pixels), "
               f"4×4 blocks median {b['median']:.4f} ({b['p10']:.4f}–{b['p90']:.4f}, {b['count']} blocks), sum ratio {r['sum_ratio']:.4f} "
               f"(mean Y {r['mean_y_lucent']:.4f} / {r['mean_y_mitsuba']:.4f})")
+        for name, c in r.get("channels", {}).items():
+            b = c["blocks_4x4"]
+            print(f"        {name}: 4×4 blocks median {b['median']:.4f} ({b['p10']:.4f}–{b['p90']:.4f}), sum ratio {c['sum_ratio']:.4f}")
 
 
 if __name__ == "__main__":

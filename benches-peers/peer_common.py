@@ -79,12 +79,17 @@ def compare_cases(a, cases, lucent, mitsuba):
     return report
 
 
-def render_luminance(binary, work, name, scene_text, spp, seed=1):
+def render_rgb(binary, work, name, scene_text, spp, seed=1):
     """Write `scene_text` to WORK/NAME.toml, render it with lucent at `spp` and `seed`, and return
-    the luminance (Y of linear sRGB) of the image, rows top to bottom."""
+    the linear sRGB image (rows top to bottom, 3 channels)."""
     path = os.path.join(work, f"{name}.toml")
     with open(path, "w") as f:
         f.write(scene_text)
     out = os.path.join(work, f"{name}.pfm")
     subprocess.run([binary, "render", path, "--spp", str(spp), "--seed", str(seed), "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
-    return read_pfm(out) @ np.array(LUMA)
+    return read_pfm(out)
+
+
+def render_luminance(binary, work, name, scene_text, spp, seed=1):
+    """[`render_rgb`]'s image as luminance (Y of linear sRGB)."""
+    return render_rgb(binary, work, name, scene_text, spp, seed) @ np.array(LUMA)

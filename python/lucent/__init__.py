@@ -1466,31 +1466,33 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
 
 
 def write_vol(path, density, min=(0.0, 0.0, 0.0), max=(1.0, 1.0, 1.0)) -> None:
-    """Write a density grid as a Mitsuba volume file ("VOL" version 3, float32, one channel),
-    which a scene's ``medium = { …, density = { file = "…" } }`` reads (docs/scene-format.md,
-    "Density grids"; Mitsuba 3's ``gridvolume`` reads it too).
+    """Write a density grid, or a grid of colours, as a Mitsuba volume file ("VOL" version 3,
+    float32), which a scene's ``medium = { …, density = { file = "…" } }`` (or its ``albedo``)
+    reads (docs/scene-format.md, "Density grids"; Mitsuba 3's ``gridvolume`` reads it too).
 
     Parameters
     ----------
     path : str or os.PathLike
         The file to write (written to a temporary name and renamed).
-    density : (nz, ny, nx) array
-        Densities ≥ 0, ``density[z, y, x]``: value (x, y, z) sits at the centre of its cell of
-        the box.
+    density : (nz, ny, nx) or (nz, ny, nx, 3) array
+        Values ≥ 0, ``density[z, y, x]`` (one channel: a density or a grey albedo) or
+        ``density[z, y, x, c]`` (three channels: a linear-sRGB albedo): value (x, y, z) sits at
+        the centre of its cell of the box.
     min, max : 3 numbers
         The box stored in the file (the scene's units, used when the scene gives no ``min`` /
         ``max``).
     """
     d = _np.asarray(density, dtype=float)
-    if d.ndim != 3 or 0 in d.shape:
-        raise ValueError(f"density: expected a non-empty (nz, ny, nx) array, got shape {d.shape}")
+    if not (d.ndim == 3 or (d.ndim == 4 and d.shape[3] == 3)) or 0 in d.shape:
+        raise ValueError(f"density: expected a non-empty (nz, ny, nx) or (nz, ny, nx, 3) array, got shape {d.shape}")
     if not _np.all(_np.isfinite(d)) or _np.any(d < 0):
         raise ValueError("density: values must be finite and >= 0")
     lo, hi = _np.asarray(min, dtype=float).reshape(-1), _np.asarray(max, dtype=float).reshape(-1)
     if lo.size != 3 or hi.size != 3 or not _np.all(hi > lo):
         raise ValueError(f"min, max: expected three numbers each with max > min, got {min}, {max}")
-    nz, ny, nx = d.shape
-    head = b"VOL" + bytes([3]) + _np.array([1, nx, ny, nz, 1], dtype="<i4").tobytes() + _np.concatenate([lo, hi]).astype("<f4").tobytes()
+    nz, ny, nx = d.shape[:3]
+    channels = 1 if d.ndim == 3 else 3
+    head = b"VOL" + bytes([3]) + _np.array([1, nx, ny, nz, channels], dtype="<i4").tobytes() + _np.concatenate([lo, hi]).astype("<f4").tobytes()
     tmp = f"{_os.fspath(path)}.tmp{_os.getpid()}"
     with open(tmp, "wb") as f:
         f.write(head + _np.ascontiguousarray(d, dtype="<f4").tobytes())
@@ -1498,22 +1500,25 @@ def write_vol(path, density, min=(0.0, 0.0, 0.0), max=(1.0, 1.0, 1.0)) -> None:
 
 
 def read_vol(path):
-    """Read a Mitsuba volume file of one float32 channel (as :func:`write_vol` writes).
+    """Read a Mitsuba volume file of float32 values, one or three channels (as :func:`write_vol`
+    writes).
 
     Returns
     -------
     (density, min, max)
-        ``density`` as an (nz, ny, nx) float32 array, and the box stored in the file.
+        ``density`` as an (nz, ny, nx) float32 array (one channel) or (nz, ny, nx, 3) (three),
+        and the box stored in the file.
     """
     with open(path, "rb") as f:
         raw = f.read()
     if len(raw) < 48 or raw[:3] != b"VOL" or raw[3] != 3:
         raise ValueError(f"{_os.fspath(path)}: not a Mitsuba volume file of version 3")
-    enc, nx, ny, nz, ch = _np.frombuffer(raw[4:24], dtype="<i4")
-    if enc != 1 or ch != 1 or min(nx, ny, nz) <= 0 or len(raw) != 48 + 4 * int(nx) * int(ny) * int(nz):
-        raise ValueError(f"{_os.fspath(path)}: expected float32 data of one channel for {nx}×{ny}×{nz} cells")
+    enc, nx, ny, nz, ch = (int(v) for v in _np.frombuffer(raw[4:24], dtype="<i4"))
+    if enc != 1 or ch not in (1, 3) or min(nx, ny, nz) <= 0 or len(raw) != 48 + 4 * nx * ny * nz * ch:
+        raise ValueError(f"{_os.fspath(path)}: expected float32 data of one or three channels for {nx}×{ny}×{nz} cells")
     box = _np.frombuffer(raw[24:48], dtype="<f4").astype(float)
-    d = _np.frombuffer(raw[48:], dtype="<f4").reshape(int(nz), int(ny), int(nx)).copy()
+    shape = (nz, ny, nx) if ch == 1 else (nz, ny, nx, 3)
+    d = _np.frombuffer(raw[48:], dtype="<f4").reshape(shape).copy()
     return d, box[:3], box[3:]
 
 

@@ -71,10 +71,10 @@ def compare(a: npt.ArrayLike, b: npt.ArrayLike, mask: Optional[npt.ArrayLike] = 
     """RMSE, relMSE, PSNR, SSIM, mean ΔE2000 of two (H, W, 3) linear sRGB images."""
 
 def write_vol(path: _Path, density: npt.ArrayLike, min: Sequence[float] = (0.0, 0.0, 0.0), max: Sequence[float] = (1.0, 1.0, 1.0)) -> None:
-    """A (nz, ny, nx) density grid as a Mitsuba volume file (a scene's `density = { file = … }`)."""
+    """A (nz, ny, nx) density grid, or an (nz, ny, nx, 3) grid of colours, as a Mitsuba volume file (a scene's `density = { file = … }` or its `albedo`)."""
 
 def read_vol(path: _Path) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """(density (nz, ny, nx), min, max) of a Mitsuba volume file of one float32 channel."""
+    """(values (nz, ny, nx) or (nz, ny, nx, 3), min, max) of a Mitsuba volume file of one or three float32 channels."""
 
 def project_points(object_points: npt.ArrayLike, rvec: npt.ArrayLike, tvec: npt.ArrayLike, camera_matrix: npt.ArrayLike,
                    dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:

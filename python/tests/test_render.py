@@ -188,3 +188,17 @@ radiance = 1
         lucent.read_vol(tmp_path / "short.vol")
     with pytest.raises(ValueError, match="density.file"):
         lucent.Scene.from_toml(scene('{ file = "short.vol" }'), base_dir=tmp_path)
+    # A grid of colours for the albedo: an (nz, ny, nx, 3) array round trips, and the scene that
+    # reads it renders as the same colours inline ([r, g, b] per cell, x fastest).
+    c = rng.uniform(0.0, 1.0, size=(3, 2, 4, 3))
+    lucent.write_vol(tmp_path / "rgb.vol", c, (-1, -1, -1), (1, 1, 1))
+    back, _, _ = lucent.read_vol(tmp_path / "rgb.vol")
+    assert back.shape == (3, 2, 4, 3) and np.array_equal(back, c.astype(np.float32))
+    triples = ", ".join("[" + ", ".join(repr(float(v)) for v in cell) + "]" for cell in c.astype(np.float32).reshape(-1, 3))
+    a = lucent.Scene.from_toml(scene('{ file = "g.vol", albedo = { file = "rgb.vol" } }'), base_dir=tmp_path).render(spp=2, seed=4)
+    b = lucent.Scene.from_toml(scene(f'{{ file = "g.vol", albedo = {{ resolution = [4, 2, 3], values = [{triples}], min = [-1, -1, -1], max = [1, 1, 1] }} }}'), base_dir=tmp_path).render(spp=2, seed=4)
+    assert np.array_equal(a, b)
+    with pytest.raises(ValueError, match="one value per cell"):
+        lucent.Scene.from_toml(scene('{ file = "rgb.vol" }'), base_dir=tmp_path)
+    with pytest.raises(ValueError, match="density"):
+        lucent.write_vol(tmp_path / "bad.vol", np.ones((2, 2, 2, 2)))
