@@ -14,10 +14,18 @@ Scene: a 64 × 64 pinhole camera and the projector at the origin, both looking a
 up and a 50° field of view (square images, so fov_axis does not matter); a Lambertian plane of
 albedo 0.5 through (0, 0, 2), tilted 30° about the x axis; the projector's 32 × 32 float image
 (PFM, linear) is a ramp across x with a bright block in one corner, so that a flip of either
-image axis would show. White is D65 in both (Mitsuba: the emitter's D65 times `scale`; lucent:
-`intensity = { rgb = [1, 1, 1] }`, D65 scaled to luminance 1). Both use the `direct` integrator
+image axis would show. White is the equal-energy spectrum in both: Mitsuba's spectral variants
+uplift the bitmap's RGB (no D65 factor, unlike a plain emitter colour; a grey pixel v is the
+constant spectrum v), and lucent gets `intensity = 1`. (With `intensity = { rgb = [1, 1, 1] }`,
+D65 of luminance 1, lucent's white is D65, as pbrt-v4's: the same luminance, another colour.) Both use the `direct` integrator
 (one light sample, delta light) and a box pixel filter; Mitsuba's bitmap uses nearest lookup, as
 lucent's projector does.
+
+A second image in colour (red rising across x, green down y, a blue block) is projected in the
+irradiance profile too, and the ratio is printed per channel of linear sRGB. Mitsuba uplifts each
+pixel's RGB (components clamped to [0, 1]) to the bounded reflectance spectrum, lucent to 2·max(rgb)
+times that of rgb/(2·max) (as its emitting textures; components above 1 allowed): spectra of the
+same colour under D65, whose colours without D65 may differ a little.
 
     /tmp/pyvenv/bin/python benches-peers/mitsuba_projector.py [--lucent target/release/lucent]
         [--spp 64] [--variant scalar_spectral] [--save DIR] [--json]
@@ -46,13 +54,23 @@ def pattern():
     return np.repeat(v[:, :, None], 3, axis=2)
 
 
+def colour_pattern():
+    x = (np.arange(N_PROJ) + 0.5) / N_PROJ
+    v = np.zeros((N_PROJ, N_PROJ, 3))
+    v[:, :, 0] = 0.1 + 0.9 * x[None, :]
+    v[:, :, 1] = 0.1 + 0.8 * x[:, None]
+    v[:, :, 2] = 0.2
+    v[2:10, 20:28] = [0.1, 0.2, 1.0]
+    return v
+
+
 def plane_corners():
     """A 4 m square through (0, 0, DIST), tilted TILT_DEG about the x axis."""
     s, c = np.sin(np.radians(TILT_DEG)), np.cos(np.radians(TILT_DEG))
     return [[u, v * c, DIST + v * s] for u, v in [(-2, -2), (2, -2), (2, 2), (-2, 2)]]
 
 
-def render_lucent(lucent, work, profile, spp):
+def render_lucent(lucent, work, profile, spp, image="pattern.pfm"):
     q = ", ".join("[%g, %g, %g]" % tuple(p) for p in plane_corners())
     cam = f"eye = [0, 0, 0], look_at = [0, 0, 1], up = [0, 1, 0], vfov_deg = {FOV_DEG}"
     scene = f"""unit = "m"
@@ -67,21 +85,21 @@ material = "plane"
 quad = [{q}]
 [[lights]]
 type = "projector"
-image = "pattern.pfm"
+image = "{image}"
 response = "linear"
 profile = "{profile}"
-intensity = {{ rgb = [1, 1, 1] }}
+intensity = 1
 camera = {{ {cam} }}
 """
-    path = os.path.join(work, f"lucent-{profile}.toml")
+    path = os.path.join(work, f"lucent-{profile}-{image}.toml")
     with open(path, "w") as f:
         f.write(scene)
-    out = os.path.join(work, f"lucent-{profile}.pfm")
+    out = os.path.join(work, f"lucent-{profile}-{image}.pfm")
     subprocess.run([lucent, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
     return read_pfm(out)
 
 
-def render_mitsuba(variant, work, spp):
+def render_mitsuba(variant, work, spp, image="pattern.pfm"):
     import mitsuba as mi
 
     mi.set_variant(variant)
@@ -102,7 +120,7 @@ def render_mitsuba(variant, work, spp):
         "plane": {"type": "rectangle", "to_world": to_world, "flip_normals": False,
                   "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": ALBEDO}}}},
         "projector": {"type": "projector", "fov": FOV_DEG, "to_world": look, "scale": 1.0,
-                      "irradiance": {"type": "bitmap", "filename": os.path.join(work, "pattern.pfm"), "filter_type": "nearest"}},
+                      "irradiance": {"type": "bitmap", "filename": os.path.join(work, image), "filter_type": "nearest"}},
     })
     img = np.array(mi.render(scene, seed=1), dtype=np.float64)
     return img
@@ -127,6 +145,16 @@ def main():
         if profile == "intensity":
             entry["ratio_over_cos3_per_pi_median"] = float(np.median(r / (cos3[lit] / np.pi)))
         res["profiles"][profile] = entry
+    write_pfm(os.path.join(work, "colours.pfm"), colour_pattern())
+    lc = render_lucent(a.lucent, work, "irradiance", a.spp, "colours.pfm")
+    mc = render_mitsuba(a.variant, work, a.spp, "colours.pfm")
+    lit_c = (mc @ LUMA) > 0.05 * (mc @ LUMA).max()
+    res["colour"] = {}
+    for k, name in enumerate("RGB"):
+        r = lc[..., k][lit_c] / mc[..., k][lit_c]
+        p10, p50, p90 = np.percentile(r, [10, 50, 90])
+        res["colour"][name] = {"ratio_p10": p10, "ratio_median": p50, "ratio_p90": p90,
+                               "sum_ratio": float(lc[..., k][lit_c].sum() / mc[..., k][lit_c].sum())}
     if a.json:
         print(json.dumps(res, indent=1))
     else:
@@ -134,6 +162,9 @@ def main():
         for p, e in res["profiles"].items():
             extra = f"; divided by cos³θ/π: median {e['ratio_over_cos3_per_pi_median']:.4f}" if "ratio_over_cos3_per_pi_median" in e else ""
             print(f"  profile = {p}: median {e['ratio_median']:.4f} (10th–90th percentile {e['ratio_p10']:.4f}–{e['ratio_p90']:.4f}){extra}")
+        for name, e in res["colour"].items():
+            print(f"  colour image, irradiance profile, {name}: median {e['ratio_median']:.4f} "
+                  f"(10th–90th percentile {e['ratio_p10']:.4f}–{e['ratio_p90']:.4f}), sums {e['sum_ratio']:.4f}")
 
 
 if __name__ == "__main__":

@@ -248,6 +248,7 @@ pub fn render_basis(scene: &mut Scene, patterns: &[Option<Vec<f32>>], spp: u64, 
                     match image {
                         Some(img) => {
                             p.image = img.to_vec();
+                            p.colour = None;
                             p.intensity = orig.intensity.clone();
                         }
                         None => p.intensity = zero.clone(),
@@ -400,7 +401,10 @@ pub fn render_frame(scene: &mut Scene, pattern: Option<&[f32]>, projector_black:
                 bail!("a frame's pattern has {} pixels, the projector {}", base.len(), p.image.len());
             }
             let b = projector_black as f32;
-            saved = Some(std::mem::replace(&mut p.image, base.iter().map(|v| (1.0 - b) * v + b).collect()));
+            // A grey pattern replaces a colour image's spectra; the projector's own image keeps
+            // them (and then the black level lifts only a grey image).
+            let colour = if pattern.is_some() { p.colour.take() } else { p.colour.clone() };
+            saved = Some((std::mem::replace(&mut p.image, base.iter().map(|v| (1.0 - b) * v + b).collect()), colour));
         }
     }
     let (w, h) = scene.resolution();
@@ -413,10 +417,10 @@ pub fn render_frame(scene: &mut Scene, pattern: Option<&[f32]>, projector_black:
             }
         }
     }
-    if let Some(orig) = saved {
+    if let Some((image, colour)) = saved {
         for l in scene.lights.iter_mut() {
             if let Light::Projector(p) = l {
-                p.image = orig.clone();
+                (p.image, p.colour) = (image.clone(), colour.clone());
             }
         }
     }

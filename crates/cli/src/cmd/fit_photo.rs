@@ -277,7 +277,8 @@ fn read_pattern(path: &Path, size: Option<(u32, u32)>) -> Result<Vec<f32>> {
     if (w, h) != (pw, ph) {
         bail!("{}: pattern is {w}×{h} but the scene's projector is {pw}×{ph}", path.display());
     }
-    Ok(v)
+    // Patterns are grey: the luminance (Rec. 709 Y) of each pixel.
+    Ok(v.iter().map(|c| (0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64) as f32).collect())
 }
 
 fn metrics_json(m: &Metrics) -> Value {

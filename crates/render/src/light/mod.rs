@@ -258,8 +258,19 @@ impl Light {
             Light::Projector(pr) => {
                 let d = pr.position() - p;
                 let r2 = d.length_squared();
+                if !(r2 > 0.0) {
+                    return None;
+                }
+                if pr.colour.is_some() {
+                    let v = pr.spectrum_at(p, wl);
+                    if v == Vec4::ZERO {
+                        return None;
+                    }
+                    let dist = r2.sqrt();
+                    return Some(LightSample { wi: d / dist, dist, li: wl.eval(&pr.intensity) * v / r2, pdf: 1.0, delta: true });
+                }
                 let v = pr.weight_at(p);
-                if !(r2 > 0.0) || !(v > 0.0) {
+                if !(v > 0.0) {
                     return None;
                 }
                 let dist = r2.sqrt();

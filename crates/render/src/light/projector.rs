@@ -21,12 +21,22 @@
 //!   projector whose pixels all pass the same power does.
 //!
 //! Image values: an 8-bit image is decoded with its response (linear: v = code/255; sRGB: the
-//! sRGB curve; gamma γ: (code/255)^γ); a float image (EXR, PFM) is linear. Colour images project
-//! their luminance (Rec. 709 Y of the linear RGB) times the white spectrum I₀.
+//! sRGB curve; gamma γ: (code/255)^γ); a float image (EXR, PFM) is linear. A grey image projects
+//! v·I₀. A colour image projects each pixel's linear RGB uplifted to an emission spectrum as
+//! lucent's emitting textures are (Jakob & Hanika 2019: s(λ) = 2·max(rgb) times the sigmoid
+//! reflectance of rgb/(2·max), [`crate::math::uplift`]) times I₀(λ), so white (1, 1, 1) gives
+//! I₀ and a grey pixel v gives v·I₀, as in a grey image; with I₀ = D65 (`intensity = { rgb = [1,
+//! 1, 1] }`) a pixel of colour rgb lights a white Lambertian surface in that colour, as pbrt-v4's
+//! `ProjectionLight` (`RGBIlluminantSpectrum`, with the colour space's illuminant) does. Mitsuba
+//! 3's spectral `projector` upsamples its bitmap without a D65 factor: its white is lucent's
+//! I₀ = 1 (docs/scene-format.md, "Projectors").
 
 use crate::camera::Camera;
-use glam::Vec3;
+use crate::math::spectral::{SampledSpectrum, SampledWavelengths};
+use crate::math::uplift::{normalized_lambda, sigmoid_shape, uplift_colours};
+use glam::{Vec3, Vec4};
 use optics::spectrum::DenseSpectrum;
+use std::sync::Arc;
 
 /// What a projector's image values give: the radiant intensity, or the irradiance on the image
 /// plane (module documentation).
@@ -71,8 +81,14 @@ impl Profile {
 pub struct Projector {
     /// Projection model, pose and resolution (the image's).
     pub camera: Camera,
-    /// Linear pixel values, row-major, top row first (`camera.width × camera.height`).
+    /// Linear pixel values, row-major, top row first (`camera.width × camera.height`); for a
+    /// colour image (`colour`) each pixel's spectrum averaged with the weight I₀(λ),
+    /// ∫ s I₀ dλ / ∫ I₀ dλ (its share of the power).
     pub image: Vec<f32>,
+    /// A colour image's emission spectra per pixel (`[c₀, c₁, c₂, scale]`, [`uplift_colours`]),
+    /// which replace `image` as the factor on I₀; `None` for a grey image. Code that sets `image`
+    /// to a grey pattern clears it.
+    pub colour: Option<Arc<Vec<[f32; 4]>>>,
     /// Spectral intensity of a pixel of value 1 (W·sr⁻¹·nm⁻¹).
     pub intensity: DenseSpectrum,
     /// What the image values give (intensity or image-plane irradiance).
@@ -94,7 +110,38 @@ impl Projector {
             anyhow::bail!("image value {v} is negative or not finite");
         }
         let weighted_solid_angle_sr = weighted_solid_angle(&camera, &image, Profile::Intensity);
-        Ok(Projector { camera, image, intensity, profile: Profile::Intensity, weighted_solid_angle_sr })
+        Ok(Projector { camera, image, colour: None, intensity, profile: Profile::Intensity, weighted_solid_angle_sr })
+    }
+
+    /// Projector with a colour image (linear RGB per pixel, `camera.width × camera.height`, each
+    /// component finite and ≥ 0) and white `intensity`; an image whose pixels are all grey is the
+    /// grey image of [`Projector::new`].
+    pub fn with_colours(camera: Camera, rgb: &[[f32; 3]], intensity: DenseSpectrum) -> anyhow::Result<Projector> {
+        if let Some(c) = rgb.iter().find(|c| c.iter().any(|v| !(v.is_finite() && *v >= 0.0))) {
+            anyhow::bail!("image value {c:?} is negative or not finite");
+        }
+        if rgb.iter().all(|c| c[0] == c[1] && c[1] == c[2]) {
+            return Projector::new(camera, rgb.iter().map(|c| c[0]).collect(), intensity);
+        }
+        let spectra = uplift_colours(rgb, true);
+        // Each pixel's value for the power and the light choice: ∫ s(λ) I₀(λ) dλ / ∫ I₀ dλ,
+        // once per distinct spectrum.
+        let i0: Vec<f64> = (0..=470).map(|k| intensity.eval(360.0 + k as f32) as f64).collect();
+        let total: f64 = i0.iter().sum();
+        let mut distinct: Vec<[u32; 4]> = spectra.iter().map(|c| c.map(f32::to_bits)).collect();
+        distinct.sort_unstable();
+        distinct.dedup();
+        let mean = |c: [f32; 4]| -> f32 {
+            if !(total > 0.0) {
+                return 0.0;
+            }
+            let s = optics::uplift::SigmoidSpectrum { coeffs: [c[0] as f64, c[1] as f64, c[2] as f64], scale: c[3] as f64 };
+            ((0..=470).map(|k| s.eval(360.0 + k as f64) * i0[k]).sum::<f64>() / total) as f32
+        };
+        let means: Vec<f32> = distinct.iter().map(|b| mean(b.map(f32::from_bits))).collect();
+        let image = spectra.iter().map(|c| means[distinct.binary_search(&c.map(f32::to_bits)).expect("every spectrum is listed")]).collect();
+        let p = Projector::new(camera, image, intensity)?;
+        Ok(Projector { colour: Some(Arc::new(spectra)), ..p })
     }
 
     /// The same projector with its image read in `profile`.
@@ -123,15 +170,38 @@ impl Projector {
     /// Linear image value for world point `p` (m): 0 outside the image or behind the projector.
     #[inline]
     pub fn value_at(&self, p: Vec3) -> f32 {
-        let Some(f) = self.camera.project(p) else { return 0.0 };
+        self.pixel_at(p).map_or(0.0, |k| self.image[k])
+    }
+
+    /// The radiant intensity towards world point `p` (m) at the carried wavelengths, per unit
+    /// I₀: [`Self::weight_at`] for a grey image, the pixel's spectrum times the profile's factor
+    /// for a colour one.
+    #[inline]
+    pub fn spectrum_at(&self, p: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        let Some(colour) = &self.colour else { return Vec4::splat(self.weight_at(p)) };
+        let Some(k) = self.pixel_at(p) else { return Vec4::ZERO };
+        let c = colour[k];
+        let v = c[3] * sigmoid_shape(c, normalized_lambda(wl));
+        if self.profile == Profile::Intensity {
+            return v;
+        }
+        let d = p - self.position();
+        v * self.profile.factor(self.camera.forward().dot(d) / d.length())
+    }
+
+    /// Index of the image pixel that world point `p` (m) projects into; `None` outside the image
+    /// or behind the projector.
+    #[inline]
+    fn pixel_at(&self, p: Vec3) -> Option<usize> {
+        let f = self.camera.project(p)?;
         if !(f.x >= 0.0 && f.y >= 0.0) {
-            return 0.0;
+            return None;
         }
         let (i, j) = (f.x as u32, f.y as u32);
         if i >= self.camera.width || j >= self.camera.height {
-            return 0.0;
+            return None;
         }
-        self.image[j as usize * self.camera.width as usize + i as usize]
+        Some(j as usize * self.camera.width as usize + i as usize)
     }
 }
 
@@ -192,17 +262,15 @@ pub enum Response {
     Gamma(f64),
 }
 
-/// Linear luminance (Rec. 709 Y of linear RGB) per pixel, row-major from the top row, and the
-/// size, of an image file: PNG or JPEG codes through `response`, EXR or PFM as stored (linear).
-pub fn read_projector_image(path: &std::path::Path, response: Response) -> anyhow::Result<(u32, u32, Vec<f32>)> {
+/// Linear RGB per pixel, row-major from the top row, and the size, of an image file: PNG or JPEG
+/// codes through `response`, EXR or PFM as stored (linear).
+pub fn read_projector_image(path: &std::path::Path, response: Response) -> anyhow::Result<(u32, u32, Vec<[f32; 3]>)> {
     use anyhow::{anyhow, Context};
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let y = |c: [f64; 3]| (0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]) as f32;
     match ext.as_str() {
         "exr" | "pfm" => {
             let img = crate::image_io::read_image(path)?;
-            let v = img.rgb.iter().map(|p| y([p[0] as f64, p[1] as f64, p[2] as f64])).collect();
-            Ok((img.width, img.height, v))
+            Ok((img.width, img.height, img.rgb))
         }
         "png" | "jpg" | "jpeg" => {
             let dec = image::open(path).map_err(|e| anyhow!("{e}")).with_context(|| format!("reading {}", path.display()))?;
@@ -211,9 +279,54 @@ pub fn read_projector_image(path: &std::path::Path, response: Response) -> anyho
                 Response::Srgb => optics::color::srgb_decode(c),
                 Response::Gamma(g) => c.powf(g),
             };
-            let v = dec.to_rgb16().pixels().map(|p| y([0, 1, 2].map(|k| lin(p[k] as f64 / 65535.0)))).collect();
+            let v = dec.to_rgb16().pixels().map(|p| [0, 1, 2].map(|k| lin(p[k] as f64 / 65535.0) as f32)).collect();
             Ok((dec.width(), dec.height(), v))
         }
         _ => anyhow::bail!("{}: unknown image type (use .png, .jpg, .exr or .pfm)", path.display()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> Camera {
+        Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 40.0, 20, 10).unwrap()
+    }
+
+    /// An image of greys is the grey projector, value for value; a colour image keeps its spectra.
+    #[test]
+    fn grey_rgb_images_are_grey_projectors() {
+        let i0 = DenseSpectrum::from_fn(|l| 1.0 + l / 1000.0);
+        let rgb: Vec<[f32; 3]> = (0..200).map(|k| [k as f32 / 100.0; 3]).collect();
+        let p = Projector::with_colours(camera(), &rgb, i0.clone()).unwrap();
+        let g = Projector::new(camera(), rgb.iter().map(|c| c[0]).collect(), i0.clone()).unwrap();
+        assert!(p.colour.is_none());
+        assert_eq!((p.image, p.weighted_solid_angle_sr), (g.image, g.weighted_solid_angle_sr));
+        let mut rgb = rgb;
+        rgb[7] = [0.9, 0.1, 0.3];
+        assert!(Projector::with_colours(camera(), &rgb, i0.clone()).unwrap().colour.is_some());
+        rgb[8] = [-0.1, 0.1, 0.3];
+        assert!(Projector::with_colours(camera(), &rgb, i0).is_err());
+    }
+
+    /// The power of a colour image of one colour is its solid angle times ∫ s(λ) I₀(λ) dλ, s the
+    /// colour's emission spectrum (the optics crate's uplift, summed here independently).
+    #[test]
+    fn colour_power_is_the_spectrum_weighted_by_the_white() {
+        let i0 = DenseSpectrum::from_fn(|l| 0.5 + (l - 360.0) / 470.0);
+        let colour = [1.3f32, 0.4, 0.2];
+        let p = Projector::with_colours(camera(), &vec![colour; 200], i0.clone()).unwrap();
+        let white = Projector::new(camera(), vec![1.0; 200], i0.clone()).unwrap();
+        let s = optics::uplift::SigmoidSpectrum::illuminant_by(colour.map(|v| v as f64), optics::uplift::Fit::Direct);
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for k in 0..=470 {
+            let l = 360.0 + k as f64;
+            num += s.eval(l) * i0.eval(l as f32) as f64;
+            den += i0.eval(l as f32) as f64;
+        }
+        let want = white.weighted_solid_angle_sr as f64 * num / den;
+        let got = p.weighted_solid_angle_sr as f64;
+        assert!((got / want - 1.0).abs() < 1e-4, "{got} against {want}");
     }
 }

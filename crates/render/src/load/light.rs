@@ -314,7 +314,7 @@ fn projector(
     if camera.lens.is_some() {
         return Err(cx.err(span, &cfield, "a projector has no lens (aperture_radius, f_number)"));
     }
-    let p = Projector::new(camera, values, intensity).map_err(|e| cx.err(span, &format!("{field}.image"), e))?.with_profile(profile);
+    let p = Projector::with_colours(camera, &values, intensity).map_err(|e| cx.err(span, &format!("{field}.image"), e))?.with_profile(profile);
     let intensity = scaled(p.intensity.clone(), p.weighted_solid_angle_sr as f64)?;
     Ok(Light::Projector(Box::new(Projector { intensity, ..p })))
 }
