@@ -160,6 +160,24 @@ pub fn vol(data: &[u8]) {
         return;
     }
     let Ok(v) = DensityGrid::read_vol(data) else { return };
+    if v.channels == 3 {
+        // A grid of RGB albedos: uplift (a few colours, each fitted directly) and look up.
+        if v.values.len() > 3 * 64 {
+            return;
+        }
+        let colours: Vec<[f32; 3]> = v.values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let Ok(a) = render::medium::albedo::AlbedoGrid::rgb(v.n, &colours, v.min, v.max) else { return };
+        for u in [0.0f32, 0.3, 0.99] {
+            let wl = render::math::spectral::SampledWavelengths::sample(u);
+            for k in 0..8 {
+                let t = k as f32 / 7.0;
+                let q = Vec3::new(v.min[0] as f32, v.min[1] as f32, v.min[2] as f32).lerp(Vec3::new(v.max[0] as f32, v.max[1] as f32, v.max[2] as f32), 1.5 * t - 0.25);
+                let x = a.at(q, &wl);
+                assert!(x.is_finite() && x.cmpge(glam::Vec4::ZERO).all() && x.cmple(glam::Vec4::ONE).all(), "albedo {x} outside [0, 1]");
+            }
+        }
+        return;
+    }
     let Ok(g) = DensityGrid::new(v.n, v.values, v.min, v.max) else { return };
     let _ = g.max_density();
     let (lo, hi) = g.bounds_m();
