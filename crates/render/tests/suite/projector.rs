@@ -32,6 +32,43 @@ fn mean_se(s: &Scene, passes: u64, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<u32>) 
     (m, se, lit)
 }
 
+/// A white Lambertian plane z = `d` (albedo `rho`) seen by the camera `cam` (inline TOML keys) and
+/// lit by a projector with the same model showing `image`, with the light's other keys `light`.
+fn plane_scene(cam: &str, rho: f64, d: f64, image: &str, light: &str) -> String {
+    format!(
+        r#"
+        unit = "m"
+        camera = {{ {cam} }}
+        [materials.white]
+        type = "lambertian"
+        albedo = {rho}
+        [[objects]]
+        material = "white"
+        quad = [[-5, -5, {d}], [5, -5, {d}], [5, 5, {d}], [-5, 5, {d}]]
+        [[lights]]
+        type = "projector"
+        image = "{image}"
+        {light}
+        camera = {{ {cam} }}
+        "#
+    )
+}
+
+/// cos θ / r² = d_z³ / D² for the plane z = D, averaged over pixel (i, j) of the scene's camera
+/// (8 × 8 points).
+fn pixel_geometry(s: &Scene, i: u32, j: u32, d: f64) -> f64 {
+    let n = 8;
+    let mut g = 0.0;
+    for a in 0..n {
+        for b in 0..n {
+            let u = glam::Vec2::new((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
+            let dz = s.camera.generate_ray(i, j, u).d.z as f64;
+            g += dz * dz * dz / (d * d) / (n * n) as f64;
+        }
+    }
+    g
+}
+
 #[test]
 fn projector_and_camera_with_the_same_model_see_the_image_pixel_for_pixel() {
     let (w, h) = (32u32, 24u32);
@@ -44,23 +81,7 @@ fn projector_and_camera_with_the_same_model_see_the_image_pixel_for_pixel() {
     write_image(&dir.join("pattern.pfm"), &img, 0.0).unwrap();
     let (rho, i0, d) = (0.5f64, 3.0f64, 2.0f64);
     let cam = "model = \"opencv\", width = 32, height = 24, fx = 40.0, fy = 41.0, cx = 15.7, cy = 11.8, k1 = -0.05, p1 = 0.001, eye = [0, 0, 0], look_at = [0, 0, 1]";
-    let text = format!(
-        r#"
-        unit = "m"
-        camera = {{ {cam} }}
-        [materials.white]
-        type = "lambertian"
-        albedo = {rho}
-        [[objects]]
-        material = "white"
-        quad = [[-5, -5, {d}], [5, -5, {d}], [5, 5, {d}], [-5, 5, {d}]]
-        [[lights]]
-        type = "projector"
-        image = "pattern.pfm"
-        intensity = {i0}
-        camera = {{ {cam} }}
-        "#
-    );
+    let text = plane_scene(cam, rho, d, "pattern.pfm", &format!("intensity = {i0}"));
     let s = Scene::from_toml_str(&text, "projector.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
     std::fs::remove_dir_all(&dir).ok();
     let (m, se, lit) = mean_se(&s, 64, 4);
@@ -68,16 +89,7 @@ fn projector_and_camera_with_the_same_model_see_the_image_pixel_for_pixel() {
     for j in 0..h {
         for i in 0..w {
             let k = (j * w + i) as usize;
-            // cos θ / r² = d_z³ / D² for the plane z = D, averaged over the pixel.
-            let n = 8;
-            let mut g = 0.0;
-            for a in 0..n {
-                for b in 0..n {
-                    let u = glam::Vec2::new((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
-                    let dz = s.camera.generate_ray(i, j, u).d.z as f64;
-                    g += dz * dz * dz / (d * d) / (n * n) as f64;
-                }
-            }
+            let g = pixel_geometry(&s, i, j, d);
             let want = rho / std::f64::consts::PI * values[k] as f64 * i0 * g * y_of_one();
             if values[k] == 0.0 {
                 leaks += lit[k];
@@ -264,24 +276,7 @@ fn colour_images_project_their_colours() {
     write_image(&dir.join("colours.pfm"), &Image::from_rgb(w, h, values.clone()).unwrap(), 0.0).unwrap();
     let (rho, scale, d) = (0.5f64, 3.0f64, 2.0f64);
     let cam = "model = \"pinhole\", width = 16, height = 12, vfov_deg = 30, eye = [0, 0, 0], look_at = [0, 0, 1]";
-    let text = format!(
-        r#"
-        unit = "m"
-        camera = {{ {cam} }}
-        [materials.white]
-        type = "lambertian"
-        albedo = {rho}
-        [[objects]]
-        material = "white"
-        quad = [[-5, -5, {d}], [5, -5, {d}], [5, 5, {d}], [-5, 5, {d}]]
-        [[lights]]
-        type = "projector"
-        image = "colours.pfm"
-        intensity = {{ rgb = [1, 1, 1] }}
-        scale = {scale}
-        camera = {{ {cam} }}
-        "#
-    );
+    let text = plane_scene(cam, rho, d, "colours.pfm", &format!("intensity = {{ rgb = [1, 1, 1] }}\n        scale = {scale}"));
     let s = Scene::from_toml_str(&text, "projector.toml", &dir).unwrap_or_else(|e| panic!("{e:#}"));
     std::fs::remove_dir_all(&dir).ok();
     let n = (w * h) as usize;
@@ -303,15 +298,7 @@ fn colour_images_project_their_colours() {
     for j in 0..h {
         for i in 0..w {
             let k = (j * w + i) as usize;
-            let m = 8;
-            let mut g = 0.0;
-            for a in 0..m {
-                for b in 0..m {
-                    let u = glam::Vec2::new((a as f32 + 0.5) / m as f32, (b as f32 + 0.5) / m as f32);
-                    let dz = s.camera.generate_ray(i, j, u).d.z as f64;
-                    g += dz * dz * dz / (d * d) / (m * m) as f64;
-                }
-            }
+            let g = pixel_geometry(&s, i, j, d);
             for c in 0..3 {
                 let want = rho / std::f64::consts::PI * values[k][c] as f64 * scale * g;
                 let mean = s1[k][c] / passes as f64;
