@@ -21,6 +21,15 @@ D65 of luminance 1, lucent's white is D65, as pbrt-v4's: the same luminance, ano
 (one light sample, delta light) and a box pixel filter; Mitsuba's bitmap uses nearest lookup, as
 lucent's projector does.
 
+The pattern stays within [0, 1]: Mitsuba's spectral variants clamp a bitmap's values to 1 there
+(a block of 1.5 renders 1.5× brighter in lucent than in Mitsuba), lucent does not.
+
+A third scene puts a ball of fog (σ_s 2 m⁻¹, σ_a 0.5 m⁻¹, Henyey–Greenstein g = 0.5, index-matched)
+in the projector's beam before a diffuse wall and looks from beside the projector (`volpath`,
+max_depth 64, roulette from 5 in both), and prints lucent / Mitsuba summed over the wall the
+projector lights directly and over the pixels only the fog's light reaches (the beam in the fog,
+the wall it lights around the projected image).
+
 A second image in colour (red rising across x, green down y, a blue block) is projected in the
 irradiance profile too, and the ratio is printed per channel of linear sRGB. Mitsuba uplifts each
 pixel's RGB (components clamped to [0, 1]) to the bounded reflectance spectrum, lucent to 2·max(rgb)
@@ -50,7 +59,7 @@ N_CAM, N_PROJ, FOV_DEG, ALBEDO, TILT_DEG, DIST = 64, 32, 50.0, 0.5, 30.0, 2.0
 def pattern():
     x = (np.arange(N_PROJ) + 0.5) / N_PROJ
     v = np.tile(0.2 + 0.8 * x, (N_PROJ, 1))
-    v[2:10, 2:10] = 1.5
+    v[2:10, 2:10] = 1.0
     return np.repeat(v[:, :, None], 3, axis=2)
 
 
@@ -126,6 +135,70 @@ def render_mitsuba(variant, work, spp, image="pattern.pfm"):
     return img
 
 
+FOG_CAM = dict(eye=[0.8, 0.3, 0], look_at=[0, 0, 2], up=[0, 1, 0], fov=45.0, n=64)
+
+
+def fog_lucent(lucent, work, spp, fog=True):
+    c = FOG_CAM
+    sig = "sigma_a_per_mm = 0.0005, sigma_s_per_mm = 0.002" if fog else "sigma_a_per_mm = 0, sigma_s_per_mm = 0"
+    scene = f"""unit = "m"
+camera = {{ eye = {c['eye']}, look_at = {c['look_at']}, up = {c['up']}, vfov_deg = {c['fov']}, width = {c['n']}, height = {c['n']} }}
+[integrator]
+type = "volpath"
+max_depth = 64
+rr_depth = 5
+[materials.wall]
+type = "lambertian"
+albedo = 0.5
+[materials.matched]
+type = "interface"
+[[objects]]
+material = "wall"
+quad = [[-4, -4, 3], [4, -4, 3], [4, 4, 3], [-4, 4, 3]]
+[[objects]]
+material = "matched"
+sphere = {{ center = [0, 0, 1.5], radius = 0.5 }}
+medium = {{ {sig}, g = 0.5 }}
+[[lights]]
+type = "projector"
+image = "pattern.pfm"
+response = "linear"
+profile = "irradiance"
+intensity = 1
+camera = {{ eye = [0, 0, 0], look_at = [0, 0, 1], up = [0, 1, 0], vfov_deg = {FOV_DEG} }}
+"""
+    name = "fog" if fog else "nofog"
+    path = os.path.join(work, f"lucent-{name}.toml")
+    with open(path, "w") as f:
+        f.write(scene)
+    out = os.path.join(work, f"lucent-{name}.pfm")
+    subprocess.run([lucent, "render", path, "--spp", str(spp), "--seed", "1", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
+    return read_pfm(out) @ LUMA
+
+
+def fog_mitsuba(variant, work, spp):
+    import mitsuba as mi
+
+    mi.set_variant(variant)
+    T = mi.ScalarTransform4f
+    c = FOG_CAM
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": 64, "rr_depth": 5},
+        "sensor": {"type": "perspective", "fov": c["fov"], "fov_axis": "y", "to_world": T().look_at(origin=c["eye"], target=c["look_at"], up=c["up"]),
+                   "film": {"type": "hdrfilm", "width": c["n"], "height": c["n"], "pixel_format": "rgb", "rfilter": {"type": "box"}},
+                   "sampler": {"type": "independent", "sample_count": spp}},
+        # Mitsuba's rectangle faces +z: turned to face the projector.
+        "wall": {"type": "rectangle", "to_world": T().translate([0, 0, 3]) @ T().scale([4, 4, 1]) @ T().rotate([0, 1, 0], 180),
+                 "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": 0.5}}},
+        "ball": {"type": "sphere", "center": [0, 0, 1.5], "radius": 0.5, "bsdf": {"type": "null"},
+                 "interior": {"type": "homogeneous", "sigma_t": 2.5, "albedo": 0.8, "phase": {"type": "hg", "g": 0.5}}},
+        "projector": {"type": "projector", "fov": FOV_DEG, "to_world": T().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]), "scale": 1.0,
+                      "irradiance": {"type": "bitmap", "filename": os.path.join(work, "pattern.pfm"), "filter_type": "nearest"}},
+    })
+    return np.array(mi.render(scene, seed=1), dtype=np.float64) @ LUMA
+
+
 def main():
     a, work, _tmp = peer_args(__doc__, 64)
     write_pfm(os.path.join(work, "pattern.pfm"), pattern())
@@ -155,6 +228,12 @@ def main():
         p10, p50, p90 = np.percentile(r, [10, 50, 90])
         res["colour"][name] = {"ratio_p10": p10, "ratio_median": p50, "ratio_p90": p90,
                                "sum_ratio": float(lc[..., k][lit_c].sum() / mc[..., k][lit_c].sum())}
+    l_fog, m_fog = fog_lucent(a.lucent, work, 4 * a.spp), fog_mitsuba(a.variant, work, 4 * a.spp)
+    direct = fog_lucent(a.lucent, work, 16, fog=False) > 0
+    through_fog = ~direct & (m_fog > 0)
+    res["fog"] = {"spp": 4 * a.spp, "direct_sum_ratio": float(l_fog[direct].sum() / m_fog[direct].sum()),
+                  "fog_only_sum_ratio": float(l_fog[through_fog].sum() / m_fog[through_fog].sum()),
+                  "direct_px": int(direct.sum()), "fog_only_px": int(through_fog.sum())}
     if a.json:
         print(json.dumps(res, indent=1))
     else:
@@ -162,6 +241,9 @@ def main():
         for p, e in res["profiles"].items():
             extra = f"; divided by cos³θ/π: median {e['ratio_over_cos3_per_pi_median']:.4f}" if "ratio_over_cos3_per_pi_median" in e else ""
             print(f"  profile = {p}: median {e['ratio_median']:.4f} (10th–90th percentile {e['ratio_p10']:.4f}–{e['ratio_p90']:.4f}){extra}")
+        f = res["fog"]
+        print(f"  fog ball in the beam, volpath, {f['spp']} spp: wall lit directly {f['direct_sum_ratio']:.4f} ({f['direct_px']} px), "
+              f"lit only through the fog {f['fog_only_sum_ratio']:.4f} ({f['fog_only_px']} px)")
         for name, e in res["colour"].items():
             print(f"  colour image, irradiance profile, {name}: median {e['ratio_median']:.4f} "
                   f"(10th–90th percentile {e['ratio_p10']:.4f}–{e['ratio_p90']:.4f}), sums {e['sum_ratio']:.4f}")
