@@ -48,12 +48,11 @@ SIGMA_A_PER_M, G = 0.5, 0.6
 LAMP = ([1.2, 2.2, -1.0], 0.3, 10.0)
 
 
-def lucent_stage(integrator):
-    """The lucent scene's camera, integrator, floor, sphere lamp and environment (materials
-    `floor`, `lamp`, and `matched`, an index-matched boundary)."""
-    (lx, ly, lz), lr, le = LAMP
+def lucent_head(integrator, eye=EYE, target=TARGET):
+    """A lucent scene's camera (W × H, FOV), integrator (max_depth 64, roulette from 5) and the
+    materials `floor` (diffuse, 0.4) and `matched` (an index-matched boundary)."""
     return f"""unit = "m"
-camera = {{ eye = {EYE}, look_at = {TARGET}, up = [0, 1, 0], vfov_deg = {FOV}, width = {W}, height = {H} }}
+camera = {{ eye = {eye}, look_at = {target}, up = [0, 1, 0], vfov_deg = {FOV}, width = {W}, height = {H} }}
 [integrator]
 type = "{integrator}"
 max_depth = 64
@@ -63,7 +62,14 @@ type = "lambertian"
 albedo = 0.4
 [materials.matched]
 type = "interface"
-[materials.lamp]
+"""
+
+
+def lucent_stage(integrator):
+    """The lucent scene's camera, integrator, floor, sphere lamp and environment (materials
+    `floor`, `lamp`, and `matched`, an index-matched boundary)."""
+    (lx, ly, lz), lr, le = LAMP
+    return lucent_head(integrator) + f"""[materials.lamp]
 type = "black"
 [[objects]]
 material = "floor"

@@ -25,10 +25,10 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mitsuba_envmap import env_map  # noqa: E402
+from mitsuba_media import FOV, H, W, lucent_head  # noqa: E402
 from peer_common import LUMA, compare_cases, peer_args, read_pfm, write_pfm  # noqa: E402
 
-W, H = 96, 64
-EYE, TARGET, FOV = [0.0, 1.2, -4.0], [0.0, 0.5, 0.0], 40.0
+EYE, TARGET = [0.0, 1.2, -4.0], [0.0, 0.5, 0.0]
 FOG_LAMBDA, FOG_SIGMA_S = [360, 500, 600, 830], [3.0, 3.0, 1.5, 1.5]
 SPOT = dict(position=[0.5, 3.0, -1.0], target=[0.0, 0.0, 0.0], cone=30.0, start=20.0, intensity=6.0)
 
@@ -36,18 +36,7 @@ SPOT = dict(position=[0.5, 3.0, -1.0], target=[0.0, 0.0, 0.0], cone=30.0, start=
 def lucent_scene():
     s = SPOT
     sig = ", ".join(f"{v / 1000}" for v in FOG_SIGMA_S)
-    return f"""unit = "m"
-camera = {{ eye = {EYE}, look_at = {TARGET}, up = [0, 1, 0], vfov_deg = {FOV}, width = {W}, height = {H} }}
-[integrator]
-type = "volpath"
-max_depth = 64
-rr_depth = 5
-[materials.floor]
-type = "lambertian"
-albedo = 0.4
-[materials.matched]
-type = "interface"
-[materials.glass]
+    return lucent_head("volpath", EYE, TARGET) + f"""[materials.glass]
 type = "dielectric"
 ior = 1.5
 [[objects]]
