@@ -259,8 +259,8 @@ fn grid_desc(cx: &Cx, sp: &SpectrumCx, span: &std::ops::Range<usize>, v: &toml::
             } else {
                 (1, a.iter().map(|e| as_f64(e).map(|x| x as f32)).collect::<Option<Vec<f32>>>().ok_or_else(|| cx.err(span, &f("values"), "must be an array of numbers or of [r, g, b]"))?)
             };
-            let cells = n[0] * n[1] * n[2];
-            if values.len() != cells * channels {
+            let cells = n[0].checked_mul(n[1]).and_then(|c| c.checked_mul(n[2])).ok_or_else(|| cx.err(span, &f("resolution"), "too many cells"))?;
+            if values.len() != cells.saturating_mul(channels) {
                 return Err(cx.err(span, &f("values"), format!("{}×{}×{} cells need {cells} values, got {}", n[0], n[1], n[2], values.len() / channels)));
             }
             (n, channels, values, None)

@@ -202,6 +202,7 @@ fn vol_files_load_and_bad_density_input_is_refused() {
     bad(r#"{ file = "g.vol", albedo = { file = "rgb.vol", scale = 2 } }"#, &["medium.density.albedo", "[0, 1]"]);
     bad(r#"{ file = "g.vol", albedo = { resolution = [2, 1, 1], values = [[0.5, 0.5, 0.5], 0.5], min = [0, 0, 0], max = [1, 1, 1] } }"#, &["medium.density.albedo.values", "[r, g, b]"]);
     bad(r#"{ file = "g.vol", albedo = { resolution = [2, 1, 1], values = [[0.5, 0.5, 0.5]], min = [0, 0, 0], max = [1, 1, 1] } }"#, &["medium.density.albedo.values", "need 2 values"]);
+    bad(r#"{ resolution = [4294967296, 4294967296, 2], values = [1], min = [0, 0, 0], max = [1, 1, 1] }"#, &["medium.density.resolution", "too many cells"]);
 }
 
 /// Mean X, Y, Z over the image of `passes` one-sample-per-pixel `volpath` renders, and their
