@@ -3,9 +3,9 @@
 //!
 //! 1. **Discs.** Candidates from thresholded regions ([`super::blobs`], as OpenCV's blob
 //!    detector finds them), refined to sub-pixel ellipses from edge points
-//!    ([`super::detect::refine`]); where they do not give the grid, the size-invariant Hough
-//!    candidates of [`super::detect`]. Dark discs on a light ground first, then light on dark;
-//!    where neither gives the grid, all of it again on the image blurred by σ = 0.7 px.
+//!    ([`super::detect::refine`]), dark discs on a light ground first, then light on dark; where
+//!    neither gives the grid, the size-invariant Hough candidates of [`super::detect`] (dark,
+//!    then light); where none does, all of it again on the image blurred by σ = 0.7 px.
 //! 2. **Lattice growth.** The grid's nearest neighbours span a lattice: along the rows and
 //!    columns of a symmetric grid (spacing s), along the diagonals of an asymmetric one (spacing
 //!    s√2 against 2s along its rows). From a seed disc and its two nearest neighbours in
@@ -93,12 +93,15 @@ pub fn find_circles_grid(img: &Image, kind: GridKind, cols: usize, rows: usize) 
 /// [`find_circles_grid`] on the image as it is.
 fn find_at(img: &Image, kind: GridKind, cols: usize, rows: usize) -> Option<Vec<Point2>> {
     let s = DetectSettings::default();
+    // Candidates from thresholded regions first (fast), dark discs and then light ones; the
+    // Hough transform (ten times slower on a 1080p photograph) only where neither gives the grid
+    // (an uneven ground).
     for dark in [true, false] {
-        // Candidates from thresholded regions first (fast); the Hough transform where they do
-        // not give the grid (an uneven ground).
         if let Some(v) = find_grid_in(&refine_all(img, &threshold_candidates(img, dark), &s), kind, cols, rows) {
             return Some(v);
         }
+    }
+    for dark in [true, false] {
         let hough = DetectSettings { hough: HoughSettings { dark: Some(dark), ..s.hough }, ..s };
         if let Some(v) = find_grid_in(&detect(img, &hough), kind, cols, rows) {
             return Some(v);
