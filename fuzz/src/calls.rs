@@ -14,7 +14,7 @@ use std::path::Path;
 pub const MAX_INPUT: usize = 64 * 1024;
 
 /// The targets, by the name of their folder under `fuzz/corpus/` and `fuzz/regressions/`.
-pub const TARGETS: &[&str] = &["scene", "obj", "ply", "medium", "checkpoint", "image", "vol"];
+pub const TARGETS: &[&str] = &["scene", "obj", "ply", "medium", "checkpoint", "image", "vol", "calibration"];
 
 /// Run target `name` on `data`; `repo` is the repository root. Panics on an unknown name.
 pub fn run(name: &str, data: &[u8], repo: &Path) {
@@ -26,6 +26,7 @@ pub fn run(name: &str, data: &[u8], repo: &Path) {
         "checkpoint" => checkpoint(data),
         "image" => image(data),
         "vol" => vol(data),
+        "calibration" => calibration(data),
         other => panic!("unknown fuzz target {other}"),
     }
 }
@@ -200,6 +201,32 @@ pub fn vol(data: &[u8]) {
             let _ = g.depth(o, d, f32::INFINITY);
             let _ = g.distance_at_depth(o, d, 0.5 * tau);
             let _ = g.flight(o, d, 0.5 * tau, 0.75 * reach);
+        }
+    }
+}
+
+/// Camera calibration text (lucent's JSON, a procam pair's JSON, OpenCV FileStorage YAML or XML):
+/// parsed with the default node names, procam-calibration's (`cam_int`, `proj_int`), `cam_K` and
+/// lucent's projector node, then made the camera of a 64 × 48 pinhole scene, whose rays through
+/// the corners and centre are traced back to the film.
+pub fn calibration(data: &[u8]) {
+    use render::load::calibration::{parse_calibration, CalibrationNodes};
+    let Some(text) = text(data) else { return };
+    let Ok(base) = render::camera::Camera::look_at(glam::Vec3::ZERO, glam::Vec3::Z, glam::Vec3::Y, 40.0, 64, 48) else { return };
+    let nodes = [
+        CalibrationNodes::default(),
+        CalibrationNodes { matrix: "cam_int".into(), dist: "cam_dist".into() },
+        CalibrationNodes { matrix: "cam_K".into(), dist: "cam_D".into() },
+        CalibrationNodes { matrix: "proj_int".into(), dist: "proj_dist".into() },
+        CalibrationNodes { matrix: "projector".into(), dist: "distortion_coefficients".into() },
+    ];
+    for n in &nodes {
+        let Ok(cal) = parse_calibration(text, "fuzz.yml", n) else { continue };
+        let Ok(camera) = render::load::camera::calibrated_camera(&cal, &base, 1e-3) else { continue };
+        let (w, h) = (camera.width, camera.height);
+        for (i, j) in [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1), (w / 2, h / 2)] {
+            let ray = camera.generate_ray(i, j, glam::Vec2::new(0.5, 0.5));
+            let _ = camera.project(ray.o + ray.d);
         }
     }
 }

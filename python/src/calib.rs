@@ -234,7 +234,7 @@ pub fn calibrate_procam_json(
     let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
     let rig = scan::calib::Rig { cols, rows, square, camera: (0, 0), projector };
     let opts = scan::calib::CalibrateOptions {
-        decode: scan::decode::DecodeSettings { black_threshold: thresholds.0, white_threshold: thresholds.1, refine: true },
+        decode: scan::decode::DecodeSettings { black_threshold: thresholds.0, white_threshold: thresholds.1, refine: true, white_black_first: false },
         step,
         free: Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() },
         ..Default::default()

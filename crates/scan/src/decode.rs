@@ -84,11 +84,14 @@ pub struct DecodeSettings {
     pub white_threshold: i32,
     /// Sub-pixel refinement from stripe edges (module documentation, step 4).
     pub refine: bool,
+    /// The capture's white and black frames come first, before the patterns (as some capture
+    /// tools write them), instead of last (OpenCV's `GrayCodePattern` order).
+    pub white_black_first: bool,
 }
 
 impl Default for DecodeSettings {
     fn default() -> Self {
-        DecodeSettings { black_threshold: 40, white_threshold: 5, refine: true }
+        DecodeSettings { black_threshold: 40, white_threshold: 5, refine: true, white_black_first: false }
     }
 }
 
@@ -115,21 +118,21 @@ pub struct Capture {
 }
 
 impl Capture {
-    /// A warning when the frame in the white frame's place (second to last) is not the
-    /// brightest: less than 0.8 of the first frame's mean level, as in captures that put the white
-    /// and black frames first. lucent (and OpenCV's `GrayCodePattern`) expect them last.
-    pub fn order_warning(&self) -> Option<String> {
+    /// A warning when the frame in the white frame's place is not the brightest: less than 0.8 of
+    /// the mean level of the frame that would be white in the other order (`white_black_first`:
+    /// the white frame first, else second to last), as when a capture's order is not the one
+    /// named.
+    pub fn order_warning(&self, white_black_first: bool) -> Option<String> {
         let n = self.frames.len();
         if n < 3 {
             return None;
         }
         let mean = |f: &Vec<u8>| f.iter().map(|&v| v as f64).sum::<f64>() / f.len().max(1) as f64;
-        let (first, white) = (mean(&self.frames[0]), mean(&self.frames[n - 2]));
-        (white < 0.8 * first).then(|| {
-            format!(
-                "frame {} (the white frame's place) is darker than frame 0 (mean level {white:.1} against {first:.1}): the frames may be in another order; lucent expects the column and row patterns first and the white and black frames last, as OpenCV's GrayCodePattern makes them",
-                n - 2
-            )
+        let (here, other) = if white_black_first { (0, n - 2) } else { (n - 2, 0) };
+        let (white, alt) = (mean(&self.frames[here]), mean(&self.frames[other]));
+        (white < 0.8 * alt).then(|| {
+            let (now, then) = if white_black_first { ("first", "last (as OpenCV's GrayCodePattern makes them; the default)") } else { ("last, as OpenCV's GrayCodePattern makes them", "first (`--white-black first`)") };
+            format!("frame {here} (the white frame's place) is darker than frame {other} (mean level {white:.1} against {alt:.1}): the frames may be in another order; the white and black frames were taken to come {now}; they may come {then}")
         })
     }
 }
@@ -319,9 +322,14 @@ pub fn decode(capture: &Capture, patterns: &PatternSet, settings: &DecodeSetting
     if let Some(i) = capture.frames.iter().position(|f| f.len() != w * h) {
         bail!("capture frame {i} has {} pixels for {w}x{h}", capture.frames[i].len());
     }
-    let f = &capture.frames;
     let (nc, nr) = (patterns.column_bits() as usize, patterns.row_bits() as usize);
-    let (white, black) = (&f[2 * (nc + nr)], &f[2 * (nc + nr) + 1]);
+    // `f`: the pattern frames (column bits, then row bits, each followed by its inverse).
+    let (f, white, black) = if settings.white_black_first {
+        (&capture.frames[2..], &capture.frames[0], &capture.frames[1])
+    } else {
+        let f = &capture.frames;
+        (&f[..], &f[2 * (nc + nr)], &f[2 * (nc + nr) + 1])
+    };
     let (cc, rc) = (patterns.column_codes(), patterns.row_codes());
     let (bt, wt) = (settings.black_threshold, settings.white_threshold);
 

@@ -59,6 +59,28 @@ fn decode_real_capture_json_contract() {
     assert!(v2["valid_pixels"].as_u64() < v["valid_pixels"].as_u64());
 }
 
+/// The shared capture with its white and black frames moved first (as some capture tools save
+/// them), in natural-order file names: `--white-black first` decodes it to the same map, bit for
+/// bit, as the capture in its own order; without the flag a warning names the other order.
+#[test]
+fn decode_white_and_black_first() {
+    let s = Scratch::new("scan-white-first");
+    let cap = s.path("cap");
+    std::fs::create_dir_all(&cap).unwrap();
+    for i in 0..42 {
+        let to = (i + 2) % 42;
+        std::fs::copy(sample_capture(0).join(format!("graycode_{i:02}.png")), cap.join(format!("{to}.png"))).unwrap();
+    }
+    let want = ok_json(&["scan", "decode", sample_capture(0).to_str().unwrap(), "--projector", "1024x768", "--out", &s.arg("want.pfm"), "--json"]);
+    let got = ok_json(&["scan", "decode", &s.arg("cap"), "--projector", "1024x768", "--white-black", "first", "--out", &s.arg("got.pfm"), "--json"]);
+    assert_eq!(want, got);
+    assert_eq!(std::fs::read(s.path("want.pfm")).unwrap(), std::fs::read(s.path("got.pfm")).unwrap());
+    let out = lucent().args(["scan", "decode", &s.arg("cap"), "--projector", "1024x768", "--json"]).output().unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("warning") && err.contains("--white-black first"), "{err}");
+}
+
 #[test]
 fn scan_bad_input_fails_on_one_line_without_output() {
     let s = Scratch::new("scan-bad");

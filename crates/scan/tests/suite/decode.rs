@@ -357,15 +357,28 @@ fn colour_frames_are_grey_as_opencv_makes_them() {
 }
 
 /// A capture in OpenCV's order (patterns, then white and black) gives no order warning; the same
-/// frames with white and black first (as some capture tools save them) give one that says so.
+/// frames with white and black first (as some capture tools save them) give one that says so, and
+/// decode with `white_black_first` to the very same map (bit for bit), without a warning; read
+/// in the wrong order, fewer than half the pixels decode.
 #[test]
-fn white_and_black_first_is_warned() {
+fn white_and_black_first_is_warned_and_decoded() {
     let p = PatternSet::new(64, 48, 1).unwrap();
     let c = ideal_capture(&p);
-    assert!(c.order_warning().is_none());
+    assert!(c.order_warning(false).is_none());
     let mut frames = c.frames.clone();
     frames.rotate_right(2);
     let moved = scan::decode::Capture { width: c.width, height: c.height, frames };
-    let w = moved.order_warning().expect("a warning");
-    assert!(w.contains("white and black frames last") && w.contains("darker"), "{w}");
+    let w = moved.order_warning(false).expect("a warning");
+    assert!(w.contains("white and black frames were taken to come last") && w.contains("darker") && w.contains("--white-black first"), "{w}");
+    assert!(moved.order_warning(true).is_none());
+    assert!(c.order_warning(true).is_some());
+    let first = DecodeSettings { white_black_first: true, ..DecodeSettings::default() };
+    let (want, want_stats) = decode(&c, &p, &DecodeSettings::default()).unwrap();
+    let (got, got_stats) = decode(&moved, &p, &first).unwrap();
+    assert_eq!(want_stats, got_stats);
+    assert_eq!(want_stats.valid_pixels, 64 * 48);
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+    assert_eq!((bits(&got.col), bits(&got.row), &got.white, &got.black), (bits(&want.col), bits(&want.row), &want.white, &want.black));
+    let (wrong, _) = decode(&moved, &p, &DecodeSettings::default()).unwrap();
+    assert!(wrong.valid_pixels() < 64 * 48 / 2, "{} valid pixels in the wrong order", wrong.valid_pixels());
 }

@@ -67,6 +67,24 @@ pub fn run(args: Args) -> Result<()> {
     }
 }
 
+/// Where a capture's white and black frames are: after the patterns (OpenCV's `GrayCodePattern`
+/// order, lucent's `scan patterns`) or before them.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum WhiteBlack {
+    /// The last two frames: white, then black.
+    #[default]
+    Last,
+    /// The first two frames: white, then black.
+    First,
+}
+
+impl WhiteBlack {
+    /// Whether they come first ([`scan::decode::DecodeSettings::white_black_first`]).
+    pub fn first(self) -> bool {
+        self == WhiteBlack::First
+    }
+}
+
 /// Parses a projector size `WIDTHxHEIGHT` (pixels), e.g. `1024x768`.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("`{s}` is not a size WIDTHxHEIGHT in pixels (e.g. 1024x768)");
