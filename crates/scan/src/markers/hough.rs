@@ -114,8 +114,10 @@ pub fn candidates(img: &Image, s: &HoughSettings) -> Vec<Candidate> {
             (r, phi.cos() / r, phi.sin() / r)
         })
         .collect();
-    // Accumulators (re, im) for dark and light discs, bilinear splatting.
-    let mut acc = [vec![[0f64; 2]; w * h], vec![[0f64; 2]; w * h]];
+    // Accumulators (re, im) for dark and light discs, bilinear splatting; only the polarities
+    // asked for are allocated.
+    let wanted = |pol: usize| !s.dark.is_some_and(|d| d != (pol == 0));
+    let mut acc = [if wanted(0) { vec![[0f64; 2]; w * h] } else { Vec::new() }, if wanted(1) { vec![[0f64; 2]; w * h] } else { Vec::new() }];
     for y in 1..h - 1 {
         for x in 1..w - 1 {
             let i = y * w + x;
@@ -124,17 +126,23 @@ pub fn candidates(img: &Image, s: &HoughSettings) -> Vec<Candidate> {
             }
             let (dx, dy) = (gx[i] as f64 / mag[i] as f64, gy[i] as f64 / mag[i] as f64);
             for (pol, sign) in [(0usize, -1.0), (1, 1.0)] {
-                if s.dark.is_some_and(|d| d != (pol == 0)) {
+                if !wanted(pol) {
                     continue;
                 }
                 for &(r, c, sn) in &radii {
                     let (cx, cy) = (x as f64 + sign * r * dx, y as f64 + sign * r * dy);
-                    let (fx, fy) = (cx.floor(), cy.floor());
-                    if fx < 0.0 || fy < 0.0 || fx >= (w - 1) as f64 || fy >= (h - 1) as f64 {
+                    // Truncation is the floor for cx, cy ≥ 0 (no libm call on baseline x86-64);
+                    // NaN fails the first test.
+                    if !(cx >= 0.0 && cy >= 0.0) {
                         continue;
                     }
+                    let (ix, iy) = (cx as usize, cy as usize);
+                    if ix >= w - 1 || iy >= h - 1 {
+                        continue;
+                    }
+                    let (fx, fy) = (ix as f64, iy as f64);
                     let (ax, ay) = (cx - fx, cy - fy);
-                    let j = fy as usize * w + fx as usize;
+                    let j = iy * w + ix;
                     for (k, wt) in [(j, (1.0 - ax) * (1.0 - ay)), (j + 1, ax * (1.0 - ay)), (j + w, (1.0 - ax) * ay), (j + w + 1, ax * ay)] {
                         acc[pol][k][0] += wt * c;
                         acc[pol][k][1] += wt * sn;
@@ -145,7 +153,7 @@ pub fn candidates(img: &Image, s: &HoughSettings) -> Vec<Candidate> {
     }
     let mut out = Vec::new();
     for (pol, a) in acc.iter().enumerate() {
-        if s.dark.is_some_and(|d| d != (pol == 0)) {
+        if !wanted(pol) {
             continue;
         }
         // Coherent 3×3 sums.
