@@ -10,7 +10,7 @@ use scan::calib::{calibrate_dirs, CalibrateOptions, Rig};
 use scan::decode::DecodeSettings;
 use scan::graycode::PatternSet;
 
-use super::{parse_size, Progress, WhiteBlack};
+use super::{parse_size, CaptureOrder, Progress};
 
 /// Parses an inner-corner count `COLSxROWS`, e.g. `9x7`.
 pub(super) fn parse_corners(s: &str) -> Result<(u32, u32), String> {
@@ -45,10 +45,8 @@ pub struct Args {
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
     #[arg(long, default_value_t = 5, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub white_threshold: i32,
-    /// Where the capture's white and black frames are: `last` (after the patterns, as OpenCV's
-    /// GrayCodePattern and `scan patterns` order them) or `first` (white, black, then the patterns).
-    #[arg(long, value_enum, default_value_t = WhiteBlack::Last, value_name = "WHERE")]
-    pub white_black: WhiteBlack,
+    #[command(flatten)]
+    pub order: CaptureOrder,
     /// Half-size of the local-homography window around each corner (camera pixels; 23 = 47×47).
     #[arg(long, default_value_t = 23, value_name = "PX")]
     pub half_window: usize,
@@ -180,7 +178,7 @@ pub fn run(args: Args) -> Result<()> {
     let patterns = PatternSet::new(w, h, args.step)?;
     let rig = Rig { cols: args.corners.0 as usize, rows: args.corners.1 as usize, square: args.square, camera: (0, 0), projector: (w, h) };
     let opts = CalibrateOptions {
-        decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true, white_black_first: args.white_black.first() },
+        decode: DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: true, white_black_first: args.order.first() },
         local: LocalHomography { half_window: args.half_window, ..Default::default() },
         step: args.step,
         free: args.lens.free(),

@@ -8,7 +8,7 @@ use anyhow::Result;
 use scan::decode::{decode, read_capture, write_map, DecodeSettings};
 use scan::graycode::PatternSet;
 
-use super::{parse_size, Progress, WhiteBlack};
+use super::{parse_size, CaptureOrder, Progress};
 
 /// Arguments of `lucent scan decode`.
 #[derive(clap::Args, Debug)]
@@ -27,10 +27,8 @@ pub struct Args {
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
     #[arg(long, default_value_t = 5, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub white_threshold: i32,
-    /// Where the capture's white and black frames are: `last` (after the patterns, as OpenCV's
-    /// GrayCodePattern and `scan patterns` order them) or `first` (white, black, then the patterns).
-    #[arg(long, value_enum, default_value_t = WhiteBlack::Last, value_name = "WHERE")]
-    pub white_black: WhiteBlack,
+    #[command(flatten)]
+    pub order: CaptureOrder,
     /// Integer decoding only (block centres), no sub-pixel refinement from stripe edges.
     #[arg(long)]
     pub no_refine: bool,
@@ -54,12 +52,12 @@ pub fn run(args: Args) -> Result<()> {
             _ => anyhow::bail!("{}: a decode map is written as .exr or .pfm (float channels)", out.display()),
         }
     }
-    let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine, white_black_first: args.white_black.first() };
+    let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine, white_black_first: args.order.first() };
     let progress = Progress::new(patterns.len() as u64, "images read");
     let capture = read_capture(&args.capture, &patterns, &|| progress.inc());
     progress.set_message("decoding");
     let capture = capture?;
-    if let Some(w) = capture.order_warning(args.white_black.first()) {
+    if let Some(w) = capture.order_warning(args.order.first()) {
         progress.suspend(|| eprintln!("lucent: warning: {}: {w}", args.capture.display()));
     }
     let (map, stats) = decode(&capture, &patterns, &settings)?;

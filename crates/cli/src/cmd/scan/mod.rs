@@ -85,6 +85,22 @@ impl WhiteBlack {
     }
 }
 
+/// The frame-order flag of the commands that read a capture (`decode`, `calibrate`, `reconstruct`).
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct CaptureOrder {
+    /// Where the capture's white and black frames are: `last` (after the patterns, as OpenCV's
+    /// GrayCodePattern and `scan patterns` order them) or `first` (white, black, then the patterns).
+    #[arg(long, value_enum, default_value_t = WhiteBlack::Last, value_name = "WHERE")]
+    pub white_black: WhiteBlack,
+}
+
+impl CaptureOrder {
+    /// Whether the white and black frames come first.
+    pub fn first(self) -> bool {
+        self.white_black.first()
+    }
+}
+
 /// Parses a projector size `WIDTHxHEIGHT` (pixels), e.g. `1024x768`.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("`{s}` is not a size WIDTHxHEIGHT in pixels (e.g. 1024x768)");

@@ -11,7 +11,7 @@ use scan::decode::{decode, read_capture, DecodeSettings};
 use scan::graycode::PatternSet;
 use scan::triangulate::{triangulate_map, Rig};
 
-use super::{Progress, WhiteBlack};
+use super::{CaptureOrder, Progress};
 
 /// Arguments of `lucent scan reconstruct`.
 #[derive(clap::Args, Debug)]
@@ -41,10 +41,8 @@ pub struct Args {
     /// A bit is decided where |pattern − inverse| exceeds this (8-bit grey levels).
     #[arg(long, default_value_t = 5, value_name = "LEVELS", value_parser = clap::value_parser!(i32).range(0..=254))]
     pub white_threshold: i32,
-    /// Where the capture's white and black frames are: `last` (after the patterns, as OpenCV's
-    /// GrayCodePattern and `scan patterns` order them) or `first` (white, black, then the patterns).
-    #[arg(long, value_enum, default_value_t = WhiteBlack::Last, value_name = "WHERE")]
-    pub white_black: WhiteBlack,
+    #[command(flatten)]
+    pub order: CaptureOrder,
     /// Integer decoding only (block centres), no sub-pixel refinement from stripe edges.
     #[arg(long)]
     pub no_refine: bool,
@@ -88,12 +86,12 @@ pub fn run(args: Args) -> Result<()> {
     }
     let rig = Rig::new(&calib).with_context(|| format!("{}", args.calibration.display()))?;
     let patterns = PatternSet::new(calib.projector.width, calib.projector.height, args.step).with_context(|| format!("{}: projector", args.calibration.display()))?;
-    let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine, white_black_first: args.white_black.first() };
+    let settings = DecodeSettings { black_threshold: args.black_threshold, white_threshold: args.white_threshold, refine: !args.no_refine, white_black_first: args.order.first() };
 
     let progress = Progress::new(patterns.len() as u64, "images read");
     let capture = read_capture(&args.capture, &patterns, &|| progress.inc());
     let capture = capture?;
-    if let Some(w) = capture.order_warning(args.white_black.first()) {
+    if let Some(w) = capture.order_warning(args.order.first()) {
         progress.suspend(|| eprintln!("lucent: warning: {}: {w}", args.capture.display()));
     }
     progress.set_message("decoding");
