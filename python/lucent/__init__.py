@@ -1362,7 +1362,7 @@ def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
     return _np.frombuffer(out, dtype=_np.uint8).reshape(a.shape).copy()
 
 
-def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, step=1, black_threshold=40, white_threshold=5) -> Result:
+def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, step=1, black_threshold=40, white_threshold=5, white_black="last") -> Result:
     """Projector–camera calibration from Gray-code captures of a chessboard, as ``lucent scan
     calibrate`` (and kamino410/procam-calibration's ``calibrate.py``) computes it.
 
@@ -1370,7 +1370,7 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
     ----------
     captures : list of folders
         One folder per board pose, each with ``graycode_00.png`` … (the patterns of
-        ``lucent scan patterns``, white and black last); at least 3.
+        ``lucent scan patterns``, white and black last unless ``white_black="first"``); at least 3.
     projector_size : (width, height)
         The projector's resolution, pixels.
     pattern_size : (cols, rows)
@@ -1382,6 +1382,9 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
         CALIB_TILTED_MODEL (OpenCV's values), for both devices.
     step, black_threshold, white_threshold
         As ``lucent scan calibrate --step --black-threshold --white-threshold``.
+    white_black : "last" or "first"
+        Where each capture's white and black frames are, as ``--white-black``: after the patterns
+        (OpenCV's ``GrayCodePattern`` order) or before them.
 
     Returns
     -------
@@ -1399,8 +1402,10 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
     cols, rows = _pair(pattern_size, "pattern_size", 3)
     bits = (bool(flags & CALIB_FIX_K3), bool(flags & CALIB_ZERO_TANGENT_DIST), bool(flags & CALIB_RATIONAL_MODEL),
             bool(flags & CALIB_THIN_PRISM_MODEL), bool(flags & CALIB_TILTED_MODEL))
+    if white_black not in ("last", "first"):
+        raise ValueError(f"white_black: expected \"last\" or \"first\", got {white_black!r}")
     text = _lucent.calibrate_procam_json([str(c) for c in captures], (pw, ph), cols, rows, float(square), bits, int(step),
-                                         (int(black_threshold), int(white_threshold)))
+                                         (int(black_threshold), int(white_threshold)), white_black == "first")
     return Result(_json.loads(text))
 
 

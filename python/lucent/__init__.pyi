@@ -2,7 +2,7 @@
 # Units are in the names: _m metres, _nm nanometres, _mm millimetres, _per_mm mm⁻¹, _percent
 # weight percent, _mpa megapascal, _deg degrees, _s seconds.
 from os import PathLike
-from typing import Any, Callable, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -127,7 +127,8 @@ def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Seque
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...]]:
     """(rms, K, dist, rvecs, tvecs) from views of one planar target (cv2.calibrateCamera; CALIB_* flags above)."""
 def calibrate_procam(captures: Sequence[_Path], projector_size: Tuple[int, int], pattern_size: Tuple[int, int], square: float,
-                     flags: int = 0, step: int = 1, black_threshold: int = 40, white_threshold: int = 5) -> Result:
+                     flags: int = 0, step: int = 1, black_threshold: int = 40, white_threshold: int = 5,
+                     white_black: Literal["last", "first"] = "last") -> Result:
     """Projector–camera calibration from Gray-code captures (the keys of `lucent scan calibrate --json`)."""
 
 class Scene:

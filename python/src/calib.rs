@@ -221,6 +221,7 @@ pub fn calibrate_procam_json(
     flags: (bool, bool, bool, bool, bool),
     step: u32,
     thresholds: (i32, i32),
+    white_black_first: bool,
 ) -> PyResult<String> {
     if !(square > 0.0 && square.is_finite()) {
         return Err(value(format!("square: must be a positive length, got {square}")));
@@ -234,7 +235,7 @@ pub fn calibrate_procam_json(
     let (fix_k3, zero_tangent, rational, thin_prism, tilted) = flags;
     let rig = scan::calib::Rig { cols, rows, square, camera: (0, 0), projector };
     let opts = scan::calib::CalibrateOptions {
-        decode: scan::decode::DecodeSettings { black_threshold: thresholds.0, white_threshold: thresholds.1, refine: true, white_black_first: false },
+        decode: scan::decode::DecodeSettings { black_threshold: thresholds.0, white_threshold: thresholds.1, refine: true, white_black_first },
         step,
         free: Free { lenses: true, k3: !fix_k3, tangential: !zero_tangent, rational, thin_prism, tilted, ..Default::default() },
         ..Default::default()

@@ -205,6 +205,30 @@ def test_calibrate_procam_equals_the_command():
         lucent.calibrate_procam([caps[0], caps[1], ROOT / "no-such-capture"], (1024, 768), (9, 7), 75.0)
 
 
+def test_calibrate_procam_white_and_black_first(tmp_path):
+    """The shared captures with their white and black frames moved in front of the patterns (as
+    some capture tools save them): ``white_black="first"`` gives the calibration of the captures
+    in their own order, exactly."""
+    import shutil
+    from conftest import ROOT
+    caps = [ROOT.parent / "shared" / "data" / "structured-light" / "procam-sample" / f"capture_{i}" for i in range(3)]
+    if not all(c.is_dir() for c in caps):
+        pytest.skip("the shared procam captures are not here")
+    moved = []
+    for c in caps:
+        d = tmp_path / c.name
+        d.mkdir()
+        for i in range(42):
+            shutil.copy(c / f"graycode_{i:02d}.png", d / f"graycode_{(i + 2) % 42:02d}.png")
+        moved.append(d)
+    want = lucent.calibrate_procam(caps, (1024, 768), (9, 7), 75.0, flags=lucent.CALIB_FIX_K3)
+    got = lucent.calibrate_procam(moved, (1024, 768), (9, 7), 75.0, flags=lucent.CALIB_FIX_K3, white_black="first")
+    assert got.camera == want.camera and got.projector == want.projector
+    assert got.rotation == want.rotation and got.translation == want.translation and got.rms_px == want.rms_px
+    with pytest.raises(ValueError, match="white_black"):
+        lucent.calibrate_procam(caps, (1024, 768), (9, 7), 75.0, white_black="middle")
+
+
 def circle_grid_image(h_board_to_px, centres, radius, width=640, height=480, ss=4):
     """8-bit sRGB image of dark discs (linear 0.05) on white paper (linear 0.75) seen through a
     homography, each pixel the mean of ss × ss linear samples, then encoded."""
