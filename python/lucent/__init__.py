@@ -748,9 +748,27 @@ def _flat64(a) -> _np.ndarray:
     return _np.ascontiguousarray(a, dtype=_np.float64).reshape(-1)
 
 
-def find_chessboard_corners(image, pattern_size):
+#: The flags of ``cv2.findChessboardCorners`` (OpenCV's values), accepted by
+#: :func:`find_chessboard_corners` so that OpenCV calls run unchanged.
+CALIB_CB_ADAPTIVE_THRESH = 1
+CALIB_CB_NORMALIZE_IMAGE = 2
+CALIB_CB_FILTER_QUADS = 4
+CALIB_CB_FAST_CHECK = 8
+CALIB_CB_PLAIN = 256
+_CHESSBOARD_FLAGS = CALIB_CB_ADAPTIVE_THRESH | CALIB_CB_NORMALIZE_IMAGE | CALIB_CB_FILTER_QUADS | CALIB_CB_FAST_CHECK | CALIB_CB_PLAIN
+
+
+def _no_output_array(value, name):
+    """OpenCV's optional output argument (``corners``, ``centers``): None or an array, which
+    is not written to (the result is returned, as cv2 returns it)."""
+    if value is not None and not isinstance(value, _np.ndarray):
+        raise ValueError(f"{name}: expected None or an array (OpenCV's output argument), got {type(value).__name__}")
+
+
+def find_chessboard_corners(image, pattern_size, corners=None, flags=CALIB_CB_ADAPTIVE_THRESH | CALIB_CB_NORMALIZE_IMAGE):
     """The inner corners of a chessboard, as ``cv2.findChessboardCorners`` followed by
-    ``cv2.cornerSubPix`` finds them.
+    ``cv2.cornerSubPix`` finds them. The arguments are ``cv2.findChessboardCorners``'s, so
+    ``find_chessboard_corners(gray, (9, 6), None, flags)`` runs as OpenCV's call does.
 
     Parameters
     ----------
@@ -759,6 +777,14 @@ def find_chessboard_corners(image, pattern_size):
         gives it) and converted with OpenCV's luma weights.
     pattern_size : (cols, rows)
         Inner corners per row and per column, as OpenCV's ``patternSize``.
+    corners : None or array
+        OpenCV's output argument; not written to.
+    flags : int
+        Any of :data:`CALIB_CB_ADAPTIVE_THRESH`, :data:`CALIB_CB_NORMALIZE_IMAGE`,
+        :data:`CALIB_CB_FILTER_QUADS`, :data:`CALIB_CB_FAST_CHECK` and :data:`CALIB_CB_PLAIN`.
+        They choose among OpenCV's thresholding and quad-filtering steps; lucent's finder has one
+        method, which these flags do not change. Other bits (``findChessboardCornersSB``'s) are
+        refused.
 
     Returns
     -------
@@ -772,6 +798,9 @@ def find_chessboard_corners(image, pattern_size):
         ``cv2.calibrateCamera`` or :func:`calibrate_camera`.
     """
     cols, rows = _pair(pattern_size, "pattern_size", 3)
+    _no_output_array(corners, "corners")
+    if int(flags) & ~_CHESSBOARD_FLAGS:
+        raise ValueError(f"flags: only CALIB_CB_ADAPTIVE_THRESH, CALIB_CB_NORMALIZE_IMAGE, CALIB_CB_FILTER_QUADS, CALIB_CB_FAST_CHECK and CALIB_CB_PLAIN (findChessboardCorners's) are accepted, got {flags!r}")
     grey, w, h = _grey_levels(image)
     c = _lucent.find_chessboard_flat(grey, w, h, cols, rows)
     if c is None:
@@ -779,13 +808,18 @@ def find_chessboard_corners(image, pattern_size):
     return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
 
 
-#: The circle-grid layouts of :func:`find_circles_grid` (the values of ``cv2.CALIB_CB_*``).
+#: The circle-grid layouts of :func:`find_circles_grid` (the values of ``cv2.CALIB_CB_*``), and
+#: OpenCV's clustering flag, accepted with either.
 CALIB_CB_SYMMETRIC_GRID = 1
 CALIB_CB_ASYMMETRIC_GRID = 2
+CALIB_CB_CLUSTERING = 4
 
 
-def find_circles_grid(image, pattern_size, flags=CALIB_CB_SYMMETRIC_GRID):
-    """The disc centres of a circle grid, as ``cv2.findCirclesGrid`` finds them.
+def find_circles_grid(image, pattern_size, centers=None, flags=None, blobDetector=None):
+    """The disc centres of a circle grid, as ``cv2.findCirclesGrid`` finds them. The arguments
+    are ``cv2.findCirclesGrid``'s (``find_circles_grid(gray, (4, 11), None,
+    CALIB_CB_ASYMMETRIC_GRID)``); an integer in ``centers``' place is taken as the flags
+    (``find_circles_grid(gray, (4, 11), CALIB_CB_ASYMMETRIC_GRID)``).
 
     Parameters
     ----------
@@ -795,9 +829,16 @@ def find_circles_grid(image, pattern_size, flags=CALIB_CB_SYMMETRIC_GRID):
         with OpenCV's luma weights.
     pattern_size : (cols, rows)
         Discs per row and rows, as OpenCV's ``patternSize``.
+    centers : None or array
+        OpenCV's output argument; not written to.
     flags : int
-        :data:`CALIB_CB_SYMMETRIC_GRID` (a square lattice) or :data:`CALIB_CB_ASYMMETRIC_GRID`
-        (rows of discs 2s apart, every second row shifted by s).
+        :data:`CALIB_CB_SYMMETRIC_GRID` (a square lattice, the default) or
+        :data:`CALIB_CB_ASYMMETRIC_GRID` (rows of discs 2s apart, every second row shifted by s),
+        optionally with :data:`CALIB_CB_CLUSTERING`, which OpenCV uses to order discs under strong
+        perspective and lucent's lattice growth does not need (accepted, no effect).
+    blobDetector : None
+        OpenCV's custom blob detector; lucent finds light and dark discs itself, so only None
+        is accepted.
 
     Returns
     -------
@@ -809,9 +850,15 @@ def find_circles_grid(image, pattern_size, flags=CALIB_CB_SYMMETRIC_GRID):
         marker detector, docs/markers.md).
     """
     cols, rows = _pair(pattern_size, "pattern_size", 1)
-    kind = int(flags) & (CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID)
-    if int(flags) & ~(CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID) or kind not in (CALIB_CB_SYMMETRIC_GRID, CALIB_CB_ASYMMETRIC_GRID):
-        raise ValueError(f"flags: expected CALIB_CB_SYMMETRIC_GRID (1) or CALIB_CB_ASYMMETRIC_GRID (2), got {flags!r}")
+    if isinstance(centers, (int, _np.integer)) and not isinstance(centers, bool) and flags is None:
+        centers, flags = None, centers
+    _no_output_array(centers, "centers")
+    if blobDetector is not None:
+        raise ValueError("blobDetector: only None is accepted (lucent finds light and dark discs itself)")
+    flags = CALIB_CB_SYMMETRIC_GRID if flags is None else int(flags)
+    kind = flags & (CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID)
+    if flags & ~(CALIB_CB_SYMMETRIC_GRID | CALIB_CB_ASYMMETRIC_GRID | CALIB_CB_CLUSTERING) or kind not in (CALIB_CB_SYMMETRIC_GRID, CALIB_CB_ASYMMETRIC_GRID):
+        raise ValueError(f"flags: expected CALIB_CB_SYMMETRIC_GRID (1) or CALIB_CB_ASYMMETRIC_GRID (2), with or without CALIB_CB_CLUSTERING (4), got {flags!r}")
     grey, w, h = _grey_levels(image)
     c = _lucent.find_circles_grid_flat(grey, w, h, cols, rows, kind == CALIB_CB_ASYMMETRIC_GRID)
     if c is None:

@@ -20,6 +20,12 @@ CALIB_THIN_PRISM_MODEL: int
 CALIB_TILTED_MODEL: int
 CALIB_CB_SYMMETRIC_GRID: int
 CALIB_CB_ASYMMETRIC_GRID: int
+CALIB_CB_CLUSTERING: int
+CALIB_CB_ADAPTIVE_THRESH: int
+CALIB_CB_NORMALIZE_IMAGE: int
+CALIB_CB_FILTER_QUADS: int
+CALIB_CB_FAST_CHECK: int
+CALIB_CB_PLAIN: int
 CALIB_USE_INTRINSIC_GUESS: int
 CALIB_FIX_INTRINSIC: int
 CALIB_USE_EXTRINSIC_GUESS: int
@@ -82,9 +88,11 @@ def project_points(object_points: npt.ArrayLike, rvec: npt.ArrayLike, tvec: npt.
 def undistort_points(image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
                      dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
     """Normalised undistorted coordinates of (N, 2) pixels (cv2.undistortPoints without R, P)."""
-def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int]) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
+def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int], corners: Optional[npt.NDArray[Any]] = None,
+                            flags: int = ...) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) corners) of a chessboard in an 8-bit grey or BGR image (cv2.findChessboardCorners + cornerSubPix)."""
-def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], flags: int = ...) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
+def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], centers: Union[None, int, npt.NDArray[Any]] = None,
+                      flags: Optional[int] = None, blobDetector: None = None) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) disc centres) of a symmetric or asymmetric circle grid in an 8-bit image (cv2.findCirclesGrid)."""
 def stereo_calibrate(object_points: Sequence[npt.ArrayLike], image_points1: Sequence[npt.ArrayLike], image_points2: Sequence[npt.ArrayLike],
                      camera_matrix1: Optional[npt.ArrayLike], dist_coeffs1: Optional[npt.ArrayLike],

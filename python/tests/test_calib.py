@@ -171,6 +171,17 @@ def test_find_chessboard_corners_on_a_drawn_board():
     found3, corners3 = lucent.find_chessboard_corners(np.dstack([img] * 3), (COLS, ROWS))
     assert found3 and np.abs(corners3 - corners).max() < 1e-3
     assert lucent.find_chessboard_corners(np.full((480, 640), 128, np.uint8), (COLS, ROWS)) == (False, None)
+    # OpenCV's call as written in its tutorials (an output placeholder and the flags) runs and
+    # gives the same corners; flags of findChessboardCornersSB (CALIB_CB_LARGER = 64) and a
+    # placeholder that is not an array are refused.
+    flags = lucent.CALIB_CB_ADAPTIVE_THRESH | lucent.CALIB_CB_NORMALIZE_IMAGE | lucent.CALIB_CB_FAST_CHECK
+    found_cv, corners_cv = lucent.find_chessboard_corners(img, (COLS, ROWS), None, flags)
+    assert found_cv and np.array_equal(corners_cv, corners)
+    assert np.array_equal(lucent.find_chessboard_corners(img, (COLS, ROWS), flags=lucent.CALIB_CB_PLAIN)[1], corners)
+    with pytest.raises(ValueError, match="flags"):
+        lucent.find_chessboard_corners(img, (COLS, ROWS), None, 64)
+    with pytest.raises(ValueError, match="corners"):
+        lucent.find_chessboard_corners(img, (COLS, ROWS), "out")
 
 
 def test_calibrate_camera_agrees_with_live_opencv():
@@ -279,6 +290,18 @@ def test_find_circles_grid_on_a_drawn_asymmetric_grid():
         lucent.find_circles_grid(img, (cols, rows), 3)
     with pytest.raises(ValueError, match="pattern_size"):
         lucent.find_circles_grid(img, (-4, 11))
+    # OpenCV's call forms: the output placeholder third, the flags fourth or by name, with
+    # CALIB_CB_CLUSTERING; the same centres. A custom blob detector is refused.
+    for call in (lambda: lucent.find_circles_grid(img, (cols, rows), None, lucent.CALIB_CB_ASYMMETRIC_GRID),
+                 lambda: lucent.find_circles_grid(img, (cols, rows), flags=lucent.CALIB_CB_ASYMMETRIC_GRID | lucent.CALIB_CB_CLUSTERING),
+                 lambda: lucent.find_circles_grid(img, (cols, rows), np.zeros((1, 1, 2), np.float32), lucent.CALIB_CB_ASYMMETRIC_GRID, None)):
+        ok, c = call()
+        assert ok and np.array_equal(c, centres)
+    assert lucent.find_circles_grid(img, (cols, rows), None) == (False, None)  # symmetric by default
+    with pytest.raises(ValueError, match="blobDetector"):
+        lucent.find_circles_grid(img, (cols, rows), None, lucent.CALIB_CB_ASYMMETRIC_GRID, object())
+    with pytest.raises(ValueError, match="flags"):
+        lucent.find_circles_grid(img, (cols, rows), None, 8)
 
 
 def test_find_circles_grid_against_live_opencv():
@@ -296,6 +319,12 @@ def test_find_circles_grid_against_live_opencv():
     assert np.abs(theirs - centres.reshape(-1, 2)).max() < 0.5
     e_cv = np.linalg.norm(theirs.reshape(-1, 2) - ellipse_centres(h, obj, 3.0), axis=1)
     print(f"centre error, median / max: lucent {np.median(e):.4f} / {e.max():.4f} px, OpenCV {np.median(e_cv):.4f} / {e_cv.max():.4f} px")
+    # OpenCV's positional call form, the same arguments to both: both find the grid, and lucent
+    # returns what its own call form returns.
+    args = (img, (cols, rows), None, cv2.CALIB_CB_ASYMMETRIC_GRID | cv2.CALIB_CB_CLUSTERING)
+    ok_cv, _ = cv2.findCirclesGrid(*args)
+    ok_lu, c_lu = lucent.find_circles_grid(*args)
+    assert ok_cv and ok_lu and np.array_equal(c_lu, centres)
 
 
 def rodrigues(r):
