@@ -866,7 +866,7 @@ def find_circles_grid(image, pattern_size, centers=None, flags=None, blobDetecto
     return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
 
 
-def calibrate_camera(object_points, image_points, image_size, camera_matrix=None, dist_coeffs=None, flags=0):
+def calibrate_camera(object_points, image_points, image_size, camera_matrix=None, dist_coeffs=None, flags=0, criteria=None):
     """Calibrate a camera from views of a planar target, as ``cv2.calibrateCamera``: Zhang's
     closed form, then Levenberg–Marquardt over all points (lucent's own implementation).
 
@@ -893,6 +893,9 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         with CALIB_USE_INTRINSIC_GUESS, else at 0 for distortion terms). CALIB_FIX_SKEW,
         CALIB_USE_LU, CALIB_USE_QR and CALIB_DISABLE_SCHUR_COMPLEMENT are accepted and change
         nothing (no skew in the model; lucent's own solver). Other flags are refused.
+    criteria : None or (type, max_count, epsilon)
+        OpenCV's stopping rule, accepted so that OpenCV calls run unchanged; lucent's
+        Levenberg–Marquardt runs to its own convergence whatever it says.
 
     Returns
     -------
@@ -902,6 +905,7 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
         CALIB_THIN_PRISM_MODEL, 14 with CALIB_TILTED_MODEL), and per view the (3, 1) Rodrigues vector and translation (in the
         object points' unit) of the target → camera transform.
     """
+    _criteria(criteria)
     flags = int(flags) & ~_NO_EFFECT_FLAGS
     if flags & ~(_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS):
         raise ValueError(f"flags: {flags & ~(_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS)} is not a flag lucent.calibrate_camera knows "
@@ -927,6 +931,17 @@ def calibrate_camera(object_points, image_points, image_size, camera_matrix=None
 CALIB_FIX_INTRINSIC = 256
 CALIB_SAME_FOCAL_LENGTH = 512
 CALIB_USE_EXTRINSIC_GUESS = 1 << 22
+
+
+def _criteria(criteria):
+    """OpenCV's ``criteria`` argument: None or (type, max_count, epsilon), accepted and not used."""
+    if criteria is None:
+        return
+    try:
+        kind, count, eps = criteria
+        int(kind), int(count), float(eps)
+    except (TypeError, ValueError):
+        raise ValueError(f"criteria: expected None or OpenCV's (type, max_count, epsilon), got {criteria!r}") from None
 
 
 def _planar_target(object_points, image_points, name):
@@ -981,7 +996,7 @@ def _stereo_aspect(flags, camera_matrix1, camera_matrix2):
 
 
 def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1, dist_coeffs1,
-                     camera_matrix2, dist_coeffs2, image_size, flags=0, R=None, T=None):
+                     camera_matrix2, dist_coeffs2, image_size, flags=0, R=None, T=None, criteria=None):
     """Calibrate two cameras and their relative pose from views of one planar target seen by both,
     as ``cv2.stereoCalibrate`` (lucent's own fit, that of ``lucent scan calibrate-stereo``).
 
@@ -1007,6 +1022,9 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
     R, T : (3, 3) and 3-vector, optional
         The start of the relative pose, with CALIB_USE_EXTRINSIC_GUESS (keywords here; cv2 takes
         them before ``flags``).
+    criteria : None or (type, max_count, epsilon)
+        OpenCV's stopping rule, accepted so that OpenCV calls run unchanged (as
+        :func:`calibrate_camera`'s).
 
     Returns
     -------
@@ -1015,6 +1033,7 @@ def stereo_calibrate(object_points, image_points1, image_points2, camera_matrix1
         rotation and (3, 1) translation with X₂ = R X₁ + T, the essential matrix E = [T]ₓ R and
         the fundamental matrix F = K₂⁻ᵀ E K₁⁻¹.
     """
+    _criteria(criteria)
     flags = int(flags) & ~_NO_EFFECT_FLAGS
     allowed = (_CALIB_FLAGS | _HOLD_FLAGS | CALIB_USE_INTRINSIC_GUESS | CALIB_FIX_INTRINSIC | CALIB_SAME_FOCAL_LENGTH
                | CALIB_USE_EXTRINSIC_GUESS)

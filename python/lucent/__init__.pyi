@@ -97,7 +97,8 @@ def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], cente
 def stereo_calibrate(object_points: Sequence[npt.ArrayLike], image_points1: Sequence[npt.ArrayLike], image_points2: Sequence[npt.ArrayLike],
                      camera_matrix1: Optional[npt.ArrayLike], dist_coeffs1: Optional[npt.ArrayLike],
                      camera_matrix2: Optional[npt.ArrayLike], dist_coeffs2: Optional[npt.ArrayLike],
-                     image_size: Tuple[int, int], flags: int = ..., R: Optional[npt.ArrayLike] = None, T: Optional[npt.ArrayLike] = None
+                     image_size: Tuple[int, int], flags: int = ..., R: Optional[npt.ArrayLike] = None, T: Optional[npt.ArrayLike] = None,
+                     criteria: Optional[Tuple[int, int, float]] = None
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(rms, K1, D1, K2, D2, R, T, E, F) of two cameras from one planar target (cv2.stereoCalibrate; flags 0 fits everything; CALIB_USE_EXTRINSIC_GUESS starts from R, T)."""
 SOLVEPNP_ITERATIVE: int
@@ -131,7 +132,8 @@ def undistort(src: npt.ArrayLike, camera_matrix: npt.ArrayLike, dist_coeffs: Opt
               new_camera_matrix: Optional[npt.ArrayLike] = ...) -> npt.NDArray[np.uint8]:
     """A uint8 photograph with its lens distortion removed (cv2.undistort)."""
 def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Sequence[npt.ArrayLike], image_size: Tuple[int, int],
-                     camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0
+                     camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0,
+                     criteria: Optional[Tuple[int, int, float]] = None
                      ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[npt.NDArray[np.float64], ...], Tuple[npt.NDArray[np.float64], ...]]:
     """(rms, K, dist, rvecs, tvecs) from views of one planar target (cv2.calibrateCamera; CALIB_* flags above)."""
 def calibrate_procam(captures: Sequence[_Path], projector_size: Tuple[int, int], pattern_size: Tuple[int, int], square: float,

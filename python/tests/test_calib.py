@@ -196,6 +196,14 @@ def test_calibrate_camera_agrees_with_live_opencv():
     assert abs(ours[0] - theirs[0]) < 1e-3 * theirs[0]
     assert np.abs(ours[1] - theirs[1]).max() < 1e-3 * K[0, 0]
     assert np.abs(ours[2] - theirs[2]).max() < 2e-3
+    # The same call with OpenCV's arguments, criteria included, runs unchanged and gives lucent's
+    # result; a criteria that is not OpenCV's triple is refused.
+    same = lucent.calibrate_camera([OBJ.astype(np.float32)] * len(pts), [p.astype(np.float32).reshape(-1, 1, 2) for p in pts],
+                                   (640, 480), None, None, criteria=crit)
+    again = lucent.calibrate_camera([OBJ] * len(pts), [p.astype(np.float32) for p in pts], (640, 480))
+    assert same[0] == again[0] and np.array_equal(same[1], again[1]) and np.array_equal(same[2], again[2])
+    with pytest.raises(ValueError, match="criteria"):
+        lucent.calibrate_camera([OBJ] * len(pts), pts, (640, 480), criteria=200)
 
 
 def test_calibrate_procam_equals_the_command():
@@ -363,6 +371,9 @@ def test_stereo_calibrate_recovers_a_known_rig():
     assert np.abs(k1 - K).max() < 1e-6 * K[0, 0] and np.abs(k2 - K2).max() < 1e-6 * K2[0, 0]
     assert np.abs(d1.ravel() - DIST).max() < 1e-8 and np.abs(d2.ravel() - DIST2).max() < 1e-8
     assert np.abs(r - R12).max() < 1e-9 and np.abs(t.ravel() - T12).max() < 1e-6
+    # OpenCV's stopping rule is accepted (as cv2.stereoCalibrate's criteria) and changes nothing.
+    with_crit = lucent.stereo_calibrate([OBJ] * len(p1), p1, p2, None, None, None, None, (640, 480), criteria=(3, 100, 1e-5))
+    assert with_crit[0] == rms and np.array_equal(with_crit[5], r) and np.array_equal(with_crit[6], t)
     # E = [T]ₓ R; with distortion-free cameras F relates the pixels: x₂ᵀ F x₁ = 0.
     q1, q2 = stereo_views(np.zeros(5), np.zeros(5))
     _, k1, _, k2, _, r, t, e, f = lucent.stereo_calibrate([OBJ] * len(q1), q1, q2, None, None, None, None, (640, 480), flags=lucent.CALIB_FIX_K3 | lucent.CALIB_ZERO_TANGENT_DIST)
