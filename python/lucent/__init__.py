@@ -1397,9 +1397,10 @@ def triangulate_points(proj_matr1, proj_matr2, proj_points1, proj_points2):
     return _np.asarray(h, dtype=float).reshape(-1, 4).T
 
 
-def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
+def undistort(src, camera_matrix, dist_coeffs, dst=None, new_camera_matrix=None, newCameraMatrix=None):
     """A photograph with its lens distortion removed, as ``cv2.undistort`` (lucent's own remap,
-    that of ``lucent scan undistort``).
+    that of ``lucent scan undistort``). OpenCV's call ``undistort(img, K, dist, None, K_new)``
+    runs unchanged, and so does the shorter ``undistort(img, K, dist, K_new)``.
 
     Parameters
     ----------
@@ -1407,7 +1408,10 @@ def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
         The photograph.
     camera_matrix, dist_coeffs
         Its camera (OpenCV's 3×3 matrix and 0–14 distortion coefficients).
-    new_camera_matrix : 3×3, optional
+    dst : None or array
+        OpenCV's output argument; not written to. A 3 × 3 matrix in this place is taken as
+        ``new_camera_matrix``.
+    new_camera_matrix (or OpenCV's name, newCameraMatrix) : 3×3, optional
         The output's pinhole camera (``camera_matrix`` by default, as OpenCV).
 
     Returns
@@ -1423,6 +1427,12 @@ def undistort(src, camera_matrix, dist_coeffs, new_camera_matrix=None):
     _image_size((w, h), "src")
     c = 1 if a.ndim == 2 else a.shape[2]
     k, d = _camera_args(camera_matrix, dist_coeffs)
+    if dst is not None and _np.shape(dst) == (3, 3) and new_camera_matrix is None and newCameraMatrix is None:
+        dst, new_camera_matrix = None, dst
+    _no_output_array(dst, "dst")
+    if new_camera_matrix is not None and newCameraMatrix is not None:
+        raise ValueError("new_camera_matrix: given twice (also as newCameraMatrix)")
+    new_camera_matrix = newCameraMatrix if new_camera_matrix is None else new_camera_matrix
     k_new = None if new_camera_matrix is None else _camera_args(new_camera_matrix, None, "new_camera_matrix")[0]
     out = _lucent.undistort_flat(_np.ascontiguousarray(a).tobytes(), w, h, c, k, d, k_new)
     return _np.frombuffer(out, dtype=_np.uint8).reshape(a.shape).copy()

@@ -129,7 +129,8 @@ def solve_pnp_ransac(object_points: npt.ArrayLike, image_points: npt.ArrayLike, 
                      ) -> Tuple[bool, Optional[npt.NDArray[np.float64]], Optional[npt.NDArray[np.float64]], Optional[npt.NDArray[np.int32]]]:
     """(retval, rvec, tvec, inliers) of a known object from partly wrong correspondences (cv2.solvePnPRansac, iterative); (False, None, None, None) without a consensus."""
 def undistort(src: npt.ArrayLike, camera_matrix: npt.ArrayLike, dist_coeffs: Optional[npt.ArrayLike],
-              new_camera_matrix: Optional[npt.ArrayLike] = ...) -> npt.NDArray[np.uint8]:
+              dst: Optional[npt.ArrayLike] = None, new_camera_matrix: Optional[npt.ArrayLike] = None,
+              newCameraMatrix: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.uint8]:
     """A uint8 photograph with its lens distortion removed (cv2.undistort)."""
 def calibrate_camera(object_points: Sequence[npt.ArrayLike], image_points: Sequence[npt.ArrayLike], image_size: Tuple[int, int],
                      camera_matrix: Optional[npt.ArrayLike] = None, dist_coeffs: Optional[npt.ArrayLike] = None, flags: int = 0,

@@ -506,6 +506,19 @@ def test_undistort_against_live_opencv():
     # percentile 2, max 4 levels; OpenCV 5.1.0).
     assert d.mean() < 0.2 and np.percentile(d, 99.9) <= 6, (d.mean(), np.percentile(d, 99.9), d.max())
     print(f"undistort against cv2: mean {d.mean():.3f}, 99.9th percentile {np.percentile(d, 99.9)}, max {d.max()} levels")
+    # OpenCV's call form with a new camera matrix (the tutorials' undistort(img, K, dist, None,
+    # K_new)) runs unchanged; lucent's shorter form and both keyword names give the same image.
+    k_new = K.copy()
+    k_new[0, 0] *= 0.8
+    k_new[1, 1] *= 0.8
+    ours = lucent.undistort(colour, K, DIST, None, k_new)
+    for other in (lucent.undistort(colour, K, DIST, k_new), lucent.undistort(colour, K, DIST, new_camera_matrix=k_new),
+                  lucent.undistort(colour, K, DIST, newCameraMatrix=k_new)):
+        assert np.array_equal(ours, other)
+    d = np.abs(ours.astype(int) - cv2.undistort(colour, K, DIST, None, k_new).astype(int))
+    assert d.mean() < 0.2 and np.percentile(d, 99.9) <= 6, (d.mean(), np.percentile(d, 99.9), d.max())
+    with pytest.raises(ValueError, match="twice"):
+        lucent.undistort(colour, K, DIST, None, k_new, k_new)
 
 
 def test_solve_pnp_recovers_a_known_pose():
