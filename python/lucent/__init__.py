@@ -1339,22 +1339,31 @@ def _left_3x3(m, name):
     return p
 
 
-#: ``cv2.CV_32FC1``, the map type :func:`init_undistort_rectify_map` returns.
+#: ``cv2.CV_32FC1``, ``CV_32FC2`` and ``CV_16SC2``: the map types :func:`init_undistort_rectify_map` returns.
 CV_32FC1 = 5
+CV_32FC2 = 13
+CV_16SC2 = 11
 
 
 def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix, size, m1type=CV_32FC1):
-    """The remapping of ``cv2.initUndistortRectifyMap`` with float maps (``m1type`` CV_32FC1):
-    (map_x, map_y), each a (height, width) float32 array giving, for each pixel of the new image
-    (the pinhole camera ``new_camera_matrix``, or the left 3×3 of a projection P from
+    """The remapping of ``cv2.initUndistortRectifyMap``: for each pixel of the new image (the
+    pinhole camera ``new_camera_matrix``, or the left 3×3 of a projection P from
     :func:`stereo_rectify`, turned by ``R``, None for the identity), the source pixel whose ray it
-    shows; ``cv2.remap`` takes them as they are. Without ``new_camera_matrix`` the new camera is
-    ``camera_matrix`` with its principal point moved to the image's centre ((w − 1)/2, (h − 1)/2),
-    as OpenCV's ``getDefaultNewCameraMatrix(…, centerPrincipalPoint=True)`` makes it here
-    (``undistort`` keeps ``camera_matrix`` itself).
+    shows; ``cv2.remap`` takes the maps as they are. Without ``new_camera_matrix`` the new camera
+    is ``camera_matrix`` with its principal point moved to the image's centre ((w − 1)/2,
+    (h − 1)/2), as OpenCV's ``getDefaultNewCameraMatrix(…, centerPrincipalPoint=True)`` makes it
+    here (``undistort`` keeps ``camera_matrix`` itself).
+
+    ``m1type`` chooses OpenCV's map formats: :data:`CV_32FC1` (default), (map_x, map_y), each a
+    (height, width) float32 array; :data:`CV_32FC2`, one (height, width, 2) float32 array and
+    None; :data:`CV_16SC2`, OpenCV's fixed-point maps: the integer pixel (height, width, 2) int16
+    and a (height, width) uint16 index of the 1/32-pixel fraction (row fraction × 32 + column
+    fraction), the float coordinates times 32 rounded to the nearest integer as
+    ``cv2.convertMaps`` rounds them.
     """
-    if int(m1type) != CV_32FC1:
-        raise ValueError(f"m1type: only CV_32FC1 ({CV_32FC1}) float maps, got {m1type}")
+    m1type = int(m1type)
+    if m1type not in (CV_32FC1, CV_32FC2, CV_16SC2):
+        raise ValueError(f"m1type: CV_32FC1 ({CV_32FC1}), CV_32FC2 ({CV_32FC2}) or CV_16SC2 ({CV_16SC2}), got {m1type}")
     k, d = _camera_args(camera_matrix, dist_coeffs)
     r = _np.eye(3) if R is None or _np.asarray(R).size == 0 else _np.asarray(R, dtype=float)
     if r.shape != (3, 3):
@@ -1366,7 +1375,18 @@ def init_undistort_rectify_map(camera_matrix, dist_coeffs, R, new_camera_matrix,
     else:
         p = _left_3x3(new_camera_matrix, "new_camera_matrix")
     mx, my = _lucent.undistort_rectify_map_flat(k, d, [float(v) for v in r.ravel()], [float(v) for v in p.ravel()], w, h)
-    return _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy(), _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
+    mx = _np.frombuffer(mx, dtype=_np.float32).reshape(h, w).copy()
+    my = _np.frombuffer(my, dtype=_np.float32).reshape(h, w).copy()
+    if m1type == CV_32FC1:
+        return mx, my
+    if m1type == CV_32FC2:
+        return _np.dstack([mx, my]), None
+    # Fixed point with 5 fractional bits (OpenCV's INTER_BITS), rounded half to even as cvRound.
+    ix = _np.clip(_np.rint(mx.astype(_np.float64) * 32.0), -2.0**31, 2.0**31 - 1).astype(_np.int32)
+    iy = _np.clip(_np.rint(my.astype(_np.float64) * 32.0), -2.0**31, 2.0**31 - 1).astype(_np.int32)
+    xy = _np.dstack([_np.clip(ix >> 5, -32768, 32767), _np.clip(iy >> 5, -32768, 32767)]).astype(_np.int16)
+    frac = ((iy & 31) * 32 + (ix & 31)).astype(_np.uint16)
+    return xy, frac
 
 
 def triangulate_points(proj_matr1, proj_matr2, proj_points1, proj_points2):
@@ -1522,17 +1542,28 @@ def project_points(object_points, rvec, tvec, camera_matrix, dist_coeffs=None) -
     return _np.asarray(out, dtype=float).reshape(-1, 2)
 
 
-def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarray:
-    """Normalised undistorted coordinates (x/z, y/z) of pixel positions, as
-    ``cv2.undistortPoints`` without R and P, inverted to 1e-9 px (Newton's method; the tilt
-    exactly).
+def undistort_points(image_points, camera_matrix, dist_coeffs=None, dst=None, R=None, P=None, criteria=None) -> _np.ndarray:
+    """Undistorted coordinates of pixel positions, as ``cv2.undistortPoints``, inverted to 1e-9 px
+    (Newton's method; the tilt exactly): the normalised (x/z, y/z) without ``R`` and ``P``; with
+    them, (x, y, 1) turned by ``R`` and mapped by the left 3 × 3 of ``P`` (a new camera matrix or
+    a rectified projection from :func:`stereo_rectify`), then divided by its third component, as
+    OpenCV does. The arguments are OpenCV's (``undistort_points(pts, K, dist, None, R, P)``).
 
     Parameters
     ----------
-    image_points : (N, 2) array
+    image_points : (N, 2) or (N, 1, 2) array
         OpenCV pixel coordinates.
     camera_matrix, dist_coeffs
         As for :func:`project_points`.
+    dst : None or array
+        OpenCV's output argument; not written to.
+    R : 3 × 3, optional
+        Rectification rotation (identity by default).
+    P : 3 × 3 or 3 × 4, optional
+        New camera matrix or projection (identity by default: normalised coordinates).
+    criteria : None or (type, max_count, epsilon)
+        OpenCV 5's stopping rule for its iterations, accepted and not used (the inverse here
+        converges to 1e-9 px).
 
     Returns
     -------
@@ -1542,8 +1573,21 @@ def undistort_points(image_points, camera_matrix, dist_coeffs=None) -> _np.ndarr
     """
     q = _points(image_points, 2, "image_points")
     k, d = _camera_args(camera_matrix, dist_coeffs)
-    out = _lucent.undistort_points_flat(_flat64(q), k, d)
-    return _np.asarray(out, dtype=float).reshape(-1, 2)
+    _no_output_array(dst, "dst")
+    _criteria(criteria)
+    out = _np.asarray(_lucent.undistort_points_flat(_flat64(q), k, d), dtype=float).reshape(-1, 2)
+    if R is None and P is None:
+        return out
+    rr = _np.eye(3)
+    if R is not None:
+        r = _np.asarray(R, dtype=float)
+        if r.shape != (3, 3):
+            raise ValueError(f"R: expected a 3×3 matrix, got shape {r.shape}")
+        rr = r
+    if P is not None:
+        rr = _left_3x3(P, "P") @ rr
+    v = _np.column_stack([out, _np.ones(len(out))]) @ rr.T
+    return v[:, :2] / v[:, 2:3]
 
 
 def write_vol(path, density, min=(0.0, 0.0, 0.0), max=(1.0, 1.0, 1.0)) -> None:

@@ -86,8 +86,10 @@ def project_points(object_points: npt.ArrayLike, rvec: npt.ArrayLike, tvec: npt.
                    dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
     """Pixels of (N, 3) points through an OpenCV camera (cv2.projectPoints), 0–14 distortion terms."""
 def undistort_points(image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
-                     dist_coeffs: Optional[npt.ArrayLike] = None) -> npt.NDArray[np.float64]:
-    """Normalised undistorted coordinates of (N, 2) pixels (cv2.undistortPoints without R, P)."""
+                     dist_coeffs: Optional[npt.ArrayLike] = None, dst: Optional[npt.ArrayLike] = None,
+                     R: Optional[npt.ArrayLike] = None, P: Optional[npt.ArrayLike] = None,
+                     criteria: Optional[Tuple[int, int, float]] = None) -> npt.NDArray[np.float64]:
+    """Undistorted coordinates of (N, 2) pixels (cv2.undistortPoints): normalised, or through R and P."""
 def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int], corners: Optional[npt.NDArray[Any]] = None,
                             flags: int = ...) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) corners) of a chessboard in an 8-bit grey or BGR image (cv2.findChessboardCorners + cornerSubPix)."""
