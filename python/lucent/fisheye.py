@@ -316,8 +316,11 @@ def undistort_image(distorted, K, D, Knew=None, new_size=None):
     return _np.frombuffer(out, dtype=_np.uint8).reshape((oh, ow) + a.shape[2:]).copy()
 
 
-def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, criteria=None):
+def calibrate(object_points, image_points, image_size, K=None, D=None, *args, flags=None, criteria=None):
     """Calibrate a fisheye camera from views of a planar target, as ``cv2.fisheye.calibrate``.
+    OpenCV's positional form ``calibrate(obj, img, size, K, D, rvecs, tvecs, flags, criteria)``
+    (``rvecs``, ``tvecs`` its output placeholders: None or lists, not written to) runs unchanged,
+    as does lucent's shorter ``calibrate(obj, img, size, K, D, flags, criteria)``.
 
     Parameters
     ----------
@@ -346,7 +349,22 @@ def calibrate(object_points, image_points, image_size, K=None, D=None, flags=0, 
         (with K₀₁ = α fx), D as a (4, 1) array, and per view the (3, 1) Rodrigues vector and
         translation of the target → camera transform.
     """
-    flags = int(flags)
+    if args and not isinstance(args[0], (int, _np.integer)):
+        # OpenCV's order: the output placeholders rvecs, tvecs, then flags and criteria.
+        for name, v in zip(("rvecs", "tvecs"), args[:2]):
+            if v is not None and not isinstance(v, (list, tuple, _np.ndarray)):
+                raise ValueError(f"{name}: expected None or a list (OpenCV's output argument), got {type(v).__name__}")
+        args = args[2:]
+    if len(args) > 2:
+        raise TypeError(f"calibrate() takes at most 9 positional arguments ({5 + len(args)} given)")
+    for name, v in zip(("flags", "criteria"), args):
+        if (flags if name == "flags" else criteria) is not None:
+            raise TypeError(f"calibrate() got multiple values for argument '{name}'")
+        if name == "flags":
+            flags = v
+        else:
+            criteria = v
+    flags = 0 if flags is None else int(flags)
     if flags & ~_KNOWN:
         raise ValueError(f"flags: {flags & ~_KNOWN} is not a flag lucent.fisheye.calibrate knows (it takes OpenCV 5's "
                          "values, lucent.fisheye.CALIB_*; OpenCV 4's fisheye numbers differ)")

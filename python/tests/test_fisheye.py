@@ -161,6 +161,19 @@ def test_fisheye_agrees_with_live_opencv():
                                        flags=flags, criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 300, 1e-16))
         assert abs(ours[0] - theirs[0]) < 1e-9 * theirs[0]
         assert np.abs(ours[1] - theirs[1]).max() < 1e-5 and np.abs(ours[2] - theirs[2]).max() < 1e-6
+    # OpenCV's positional call, as its fisheye tutorials write it (output placeholders rvecs and
+    # tvecs, then flags and criteria), runs unchanged and gives lucent's result.
+    flags = fe.CALIB_RECOMPUTE_EXTRINSIC | fe.CALIB_FIX_SKEW
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-6)
+    k0, d0 = np.zeros((3, 3)), np.zeros((4, 1))
+    rv = [np.zeros((1, 1, 3), dtype=np.float64) for _ in noisy]
+    tv = [np.zeros((1, 1, 3), dtype=np.float64) for _ in noisy]
+    opencv_form = fe.calibrate([OBJ.reshape(-1, 1, 3)] * len(noisy), [v.reshape(-1, 1, 2) for v in noisy], SIZE, k0, d0, rv, tv, flags, crit)
+    ours = fe.calibrate([OBJ] * len(noisy), noisy, SIZE, flags=flags)
+    assert opencv_form[0] == ours[0] and np.array_equal(opencv_form[1], ours[1]) and np.array_equal(opencv_form[2], ours[2])
+    assert fe.calibrate([OBJ] * len(noisy), noisy, SIZE, None, None, flags)[0] == ours[0]
+    with pytest.raises(TypeError, match="flags"):
+        fe.calibrate([OBJ] * len(noisy), noisy, SIZE, None, None, flags, None, flags=flags)
 
 
 K2 = np.array([[410.0, 0.0, 630.2], [0.0, 409.1, 489.5], [0.0, 0.0, 1.0]])
