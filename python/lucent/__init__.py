@@ -1505,6 +1505,77 @@ def calibrate_procam(captures, projector_size, pattern_size, square, flags=0, st
     return Result(_json.loads(text))
 
 
+def gray_code_patterns(projector_size, step=1) -> list:
+    """The Gray-code frames ``lucent scan patterns`` writes for a projector, in capture order:
+    OpenCV's ``GrayCodePattern`` order (each column bit, most significant first, then its
+    inverse; then the row bits), then white and black.
+
+    Parameters
+    ----------
+    projector_size : (width, height)
+        The projector's resolution, pixels.
+    step : int
+        Projector pixels per code (1: every pixel its own code).
+
+    Returns
+    -------
+    list of (height, width) uint8 arrays, 255 lit and 0 dark.
+    """
+    pw, ph = _pair(projector_size, "projector_size", 1)
+    frames = _lucent.gray_code_patterns_flat((pw, ph), int(step))
+    return [_np.frombuffer(bytes(f), dtype=_np.uint8).reshape(ph, pw).copy() for f in frames]
+
+
+def decode_gray_code(capture, projector_size, step=1, black_threshold=40, white_threshold=5, white_black="last",
+                     refine=True) -> Result:
+    """Projector column and row per camera pixel from a Gray-code capture, as ``lucent scan
+    decode`` computes them (docs/scanning.md, "Decoding").
+
+    Parameters
+    ----------
+    capture : folder, or sequence of (H, W) uint8 arrays
+        A capture folder as ``lucent scan decode`` reads it (``graycode_00.png`` …, or PNG/JPEG
+        files in natural order), or its frames in capture order (8-bit grey, as
+        ``cv2.imread(…, cv2.IMREAD_GRAYSCALE)`` gives them).
+    projector_size : (width, height)
+        The projector's resolution, pixels.
+    step, black_threshold, white_threshold, white_black
+        As ``--step``, ``--black-threshold``, ``--white-threshold`` and ``--white-black``
+        ("last" or "first").
+    refine : bool
+        Sub-pixel coordinates from the stripe edges (``False``: ``--no-refine``).
+
+    Returns
+    -------
+    Result
+        The keys of ``lucent scan decode --json`` (``width``, ``height``, ``valid_pixels``,
+        ``valid_fraction``, ``refined_column_pixels``, ``refined_row_pixels``) and the map:
+        ``column`` and ``row`` (height, width) float32 arrays of projector pixels (OpenCV
+        convention, NaN where invalid), ``white`` and ``black`` the white and black frames'
+        levels (float32).
+    """
+    pw, ph = _pair(projector_size, "projector_size", 1)
+    if white_black not in ("last", "first"):
+        raise ValueError(f"white_black: expected \"last\" or \"first\", got {white_black!r}")
+    args = ((pw, ph), int(step), (int(black_threshold), int(white_threshold)), bool(refine), white_black == "first")
+    if isinstance(capture, (str, bytes, _os.PathLike)):
+        out = _lucent.decode_capture_dir(_os.fsdecode(capture), *args)
+    else:
+        frames = [_np.asarray(f) for f in capture]
+        if not frames:
+            raise ValueError("capture: no frames")
+        for i, f in enumerate(frames):
+            if f.dtype != _np.uint8 or f.ndim != 2:
+                raise ValueError(f"capture: frame {i} is {f.dtype} of shape {f.shape}; expected (H, W) uint8 grey levels")
+        h, w = frames[0].shape
+        out = _lucent.decode_frames_flat([_np.ascontiguousarray(f).tobytes() for f in frames], w, h, *args)
+    w, h, col, row, white, black, valid, refined_c, refined_r = out
+    grid = lambda v: _np.asarray(v, dtype=_np.float32).reshape(h, w)
+    return Result({"width": w, "height": h, "valid_pixels": valid, "valid_fraction": valid / (w * h),
+                   "refined_column_pixels": refined_c, "refined_row_pixels": refined_r,
+                   "column": grid(col), "row": grid(row), "white": grid(white), "black": grid(black)})
+
+
 def _pose_args(rvec, tvec):
     """A Rodrigues vector and a translation as two lists of 3 floats, or ValueError."""
     r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]

@@ -144,6 +144,13 @@ def calibrate_procam(captures: Sequence[_Path], projector_size: Tuple[int, int],
                      white_black: Literal["last", "first"] = "last") -> Result:
     """Projector–camera calibration from Gray-code captures (the keys of `lucent scan calibrate --json`)."""
 
+def gray_code_patterns(projector_size: Tuple[int, int], step: int = 1) -> list[npt.NDArray[np.uint8]]:
+    """The frames `lucent scan patterns` writes (OpenCV's GrayCodePattern order, then white and black)."""
+def decode_gray_code(capture: Union[_Path, Sequence[npt.ArrayLike]], projector_size: Tuple[int, int], step: int = 1,
+                     black_threshold: int = 40, white_threshold: int = 5, white_black: Literal["last", "first"] = "last",
+                     refine: bool = True) -> Result:
+    """Projector column and row per camera pixel (`lucent scan decode`): the JSON keys and the map arrays."""
+
 class Scene:
     """A scene ready to render (docs/scene-format.md)."""
     @staticmethod

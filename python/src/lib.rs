@@ -13,6 +13,7 @@ mod compare;
 mod errors;
 mod fisheye;
 mod fit;
+mod graycode;
 mod media;
 mod mie;
 mod parallel;
@@ -60,6 +61,9 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fisheye::fisheye_solve_pnp_ransac_flat, m)?)?;
     m.add_function(wrap_pyfunction!(fisheye::fisheye_undistort_rectify_map_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::calibrate_procam_json, m)?)?;
+    m.add_function(wrap_pyfunction!(graycode::gray_code_patterns_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(graycode::decode_capture_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(graycode::decode_frames_flat, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

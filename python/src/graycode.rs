@@ -1,0 +1,60 @@
+//! Gray-code structured light from Python: the patterns `lucent scan patterns` writes and the
+//! decoding of `lucent scan decode` (the `scan` crate's `graycode` and `decode`; docs/scanning.md).
+
+use crate::errors::{value, OrPy};
+use pyo3::prelude::*;
+use scan::decode::{decode, read_capture, Capture, DecodeMap, DecodeSettings, DecodeStats};
+use scan::graycode::PatternSet;
+
+/// The decode map as flat arrays: (width, height, column, row, white, black, valid pixels,
+/// refined column pixels, refined row pixels).
+type FlatMap = (usize, usize, Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>, usize, usize, usize);
+
+fn flat((map, stats): (DecodeMap, DecodeStats)) -> FlatMap {
+    (map.width, map.height, map.col, map.row, map.white, map.black, stats.valid_pixels, stats.refined_columns, stats.refined_rows)
+}
+
+fn patterns(projector: (u32, u32), step: u32) -> PyResult<PatternSet> {
+    PatternSet::new(projector.0, projector.1, step).map_err(|e| value(format!("projector_size: {e:#}")))
+}
+
+fn settings(thresholds: (i32, i32), refine: bool, white_black_first: bool) -> PyResult<DecodeSettings> {
+    for (name, t) in [("black_threshold", thresholds.0), ("white_threshold", thresholds.1)] {
+        if !(0..=254).contains(&t) {
+            return Err(value(format!("{name}: must be 0 … 254 grey levels, got {t}")));
+        }
+    }
+    Ok(DecodeSettings { black_threshold: thresholds.0, white_threshold: thresholds.1, refine, white_black_first })
+}
+
+/// The frames of a projector's Gray-code sequence (OpenCV's `GrayCodePattern` order: column bits,
+/// row bits, each with its inverse, then white and black), each a flat 8-bit image (row-major).
+#[pyfunction]
+pub fn gray_code_patterns_flat(projector: (u32, u32), step: u32) -> PyResult<Vec<Vec<u8>>> {
+    let p = patterns(projector, step)?;
+    Ok((0..p.len()).filter_map(|i| p.image(i)).collect())
+}
+
+/// `lucent scan decode` on a capture folder.
+#[pyfunction]
+pub fn decode_capture_dir(py: Python<'_>, dir: std::path::PathBuf, projector: (u32, u32), step: u32, thresholds: (i32, i32), refine: bool, white_black_first: bool) -> PyResult<FlatMap> {
+    let p = patterns(projector, step)?;
+    let s = settings(thresholds, refine, white_black_first)?;
+    py.allow_threads(|| read_capture(&dir, &p, &|| {}).and_then(|c| decode(&c, &p, &s))).or_py().map(flat)
+}
+
+/// The same on frames in memory: flat 8-bit grey images of `width` × `height`, in capture order.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn decode_frames_flat(py: Python<'_>, frames: Vec<Vec<u8>>, width: usize, height: usize, projector: (u32, u32), step: u32, thresholds: (i32, i32), refine: bool, white_black_first: bool) -> PyResult<FlatMap> {
+    let p = patterns(projector, step)?;
+    let s = settings(thresholds, refine, white_black_first)?;
+    if frames.len() != p.len() {
+        return Err(value(format!("frames: {} images, but the {}x{} step-{step} sequence has {}", frames.len(), projector.0, projector.1, p.len())));
+    }
+    if let Some(i) = frames.iter().position(|f| f.len() != width * height) {
+        return Err(value(format!("frames: image {i} has {} pixels, image 0 {width}×{height}", frames[i].len())));
+    }
+    let capture = Capture { width, height, frames };
+    py.allow_threads(|| decode(&capture, &p, &s)).or_py().map(flat)
+}
