@@ -1576,6 +1576,59 @@ def decode_gray_code(capture, projector_size, step=1, black_threshold=40, white_
                    "column": grid(col), "row": grid(row), "white": grid(white), "black": grid(black)})
 
 
+def reconstruct_gray_code(capture, calibration, projector_size=None, step=1, black_threshold=40, white_threshold=5,
+                          white_black="last", refine=True, fill_holes=0, max_edge_px=20.0) -> Result:
+    """A Gray-code capture triangulated with a projector–camera calibration, as ``lucent scan
+    reconstruct`` computes it (docs/scanning.md, "Reconstruction").
+
+    Parameters
+    ----------
+    capture : folder
+        A capture folder as ``lucent scan decode`` reads it.
+    calibration : path or dict
+        The calibration: lucent's JSON (what ``lucent scan calibrate`` writes, or the result of
+        :func:`calibrate_procam`) or procam-calibration's ``calibration_result.xml``.
+    projector_size : (width, height), optional
+        The projector's resolution, needed for OpenCV FileStorage (``--projector``).
+    step, black_threshold, white_threshold, white_black, refine
+        As :func:`decode_gray_code`.
+    fill_holes, max_edge_px
+        As ``--fill-holes`` (0: off) and ``--max-edge`` (camera-pixel footprints within which
+        neighbours are joined for the normals).
+
+    Returns
+    -------
+    Result
+        The keys of ``lucent scan reconstruct --json`` (``points``, ``bbox`` with ``min`` and
+        ``max``, ``median_ray_gap``, and ``filled`` with ``fill_holes``) and per camera pixel
+        ``xyz`` and ``normals`` ((height, width, 3) arrays, camera frame, the calibration's
+        length unit; NaN where nothing was triangulated, normals zero where no neighbour is
+        joined) and ``ray_gap`` ((height, width)).
+    """
+    if white_black not in ("last", "first"):
+        raise ValueError(f"white_black: expected \"last\" or \"first\", got {white_black!r}")
+    proj = None if projector_size is None else _pair(projector_size, "projector_size", 1)
+    args = (proj, int(step), (int(black_threshold), int(white_threshold)), bool(refine), white_black == "first",
+            int(fill_holes), float(max_edge_px))
+    if isinstance(calibration, dict):
+        import tempfile
+        with tempfile.TemporaryDirectory() as d:
+            path = _os.path.join(d, "calibration.json")
+            with open(path, "w") as f:
+                _json.dump(calibration, f)
+            out = _lucent.reconstruct_capture_dir(_os.fsdecode(capture), path, *args)
+    else:
+        out = _lucent.reconstruct_capture_dir(_os.fsdecode(capture), _os.fsdecode(calibration), *args)
+    w, h, xyz, normals, gap, n, lo, hi, median_gap, filled = out
+    r = Result({"points": n, "bbox": {"min": list(lo), "max": list(hi)}, "median_ray_gap": median_gap})
+    if fill_holes > 0:
+        r["filled"] = filled
+    r["xyz"] = _np.asarray(xyz, dtype=float).reshape(h, w, 3)
+    r["normals"] = _np.asarray(normals, dtype=float).reshape(h, w, 3)
+    r["ray_gap"] = _np.asarray(gap, dtype=float).reshape(h, w)
+    return r
+
+
 def _pose_args(rvec, tvec):
     """A Rodrigues vector and a translation as two lists of 3 floats, or ValueError."""
     r = [float(v) for v in _np.asarray(rvec, dtype=float).ravel()]

@@ -151,6 +151,12 @@ def decode_gray_code(capture: Union[_Path, Sequence[npt.ArrayLike]], projector_s
                      refine: bool = True) -> Result:
     """Projector column and row per camera pixel (`lucent scan decode`): the JSON keys and the map arrays."""
 
+def reconstruct_gray_code(capture: _Path, calibration: Union[_Path, dict[str, Any]], projector_size: Optional[Tuple[int, int]] = None,
+                          step: int = 1, black_threshold: int = 40, white_threshold: int = 5,
+                          white_black: Literal["last", "first"] = "last", refine: bool = True, fill_holes: int = 0,
+                          max_edge_px: float = 20.0) -> Result:
+    """A capture triangulated with a projector–camera calibration (`lucent scan reconstruct`): JSON keys and per-pixel arrays."""
+
 class Scene:
     """A scene ready to render (docs/scene-format.md)."""
     @staticmethod

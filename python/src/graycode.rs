@@ -58,3 +58,53 @@ pub fn decode_frames_flat(py: Python<'_>, frames: Vec<Vec<u8>>, width: usize, he
     let capture = Capture { width, height, frames };
     py.allow_threads(|| decode(&capture, &p, &s)).or_py().map(flat)
 }
+
+/// A capture triangulated with a projector–camera calibration, as `lucent scan reconstruct`: per
+/// camera pixel (row-major) the point, its unit normal (zero where no neighbour is joined) and
+/// its ray gap (NaN where nothing was triangulated), with the command's summary (point count,
+/// bounding box, median ray gap) and the number of pixels `fill_holes` filled.
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn reconstruct_capture_dir(
+    py: Python<'_>,
+    dir: std::path::PathBuf,
+    calibration: std::path::PathBuf,
+    projector: Option<(u32, u32)>,
+    step: u32,
+    thresholds: (i32, i32),
+    refine: bool,
+    white_black_first: bool,
+    fill_holes: usize,
+    max_edge_px: f64,
+) -> PyResult<(usize, usize, Vec<f64>, Vec<f64>, Vec<f64>, usize, [f64; 3], [f64; 3], f64, usize)> {
+    use anyhow::Context;
+    let s = settings(thresholds, refine, white_black_first)?;
+    if fill_holes > 64 {
+        return Err(value(format!("fill_holes: at most 64 pixels (a hole's radius), got {fill_holes}")));
+    }
+    if !(max_edge_px > 0.0 && max_edge_px.is_finite()) {
+        return Err(value(format!("max_edge_px: must be a positive number of pixels, got {max_edge_px}")));
+    }
+    let run = || -> anyhow::Result<_> {
+        let calib = scan::calib::ProcamCalibration::read(&calibration, projector)?;
+        let rig = scan::triangulate::Rig::new(&calib).with_context(|| format!("{}", calibration.display()))?;
+        let p = PatternSet::new(calib.projector.width, calib.projector.height, step).with_context(|| format!("{}: projector", calibration.display()))?;
+        let (map, _) = decode(&read_capture(&dir, &p, &|| {})?, &p, &s)?;
+        let (map, filled) = if fill_holes > 0 { scan::decode::fill_holes(&map, fill_holes, 0.25, 1.0) } else { (map, 0) };
+        let range = scan::triangulate::triangulate_map(&map, &rig, &|| {}).with_context(|| format!("{} with {}", dir.display(), calibration.display()))?;
+        let cloud = range.cloud(&map.white, max_edge_px, false);
+        let (w, h) = (map.width, map.height);
+        let mut xyz = vec![f64::NAN; 3 * w * h];
+        let mut normals = vec![f64::NAN; 3 * w * h];
+        let mut gap = vec![f64::NAN; w * h];
+        for (k, &(x, y)) in cloud.pixel.iter().enumerate() {
+            let i = y as usize * w + x as usize;
+            xyz[3 * i..3 * i + 3].copy_from_slice(&cloud.points[k]);
+            normals[3 * i..3 * i + 3].copy_from_slice(&cloud.normals[k]);
+            gap[i] = cloud.ray_gap[k];
+        }
+        let sm = cloud.summary();
+        Ok((w, h, xyz, normals, gap, sm.points, sm.bbox_min, sm.bbox_max, sm.median_ray_gap, filled))
+    };
+    py.allow_threads(run).or_py()
+}

@@ -64,6 +64,7 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(graycode::gray_code_patterns_flat, m)?)?;
     m.add_function(wrap_pyfunction!(graycode::decode_capture_dir, m)?)?;
     m.add_function(wrap_pyfunction!(graycode::decode_frames_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(graycode::reconstruct_capture_dir, m)?)?;
     m.add_class::<scene::Scene>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
