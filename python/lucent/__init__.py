@@ -1568,7 +1568,10 @@ def decode_gray_code(capture, projector_size, step=1, black_threshold=40, white_
             if f.dtype != _np.uint8 or f.ndim != 2:
                 raise ValueError(f"capture: frame {i} is {f.dtype} of shape {f.shape}; expected (H, W) uint8 grey levels")
         h, w = frames[0].shape
-        out = _lucent.decode_frames_flat([_np.ascontiguousarray(f).tobytes() for f in frames], w, h, *args)
+        for i, f in enumerate(frames):
+            if f.shape != (h, w):
+                raise ValueError(f"capture: frame {i} is {f.shape[1]}×{f.shape[0]}, frame 0 {w}×{h}")
+        out = _lucent.decode_frames_flat(_np.stack(frames).ravel(), len(frames), w, h, *args)
     w, h, col, row, white, black, valid, refined_c, refined_r = out
     grid = lambda v: _np.asarray(v, dtype=_np.float32).reshape(h, w)
     return Result({"width": w, "height": h, "valid_pixels": valid, "valid_fraction": valid / (w * h),

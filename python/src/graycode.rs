@@ -2,6 +2,7 @@
 //! decoding of `lucent scan decode` (the `scan` crate's `graycode` and `decode`; docs/scanning.md).
 
 use crate::errors::{value, OrPy};
+use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use scan::decode::{decode, read_capture, Capture, DecodeMap, DecodeSettings, DecodeStats};
 use scan::graycode::PatternSet;
@@ -43,18 +44,32 @@ pub fn decode_capture_dir(py: Python<'_>, dir: std::path::PathBuf, projector: (u
     py.allow_threads(|| read_capture(&dir, &p, &|| {}).and_then(|c| decode(&c, &p, &s))).or_py().map(flat)
 }
 
-/// The same on frames in memory: flat 8-bit grey images of `width` × `height`, in capture order.
+/// The same on frames in memory: `count` 8-bit grey images of `width` × `height`, stacked
+/// (row-major, frame after frame), in capture order.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-pub fn decode_frames_flat(py: Python<'_>, frames: Vec<Vec<u8>>, width: usize, height: usize, projector: (u32, u32), step: u32, thresholds: (i32, i32), refine: bool, white_black_first: bool) -> PyResult<FlatMap> {
+pub fn decode_frames_flat(
+    py: Python<'_>,
+    stack: PyReadonlyArray1<'_, u8>,
+    count: usize,
+    width: usize,
+    height: usize,
+    projector: (u32, u32),
+    step: u32,
+    thresholds: (i32, i32),
+    refine: bool,
+    white_black_first: bool,
+) -> PyResult<FlatMap> {
     let p = patterns(projector, step)?;
     let s = settings(thresholds, refine, white_black_first)?;
-    if frames.len() != p.len() {
-        return Err(value(format!("frames: {} images, but the {}x{} step-{step} sequence has {}", frames.len(), projector.0, projector.1, p.len())));
+    if count != p.len() {
+        return Err(value(format!("frames: {count} images, but the {}x{} step-{step} sequence has {}", projector.0, projector.1, p.len())));
     }
-    if let Some(i) = frames.iter().position(|f| f.len() != width * height) {
-        return Err(value(format!("frames: image {i} has {} pixels, image 0 {width}×{height}", frames[i].len())));
+    let stack = stack.as_slice()?;
+    if width == 0 || height == 0 || stack.len() != count * width * height {
+        return Err(value(format!("frames: {} levels for {count} images of {width}×{height}", stack.len())));
     }
+    let frames = stack.chunks_exact(width * height).map(<[u8]>::to_vec).collect();
     let capture = Capture { width, height, frames };
     py.allow_threads(|| decode(&capture, &p, &s)).or_py().map(flat)
 }

@@ -81,7 +81,7 @@ def test_bad_captures_are_refused_on_one_line(tmp_path):
         lucent.decode_gray_code(frames[:-1], (40, 24))
     with pytest.raises(ValueError, match="frame 3"):
         lucent.decode_gray_code(frames[:3] + [frames[3].astype(np.float32)] + frames[4:], (40, 24))
-    with pytest.raises(ValueError, match="image 5"):
+    with pytest.raises(ValueError, match="frame 5 is 20×24"):
         lucent.decode_gray_code(frames[:5] + [frames[5][:, :20].copy()] + frames[6:], (40, 24))
     with pytest.raises(ValueError, match="white_black"):
         lucent.decode_gray_code(frames, (40, 24), white_black="middle")
