@@ -9,17 +9,9 @@ import pytest
 
 import lucent
 from conftest import ROOT, cli
+from test_render import read_pfm
 
 CAPTURE = ROOT.parent / "shared" / "data" / "structured-light" / "procam-sample" / "capture_0"
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        kind = f.readline().strip()
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        a = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
-    return a.reshape(h, w, 3 if kind == b"PF" else 1)[::-1]
 
 
 def test_patterns_are_the_gray_code_and_decode_to_every_projector_pixel():
