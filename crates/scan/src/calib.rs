@@ -602,13 +602,25 @@ fn capture_corners_sized(dir: &std::path::Path, rig: &Rig, opts: &CalibrateOptio
     use anyhow::bail;
     let name = dir.display().to_string();
     let patterns = crate::graycode::PatternSet::new(rig.projector.0, rig.projector.1, opts.step)?;
-    let (map, _) = crate::decode::decode_dir(dir, &patterns, &opts.decode, progress)?;
+    let capture = crate::decode::read_capture(dir, &patterns, progress)?;
+    // A capture whose frames seem to be in the other order: a failure below says so.
+    let order = capture.order_warning(opts.decode.white_black_first);
+    let (map, _) = crate::decode::decode(&capture, &patterns, &opts.decode)?;
+    drop(capture);
     if (map.width as u32, map.height as u32) != rig.camera && rig.camera != (0, 0) {
         bail!("{name}: camera images are {}x{}, the other captures {}x{}", map.width, map.height, rig.camera.0, rig.camera.1);
     }
-    let img = chessboard::GrayImage { width: map.width, height: map.height, data: map.white.clone() };
-    let cam = chessboard::find_chessboard_named(&img, rig.cols, rig.rows, &name)?;
-    let proj = procam::projector_corners(&map, &cam, &opts.local, &name)?;
+    let corners = || -> anyhow::Result<_> {
+        let img = chessboard::GrayImage { width: map.width, height: map.height, data: map.white.clone() };
+        let cam = chessboard::find_chessboard_named(&img, rig.cols, rig.rows, &name)?;
+        let proj = procam::projector_corners(&map, &cam, &opts.local, &name)?;
+        Ok((cam, proj))
+    };
+    let (cam, proj) = match (corners(), order) {
+        (Ok(c), _) => c,
+        (Err(e), Some(w)) => return Err(e.context(format!("{name}: {w}"))),
+        (Err(e), None) => return Err(e),
+    };
     Ok((CaptureCorners { name, cam, proj }, (map.width as u32, map.height as u32)))
 }
 

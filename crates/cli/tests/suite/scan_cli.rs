@@ -81,6 +81,40 @@ fn decode_white_and_black_first() {
     assert!(err.contains("warning") && err.contains("--white-black first"), "{err}");
 }
 
+/// The three shared captures with their white and black frames moved first (symbolic links):
+/// `scan calibrate` without `--white-black first` fails on one line that names the flag, and
+/// with it gives the calibration of the captures in their own order.
+#[test]
+fn calibrate_names_the_frame_order_when_it_fails() {
+    let s = Scratch::new("scan-calib-order");
+    let mut moved = Vec::new();
+    for c in 0..3 {
+        let dir = s.path(&format!("capture_{c}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        for i in 0..42 {
+            let from = sample_capture(c).join(format!("graycode_{i:02}.png")).canonicalize().unwrap();
+            std::os::unix::fs::symlink(from, dir.join(format!("graycode_{:02}.png", (i + 2) % 42))).unwrap();
+        }
+        moved.push(dir.display().to_string());
+    }
+    let originals: Vec<String> = (0..3).map(|c| sample_capture(c).display().to_string()).collect();
+    let tail = ["--projector", "1024x768", "--corners", "9x7", "--square", "75", "--fix-k3"];
+    let args = |caps: &[String], extra: &[&'static str]| -> Vec<String> {
+        let mut v: Vec<String> = ["scan", "calibrate"].iter().map(|a| a.to_string()).collect();
+        v.extend(caps.iter().cloned());
+        v.extend(tail.iter().chain(extra).map(|a| a.to_string()));
+        v
+    };
+    let a = args(&moved, &[]);
+    let e = fails_on_one_line(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(e.contains("the frames may be in another order") && e.contains("--white-black first"), "{e}");
+    let want = ok_json(&args(&originals, &["--json"]).iter().map(String::as_str).collect::<Vec<_>>());
+    let got = ok_json(&args(&moved, &["--white-black", "first", "--json"]).iter().map(String::as_str).collect::<Vec<_>>());
+    for key in ["camera", "projector", "rotation", "translation", "rms_px"] {
+        assert_eq!(got[key], want[key], "{key}");
+    }
+}
+
 #[test]
 fn scan_bad_input_fails_on_one_line_without_output() {
     let s = Scratch::new("scan-bad");
