@@ -562,12 +562,21 @@ fn square_level(img: &GrayImage, c: Point2, a: Point2, d: Point2) -> Option<f64>
 /// that every value an iterate within 2 `half` of its start reads equals the whole image's
 /// (`corner_subpix_in_crops_is_exact`).
 pub fn corner_subpix(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
+    corner_subpix_blurred(img, corners, half, iterations, eps, 1.0);
+}
+
+/// [`corner_subpix`] on the image blurred by a Gaussian of `sigma` pixels (0: the image as it
+/// is, as OpenCV's `cornerSubPix` reads it). Where other edges lie within a few pixels of the
+/// corner (the markers of a ChArUco board with small squares), the blur would carry them into
+/// the window.
+pub fn corner_subpix_blurred(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, sigma: f64) {
+    let smooth = |g: &GrayImage| if sigma > 0.0 { g.blur(sigma) } else { g.clone() };
     // Reads reach 2·half (the iterate) + half (the window) + 1 (bilinear) + 1 (central difference)
     // + 3 (the blur's support) + 1 (rounding of the crop's centre) from a corner's start.
-    let margin = 3 * half + 6;
+    let margin = 3 * half + 3 + 3 * (sigma.ceil() as usize).max(1);
     let side = 2 * margin + 1;
     if corners.len() * side * side >= img.width * img.height {
-        corner_subpix_inner(&img.blur(1.0), corners, half, iterations, eps);
+        corner_subpix_inner(&smooth(img), corners, half, iterations, eps);
         return;
     }
     for c in corners.iter_mut() {
@@ -577,7 +586,7 @@ pub fn corner_subpix(img: &GrayImage, corners: &mut [Point2], half: usize, itera
         let (x0, y0) = (c[0].round() as isize - margin as isize, c[1].round() as isize - margin as isize);
         let crop = img.crop_clamped(x0, y0, side, side);
         let mut local = [[c[0] - x0 as f64, c[1] - y0 as f64]];
-        corner_subpix_inner(&crop.blur(1.0), &mut local, half, iterations, eps);
+        corner_subpix_inner(&smooth(&crop), &mut local, half, iterations, eps);
         *c = [local[0][0] + x0 as f64, local[0][1] + y0 as f64];
     }
 }

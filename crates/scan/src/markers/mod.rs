@@ -11,8 +11,11 @@
 //! - [`register`]: Umeyama's closed form and RANSAC over correspondence triples.
 //! - [`synth`]: a sphere carrying markers rendered by lucent through two calibrated cameras.
 //!
+//! - [`aruco`]: square ArUco markers and ChArUco boards (OpenCV's dictionaries and detector).
+//!
 //! Pixels follow OpenCV's convention (integer coordinates at pixel centres, x right, y down).
 
+pub mod aruco;
 pub mod blobs;
 pub mod detect;
 pub mod ellipse;

@@ -1,0 +1,350 @@
+//! ChArUco boards (OpenCV's `CharucoBoard` and `CharucoDetector`): a chessboard whose light
+//! squares carry ArUco markers, so that a partly visible or partly occluded board still gives
+//! identified chessboard corners.
+//!
+//! The layout is OpenCV's (4.6 and later): `squares_x` × `squares_y` squares of side
+//! `square_length`, the top-left square dark, markers of side `marker_length` centred in the
+//! light squares, numbered row by row from the top left with ids 0, 1, 2, … (or `ids`). With
+//! `legacy` (OpenCV's `setLegacyPattern(true)`, the layout of OpenCV before 4.6) a board with an
+//! even number of rows has its top-left square light instead. Board coordinates: x right, y
+//! down, z = 0, in the unit of the lengths; chessboard corner k = j·(squares_x − 1) + i lies at
+//! ((i + 1)·square, (j + 1)·square).
+//!
+//! Corners are found as OpenCV finds them without a camera model: every chessboard corner whose
+//! two neighbouring markers are both found (OpenCV's `minMarkers` = 2) is predicted by each
+//! marker's homography (board → image, from the corners of lines fitted to the marker's sides)
+//! and placed at the mean of the predictions, then refined as OpenCV's `cornerSubPix` refines
+//! it, on the image as it is ([`crate::calib::chessboard::corner_subpix_blurred`] with no blur:
+//! with small squares a blur would carry the markers' edges into the window), in the largest
+//! window that holds no marker.
+
+use super::detect::{detect_markers, ArucoMarker, ArucoSettings};
+use super::dictionary::Dictionary;
+use crate::calib::chessboard::{corner_subpix_blurred, GrayImage};
+use crate::calib::homography::{apply, fit_homography, Point2};
+use anyhow::{bail, Result};
+
+/// A ChArUco board.
+#[derive(Clone, Debug)]
+pub struct CharucoBoard {
+    pub squares_x: usize,
+    pub squares_y: usize,
+    pub square_length: f64,
+    pub marker_length: f64,
+    pub dictionary: Dictionary,
+    /// The markers' ids in board order.
+    pub ids: Vec<usize>,
+    pub legacy: bool,
+}
+
+/// Corners found on one photograph: chessboard corner ids with their pixels, and the markers.
+#[derive(Clone, Debug)]
+pub struct CharucoDetection {
+    pub corners: Vec<(usize, Point2)>,
+    pub markers: Vec<ArucoMarker>,
+}
+
+impl CharucoBoard {
+    /// A board with OpenCV's default ids (0, 1, 2, …).
+    pub fn new(squares_x: usize, squares_y: usize, square_length: f64, marker_length: f64, dictionary: Dictionary, legacy: bool) -> Result<CharucoBoard> {
+        if squares_x < 2 || squares_y < 2 {
+            bail!("a ChArUco board needs at least 2 × 2 squares, got {squares_x} × {squares_y}");
+        }
+        if !(square_length > 0.0 && square_length.is_finite()) {
+            bail!("the square length must be positive, got {square_length}");
+        }
+        if !(marker_length > 0.0 && marker_length < square_length) {
+            bail!("the marker length must be positive and below the square length ({square_length}), got {marker_length}");
+        }
+        let mut b = CharucoBoard { squares_x, squares_y, square_length, marker_length, dictionary, ids: vec![], legacy };
+        let n = b.marker_squares().len();
+        if n > b.dictionary.codes.len() {
+            bail!("{} squares × {} need {n} markers; {} has {}", squares_x, squares_y, b.dictionary.name, b.dictionary.codes.len());
+        }
+        b.ids = (0..n).collect();
+        Ok(b)
+    }
+
+    /// Whether square (x, y) carries a marker.
+    fn has_marker(&self, x: usize, y: usize) -> bool {
+        if self.legacy && self.squares_y % 2 == 0 {
+            (x + y) % 2 == 0
+        } else {
+            (x + y) % 2 == 1
+        }
+    }
+
+    /// The squares (x, y) that carry markers, in board order.
+    pub fn marker_squares(&self) -> Vec<(usize, usize)> {
+        let mut v = Vec::new();
+        for y in 0..self.squares_y {
+            for x in 0..self.squares_x {
+                if self.has_marker(x, y) {
+                    v.push((x, y));
+                }
+            }
+        }
+        v
+    }
+
+    /// Marker k's corners on the board (top left, top right, bottom right, bottom left).
+    pub fn marker_corners(&self, k: usize) -> [Point2; 4] {
+        let (x, y) = self.marker_squares()[k];
+        let m = (self.square_length - self.marker_length) / 2.0;
+        let (x0, y0) = (x as f64 * self.square_length + m, y as f64 * self.square_length + m);
+        let l = self.marker_length;
+        [[x0, y0], [x0 + l, y0], [x0 + l, y0 + l], [x0, y0 + l]]
+    }
+
+    /// The chessboard corners on the board, by id.
+    pub fn chessboard_corners(&self) -> Vec<Point2> {
+        let s = self.square_length;
+        let mut v = Vec::new();
+        for j in 0..self.squares_y - 1 {
+            for i in 0..self.squares_x - 1 {
+                v.push([(i + 1) as f64 * s, (j + 1) as f64 * s]);
+            }
+        }
+        v
+    }
+
+    /// For each chessboard corner, the indices (board order) of the markers in the squares that
+    /// touch it.
+    pub fn corner_markers(&self) -> Vec<Vec<usize>> {
+        let squares = self.marker_squares();
+        let index = |x: usize, y: usize| squares.iter().position(|&q| q == (x, y));
+        let mut v = Vec::new();
+        for j in 0..self.squares_y - 1 {
+            for i in 0..self.squares_x - 1 {
+                v.push([(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)].iter().filter_map(|&(x, y)| index(x, y)).collect());
+            }
+        }
+        v
+    }
+
+    /// The board's chessboard corners in `img`, with the markers found.
+    pub fn detect(&self, img: &GrayImage, settings: &ArucoSettings) -> CharucoDetection {
+        let found = detect_markers(img, &self.dictionary, settings);
+        // Board index of each marker found (a marker id found twice is ambiguous: left out).
+        let mut at: Vec<Option<usize>> = vec![None; self.ids.len()];
+        let mut markers = Vec::new();
+        for m in &found {
+            let Some(k) = self.ids.iter().position(|&id| id == m.id) else { continue };
+            if found.iter().filter(|o| o.id == m.id).count() > 1 {
+                continue;
+            }
+            at[k] = Some(markers.len());
+            markers.push(m.clone());
+        }
+        let homographies: Vec<Option<_>> = (0..self.ids.len())
+            .map(|k| at[k].and_then(|i| fit_homography(&self.marker_corners(k), &markers[i].line_corners.unwrap_or(markers[i].corners))))
+            .collect();
+        let board = self.chessboard_corners();
+        let mut corners = Vec::new();
+        for (c, near) in self.corner_markers().iter().enumerate() {
+            if near.len() < 2 || near.iter().any(|&k| homographies[k].is_none()) {
+                continue;
+            }
+            let mut p = [0.0, 0.0];
+            for &k in near {
+                let q = apply(homographies[k].as_ref().unwrap(), board[c]);
+                p[0] += q[0] / near.len() as f64;
+                p[1] += q[1] / near.len() as f64;
+            }
+            // The refinement window stays clear of the neighbouring markers' corners.
+            let clear = near
+                .iter()
+                .flat_map(|&k| { let m = &markers[at[k].unwrap()]; m.line_corners.unwrap_or(m.corners) })
+                .map(|q| ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt())
+                .fold(f64::INFINITY, f64::min);
+            // The largest window [−h, h]² that holds no marker: a marker whose nearest corner lies
+            // `clear` away on the diagonal enters it for h > clear/√2.
+            let half = ((clear * std::f64::consts::FRAC_1_SQRT_2).floor() as usize).clamp(2, 15);
+            if !(p[0] >= half as f64 && p[1] >= half as f64 && p[0] < (img.width - half) as f64 && p[1] < (img.height - half) as f64) {
+                continue;
+            }
+            let mut one = [p];
+            corner_subpix_blurred(img, &mut one, half, 100, 0.01, 0.0);
+            if one[0][0].is_finite() && one[0][1].is_finite() && (one[0][0] - p[0]).hypot(one[0][1] - p[1]) <= half as f64 {
+                corners.push((c, one[0]));
+            }
+        }
+        CharucoDetection { corners, markers }
+    }
+
+    /// All chessboard corners of a detection, NaN where not found (the form the calibrations
+    /// take for partial views).
+    pub fn full_view(&self, d: &CharucoDetection) -> Vec<Point2> {
+        let mut v = vec![[f64::NAN, f64::NAN]; (self.squares_x - 1) * (self.squares_y - 1)];
+        for &(id, p) in &d.corners {
+            v[id] = p;
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The board's grey level (30 dark, 220 light) at board point (x, y); light paper around it.
+    fn board_level(b: &CharucoBoard, x: f64, y: f64) -> f32 {
+        let s = b.square_length;
+        if x < 0.0 || y < 0.0 || x >= b.squares_x as f64 * s || y >= b.squares_y as f64 * s {
+            return 220.0;
+        }
+        let (sx, sy) = ((x / s) as usize, (y / s) as usize);
+        if !b.has_marker(sx, sy) {
+            return 30.0;
+        }
+        let k = b.marker_squares().iter().position(|&q| q == (sx, sy)).unwrap();
+        let c = b.marker_corners(k)[0];
+        let n = b.dictionary.size;
+        let cell = b.marker_length / (n + 2) as f64;
+        let (u, v) = ((x - c[0]) / cell, (y - c[1]) / cell);
+        if u < 0.0 || v < 0.0 || u >= (n + 2) as f64 || v >= (n + 2) as f64 {
+            return 220.0;
+        }
+        let (cu, cv) = (u as usize, v as usize);
+        if cu == 0 || cv == 0 || cu == n + 1 || cv == n + 1 {
+            return 30.0;
+        }
+        if b.dictionary.cells(b.ids[k])[(cv - 1) * n + cu - 1] { 220.0 } else { 30.0 }
+    }
+
+    /// The board seen through the homography `h` (board → pixels), 4 × 4 samples per pixel.
+    fn render(b: &CharucoBoard, h: &nalgebra::Matrix3<f64>, w: usize, ht: usize) -> GrayImage {
+        let inv = h.try_inverse().unwrap();
+        let mut data = vec![0f32; w * ht];
+        for y in 0..ht {
+            for x in 0..w {
+                let mut acc = 0.0;
+                for i in 0..4 {
+                    for j in 0..4 {
+                        let p = apply(&inv, [x as f64 - 0.375 + 0.25 * j as f64, y as f64 - 0.375 + 0.25 * i as f64]);
+                        acc += board_level(b, p[0], p[1]);
+                    }
+                }
+                data[y * w + x] = acc / 16.0;
+            }
+        }
+        GrayImage { width: w, height: ht, data }
+    }
+
+    fn board(legacy: bool) -> CharucoBoard {
+        board_with(legacy, 30.0)
+    }
+
+    fn board_with(legacy: bool, marker: f64) -> CharucoBoard {
+        CharucoBoard::new(7, 5, 40.0, marker, Dictionary::predefined("DICT_4X4_50").unwrap(), legacy).unwrap()
+    }
+
+    /// A homography from the board to a 640 × 480 image: scale, turn by `angle`, tilt.
+    fn view(angle: f64, tilt: f64) -> nalgebra::Matrix3<f64> {
+        let (c, s) = (angle.cos(), angle.sin());
+        let k = 1.5;
+        nalgebra::Matrix3::new(k * c, -k * s, 320.0, k * s, k * c, 240.0, tilt, 0.3 * tilt, 1.0)
+            * nalgebra::Matrix3::new(1.0, 0.0, -140.0, 0.0, 1.0, -100.0, 0.0, 0.0, 1.0)
+    }
+
+    #[test]
+    fn layout_is_opencvs() {
+        // cv2.aruco.CharucoBoard((5, 6), 1, 0.5, DICT_4X4_50).getObjPoints(): the first markers
+        // sit in squares (1, 0), (3, 0), (0, 1), (2, 1); with setLegacyPattern(True) in (0, 0),
+        // (2, 0), (4, 0), (1, 1); an odd row count keeps the new layout.
+        let d = Dictionary::predefined("DICT_4X4_50").unwrap();
+        let new = CharucoBoard::new(5, 6, 1.0, 0.5, d.clone(), false).unwrap();
+        assert_eq!(new.marker_squares()[..4], [(1, 0), (3, 0), (0, 1), (2, 1)]);
+        assert_eq!(new.marker_corners(0), [[1.25, 0.25], [1.75, 0.25], [1.75, 0.75], [1.25, 0.75]]);
+        let legacy = CharucoBoard::new(5, 6, 1.0, 0.5, d.clone(), true).unwrap();
+        assert_eq!(legacy.marker_squares()[..4], [(0, 0), (2, 0), (4, 0), (1, 1)]);
+        let odd = CharucoBoard::new(5, 7, 1.0, 0.5, d.clone(), true).unwrap();
+        assert_eq!(odd.marker_squares()[..4], [(1, 0), (3, 0), (0, 1), (2, 1)]);
+        assert_eq!(new.chessboard_corners()[..2], [[1.0, 1.0], [2.0, 1.0]]);
+        assert_eq!(new.chessboard_corners().len(), 4 * 5);
+        assert!(CharucoBoard::new(5, 6, 1.0, 1.2, d, false).is_err());
+    }
+
+    #[test]
+    fn markers_and_corners_of_a_rendered_board() {
+        // With markers of 0.75 of the square the refinement window reaches the markers' corners
+        // (the largest window without a marker inside), and their edges pull a corner by up to
+        // 0.25 px on these sharp renders; with markers of 0.5 of the square the window is clear
+        // (15 px) and the corners are within 0.1 px (the bilinear gradients of a sharp edge,
+        // unblurred as OpenCV reads them, are not quite isotropic).
+        for (legacy, angle, tilt, marker, tol) in [(false, 0.1, 0.0004, 30.0, 0.25), (false, 1.7, -0.0003, 30.0, 0.25), (true, 3.3, 0.0002, 30.0, 0.25), (false, -1.2, 0.0, 20.0, 0.1), (false, 0.5, 0.0003, 20.0, 0.1)] {
+            let b = board_with(legacy, marker);
+            let h = view(angle, tilt);
+            let img = render(&b, &h, 640, 480);
+            let d = b.detect(&img, &ArucoSettings::default());
+            // Every marker, with its own id, corners in OpenCV's order: the polygon's within 1.5 px, the
+            // line fits (the seeds of the corner predictions; the threshold moves edges by up to
+            // a pixel) within 1 px.
+            assert_eq!(d.markers.len(), b.ids.len(), "legacy {legacy}, angle {angle}");
+            for m in &d.markers {
+                let k = b.ids.iter().position(|&i| i == m.id).unwrap();
+                let truth = b.marker_corners(k).map(|p| apply(&h, p));
+                for (c, t) in m.corners.iter().zip(&truth) {
+                    assert!((c[0] - t[0]).hypot(c[1] - t[1]) < 1.5, "marker {} corner {c:?} truth {t:?}", m.id);
+                }
+                for (c, t) in m.line_corners.unwrap().iter().zip(&truth) {
+                    assert!((c[0] - t[0]).hypot(c[1] - t[1]) < 1.0, "marker {} line corner {c:?} truth {t:?}", m.id);
+                }
+            }
+            // Every chessboard corner, within `tol` of the truth.
+            let board_pts = b.chessboard_corners();
+            assert_eq!(d.corners.len(), board_pts.len());
+            for &(id, p) in &d.corners {
+                let t = apply(&h, board_pts[id]);
+                assert!((p[0] - t[0]).hypot(p[1] - t[1]) < tol, "corner {id}: {p:?} truth {t:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_covered_board_gives_the_corners_of_its_visible_markers() {
+        let b = board(false);
+        let h = view(0.3, 0.0002);
+        let mut img = render(&b, &h, 640, 480);
+        // A grey card over the image's left third.
+        for y in 0..480 {
+            for x in 0..230 {
+                img.data[y * 640 + x] = 128.0;
+            }
+        }
+        let d = b.detect(&img, &ArucoSettings::default());
+        assert!(!d.markers.is_empty() && d.markers.len() < b.ids.len());
+        let board_pts = b.chessboard_corners();
+        let near = b.corner_markers();
+        assert!(d.corners.len() >= 4);
+        for &(id, p) in &d.corners {
+            let t = apply(&h, board_pts[id]);
+            assert!((p[0] - t[0]).hypot(p[1] - t[1]) < 0.25, "corner {id}: {p:?} truth {t:?}");
+            assert!(p[0] > 230.0);
+            // Both of its markers were found.
+            for &k in &near[id] {
+                assert!(d.markers.iter().any(|m| m.id == b.ids[k]));
+            }
+        }
+        let full = b.full_view(&d);
+        assert_eq!(full.iter().filter(|p| p[0].is_finite()).count(), d.corners.len());
+    }
+
+    #[test]
+    fn no_markers_in_noise_or_a_plain_chessboard() {
+        let d = Dictionary::predefined("DICT_6X6_250").unwrap();
+        // A chessboard of 40-pixel squares and pseudo-random noise: no marker of a 6×6 dictionary.
+        let (w, h) = (320, 240);
+        let mut state = 12345u64;
+        let data = (0..w * h)
+            .map(|i| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let (x, y) = (i % w, i / w);
+                let base = if ((x / 40) + (y / 40)) % 2 == 0 { 40.0 } else { 210.0 };
+                base + ((state >> 33) % 30) as f32
+            })
+            .collect();
+        let img = GrayImage { width: w, height: h, data };
+        assert!(detect_markers(&img, &d, &ArucoSettings::default()).is_empty());
+    }
+}
