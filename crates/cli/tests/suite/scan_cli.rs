@@ -1105,3 +1105,49 @@ fn unusable_calibrations_and_outputs_are_refused_before_any_work() {
     assert!(e.contains("m.ply"), "{e}");
     assert_eq!(std::fs::read(s.path("keep.ply")).unwrap(), b"earlier");
 }
+
+/// `scan calibrate-camera --pattern charuco` on four 8-bit photographs of a 7 × 5 ChArUco board
+/// (DICT_4X4_50, OpenCV's layout) drawn through a known distortion-free pinhole camera, one of
+/// them half covered, fitted with k3 and the tangential terms held (four views of a small board
+/// leave the principal point loose against them): fx, fy within 0.2 % and the principal point
+/// within 1 px; the covered view counts with the corners it shows. A missing board flag is a
+/// one-line error naming it.
+#[test]
+fn calibrate_camera_from_charuco_boards() {
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+    use scan::markers::aruco::{CharucoBoard, Dictionary};
+    let s = Scratch::new("scan-calibrate-charuco");
+    let k = Matrix3::new(600.0, 0.0, 322.5, 0.0, 598.0, 236.0, 0.0, 0.0, 1.0);
+    let board = CharucoBoard::new(7, 5, 10.0, 5.0, Dictionary::predefined("DICT_4X4_50").unwrap(), false).unwrap();
+    let files: Vec<String> = (0..GRID_POSES.len()).map(|i| s.arg(&format!("charuco{i}.png"))).collect();
+    for (n, (f, (spin, tilt))) in files.iter().zip(GRID_POSES).enumerate() {
+        let rot = Rotation3::from_euler_angles(tilt.0, tilt.1, 0.0) * Rotation3::from_axis_angle(&Vector3::z_axis(), spin.to_radians());
+        let t = Vector3::new(0.0, 0.0, 180.0) - rot * Vector3::new(35.0, 25.0, 0.0);
+        let r = rot.matrix();
+        let h = k * Matrix3::from_columns(&[r.column(0).into_owned(), r.column(1).into_owned(), t]);
+        let mut img = board.render(&h, 640, 480);
+        if n == 1 {
+            for y in 0..480 {
+                for x in 0..300 {
+                    img.data[y * 640 + x] = 128.0;
+                }
+            }
+        }
+        let bytes: Vec<u8> = img.data.iter().map(|&v| v.round() as u8).collect();
+        image::GrayImage::from_raw(640, 480, bytes).unwrap().save(f).unwrap();
+    }
+    let mut args: Vec<&str> = vec!["scan", "calibrate-camera"];
+    args.extend(files.iter().map(|f| f.as_str()));
+    args.extend(["--pattern", "charuco", "--squares", "7x5", "--square", "10", "--marker-length", "5", "--dictionary", "DICT_4X4_50", "--zero-tangent", "--fix-k3", "--json"]);
+    let v = ok_json(&args);
+    let f = |x: &serde_json::Value| x.as_f64().unwrap();
+    assert!((f(&v["fx"]) / 600.0 - 1.0).abs() < 2e-3 && (f(&v["fy"]) / 598.0 - 1.0).abs() < 2e-3, "fx {} fy {}", v["fx"], v["fy"]);
+    assert!((f(&v["cx"]) - 322.5).abs() < 1.0 && (f(&v["cy"]) - 236.0).abs() < 1.0, "cx {} cy {}", v["cx"], v["cy"]);
+    assert_eq!(v["views"].as_array().unwrap().len(), 4);
+    assert!(f(&v["rms_px"]) < 0.15, "RMS {}", v["rms_px"]);
+    let mut bad: Vec<&str> = vec!["scan", "calibrate-camera"];
+    bad.extend(files.iter().map(|f| f.as_str()));
+    bad.extend(["--pattern", "charuco", "--squares", "7x5", "--square", "10", "--dictionary", "DICT_4X4_50"]);
+    let e = fails_on_one_line(&bad);
+    assert!(e.contains("--marker-length"), "{e}");
+}

@@ -1,7 +1,9 @@
 //! `lucent scan calibrate-camera IMAGE… --corners CxR --square S [--pattern KIND] [--fix-k3]
+//! [--squares XxY --marker-length M --dictionary DICT [--legacy-pattern]]
 //! [--zero-tangent] [--rational] [--thin-prism] [--tilted] [--fisheye] [--out CAMERA.json]
 //! [--opencv-out CAMERA.yml] [--json]`: one camera from photographs of a chessboard or a circle
-//! grid, as OpenCV's `findChessboardCorners` + `cornerSubPix` (or `findCirclesGrid`) +
+//! grid, as OpenCV's `findChessboardCorners` + `cornerSubPix` (or `findCirclesGrid`, or a
+//! ChArUco board as `CharucoDetector::detectBoard`) +
 //! `calibrateCamera`, or `fisheye::calibrate` with `--fisheye` (scan::calib::camera,
 //! scan::calib::fisheye, scan::markers::grid; docs/scanning.md).
 
@@ -12,6 +14,7 @@ use scan::calib::camera::calibrate_camera_planar;
 use scan::calib::chessboard::{find_chessboard, GrayImage};
 use scan::calib::fisheye::{calibrate_fisheye_camera, FisheyeHold};
 use scan::calib::zhang::board_points;
+use scan::markers::aruco::{ArucoSettings, CharucoBoard, Dictionary};
 use scan::markers::grid::{find_circles_grid, grid_points, GridKind};
 
 use super::calibrate::{check_outputs, parse_corners, write_outputs, LensFlags};
@@ -20,19 +23,46 @@ use super::calibrate::{check_outputs, parse_corners, write_outputs, LensFlags};
 #[derive(clap::Args, Debug)]
 pub struct TargetArgs {
     /// Pattern size COLSxROWS, as OpenCV's patternSize: the chessboard's inner corners per row
-    /// and rows, or a circle grid's discs per row and rows.
+    /// and rows, or a circle grid's discs per row and rows (not for `charuco`: see --squares).
     #[arg(long, value_name = "CxR", value_parser = parse_corners)]
-    pub corners: (u32, u32),
+    pub corners: Option<(u32, u32)>,
+    /// A ChArUco board's squares per row and rows, as OpenCV's CharucoBoard((X, Y), …).
+    #[arg(long, value_name = "XxY", value_parser = parse_squares)]
+    pub squares: Option<(u32, u32)>,
+    /// A ChArUco board's marker side, in the unit of --square.
+    #[arg(long, value_name = "M")]
+    pub marker_length: Option<f64>,
+    /// A ChArUco board's ArUco dictionary: OpenCV's name (DICT_4X4_50, DICT_5X5_1000,
+    /// DICT_6X6_250, DICT_ARUCO_ORIGINAL, …) or its cv2.aruco enum value.
+    #[arg(long, value_name = "DICT")]
+    pub dictionary: Option<String>,
+    /// The ChArUco layout of OpenCV before 4.6 (setLegacyPattern(true)): with an even number of
+    /// rows the top-left square is light and carries marker 0.
+    #[arg(long)]
+    pub legacy_pattern: bool,
     /// Square size; the board poses come out in this unit. For circle grids the spacing s of
     /// OpenCV's object points: neighbouring discs of a symmetric grid are s apart, those of one row
     /// of an asymmetric grid 2s.
     #[arg(long, value_name = "S")]
     pub square: f64,
-    /// The target: `chessboard`, `circles` (a symmetric circle grid) or `acircles` (an asymmetric
-    /// one, OpenCV's CALIB_CB_ASYMMETRIC_GRID: rows of discs 2s apart, every second row shifted by s).
-    #[arg(long, value_name = "KIND", default_value = "chessboard", value_parser = ["chessboard", "circles", "acircles"])]
+    /// The target: `chessboard`, `circles` (a symmetric circle grid), `acircles` (an asymmetric
+    /// one, OpenCV's CALIB_CB_ASYMMETRIC_GRID: rows of discs 2s apart, every second row shifted by
+    /// s) or `charuco` (a ChArUco board: --squares, --marker-length, --dictionary; photographs
+    /// may show part of it).
+    #[arg(long, value_name = "KIND", default_value = "chessboard", value_parser = ["chessboard", "circles", "acircles", "charuco"])]
     pub pattern: String,
 }
+
+fn parse_squares(s: &str) -> Result<(u32, u32), String> {
+    let (c, r) = super::parse_size(s).map_err(|_| format!("`{s}` is not a square count XxY (e.g. 7x5)"))?;
+    if c < 2 || r < 2 {
+        return Err(format!("a ChArUco board needs at least 2x2 squares, got {s}"));
+    }
+    Ok((c, r))
+}
+
+/// Fewest ChArUco corners for a view to count as found (a homography needs 4; 6 leave a check).
+const MIN_CHARUCO_CORNERS: usize = 6;
 
 /// Arguments of `lucent scan calibrate-camera`.
 #[derive(clap::Args, Debug)]
@@ -69,10 +99,12 @@ pub struct Args {
 type Found = (String, (usize, usize), Option<Vec<[f64; 2]>>);
 
 /// The calibration target of `--pattern` and `--corners`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct Target {
-    /// None: a chessboard.
+    /// None: a chessboard (or a ChArUco board).
     pub grid: Option<GridKind>,
+    /// A ChArUco board: its chessboard corners are the target's points.
+    pub charuco: Option<CharucoBoard>,
     pub cols: usize,
     pub rows: usize,
 }
@@ -88,11 +120,31 @@ impl Target {
             "acircles" => Some(GridKind::Asymmetric),
             _ => None,
         };
-        Ok(Target { grid, cols: a.corners.0 as usize, rows: a.corners.1 as usize })
+        if a.pattern == "charuco" {
+            let Some((sx, sy)) = a.squares else { bail!("--pattern charuco: --squares XxY is required (the board's squares per row and rows)") };
+            let Some(m) = a.marker_length else { bail!("--pattern charuco: --marker-length is required") };
+            let Some(d) = a.dictionary.as_deref() else { bail!("--pattern charuco: --dictionary is required (e.g. DICT_4X4_50)") };
+            if a.corners.is_some() {
+                bail!("--corners: not for --pattern charuco (its corners follow from --squares)");
+            }
+            let board = CharucoBoard::new(sx as usize, sy as usize, a.square, m, Dictionary::predefined(d).map_err(|e| anyhow::anyhow!("--dictionary: {e}"))?, a.legacy_pattern)
+                .map_err(|e| anyhow::anyhow!("--squares/--marker-length: {e}"))?;
+            return Ok(Target { grid: None, charuco: Some(board), cols: sx as usize - 1, rows: sy as usize - 1 });
+        }
+        for (set, flag) in [(a.squares.is_some(), "--squares"), (a.marker_length.is_some(), "--marker-length"), (a.dictionary.is_some(), "--dictionary"), (a.legacy_pattern, "--legacy-pattern")] {
+            if set {
+                bail!("{flag}: only for --pattern charuco");
+            }
+        }
+        let Some((cols, rows)) = a.corners else { bail!("--corners COLSxROWS is required for --pattern {}", a.pattern) };
+        Ok(Target { grid, charuco: None, cols: cols as usize, rows: rows as usize })
     }
 
     /// What the target is, for messages.
     pub fn what(&self) -> &'static str {
+        if self.charuco.is_some() {
+            return "ChArUco board";
+        }
         match self.grid {
             None => "chessboard",
             Some(GridKind::Symmetric) => "symmetric circle grid",
@@ -102,6 +154,9 @@ impl Target {
 
     /// Its points (z = 0) in the unit of `square`, in the order the finders return them.
     pub fn object_points(&self, square: f64) -> Vec<[f64; 2]> {
+        if let Some(b) = &self.charuco {
+            return b.chessboard_corners();
+        }
         match self.grid {
             None => board_points(self.cols, self.rows, square),
             Some(kind) => grid_points(kind, self.cols, self.rows, square),
@@ -116,6 +171,20 @@ impl Target {
             .map(|path| {
                 let name = path.display().to_string();
                 let img = GrayImage::load(path)?;
+                if let Some(b) = &self.charuco {
+                    // Partial views: the corners not found are NaN (the calibrations skip them).
+                    let d = b.detect(&img, &ArucoSettings::default());
+                    if d.corners.len() < MIN_CHARUCO_CORNERS && d.markers.len() >= 2 {
+                        // Markers but no corners: the other layout (OpenCV before or after 4.6)?
+                        let other = CharucoBoard { legacy: !b.legacy, ..b.clone() };
+                        if other.marker_squares() != b.marker_squares() && other.detect(&img, &ArucoSettings::default()).corners.len() >= MIN_CHARUCO_CORNERS {
+                            let flag = if b.legacy { "without --legacy-pattern" } else { "with --legacy-pattern" };
+                            anyhow::bail!("{name}: {} of the board's markers found, but its corners only {flag} (the ChArUco layout of OpenCV {})", d.markers.len(), if b.legacy { "4.6 and later" } else { "before 4.6" });
+                        }
+                    }
+                    let found = (d.corners.len() >= MIN_CHARUCO_CORNERS).then(|| b.full_view(&d));
+                    return Ok((name, (img.width, img.height), found));
+                }
                 let found = match self.grid {
                     None => find_chessboard(&img, self.cols, self.rows),
                     Some(kind) => {
@@ -133,6 +202,9 @@ impl Target {
     /// The error for a photograph in which the target is not found.
     pub fn missing(&self, name: &str) -> anyhow::Error {
         let (cols, rows) = (self.cols, self.rows);
+        if self.charuco.is_some() {
+            return anyhow::anyhow!("{name}: fewer than {MIN_CHARUCO_CORNERS} ChArUco corners found (--skip-missing leaves such images out)");
+        }
         match self.grid {
             None => anyhow::anyhow!("{name}: no {cols}×{rows} lattice of chessboard corners found (--skip-missing leaves such images out)"),
             Some(_) => anyhow::anyhow!("{name}: no {cols}×{rows} {} found (--skip-missing leaves such images out)", self.what()),
@@ -146,7 +218,6 @@ pub fn run(args: Args) -> Result<()> {
         args.lens.check_fisheye(args.opencv_out.is_some())?;
     }
     let opencv_yaml = check_outputs(args.out.as_deref(), args.opencv_out.as_deref())?;
-    let (cols, rows) = (target.cols, target.rows);
     // Sizes, skips and errors are taken in the order given.
     let mut size = None;
     let mut views = Vec::new();
@@ -161,7 +232,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         match corners {
             Some(c) => views.push((name, c)),
-            None if args.skip_missing => eprintln!("lucent: {name}: no {cols}×{rows} {} found; skipped", target.what()),
+            None if args.skip_missing => eprintln!("lucent: {}; skipped", target.missing(&name).to_string().split(" (--skip-missing").next().unwrap_or_default()),
             None => return Err(target.missing(&name)),
         }
     }

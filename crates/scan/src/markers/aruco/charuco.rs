@@ -12,8 +12,9 @@
 //!
 //! Corners are found as OpenCV finds them without a camera model: every chessboard corner whose
 //! two neighbouring markers are both found (OpenCV's `minMarkers` = 2) is predicted by each
-//! marker's homography (board → image, from the corners of lines fitted to the marker's sides)
-//! and placed at the mean of the predictions, then refined as OpenCV's `cornerSubPix` refines
+//! marker's homography (board → image, from the corners of lines fitted to the marker's sides);
+//! where the predictions agree within a tenth of a square the corner is placed at their mean,
+//! then refined as OpenCV's `cornerSubPix` refines
 //! it, on the image as it is ([`crate::calib::chessboard::corner_subpix_blurred`] with no blur:
 //! with small squares a blur would carry the markers' edges into the window), in the largest
 //! window that holds no marker.
@@ -145,11 +146,17 @@ impl CharucoBoard {
             if near.len() < 2 || near.iter().any(|&k| homographies[k].is_none()) {
                 continue;
             }
-            let mut p = [0.0, 0.0];
-            for &k in near {
-                let q = apply(homographies[k].as_ref().unwrap(), board[c]);
-                p[0] += q[0] / near.len() as f64;
-                p[1] += q[1] / near.len() as f64;
+            let preds: Vec<Point2> = near.iter().map(|&k| apply(homographies[k].as_ref().unwrap(), board[c])).collect();
+            let p = [preds.iter().map(|q| q[0]).sum::<f64>() / preds.len() as f64, preds.iter().map(|q| q[1]).sum::<f64>() / preds.len() as f64];
+            // The markers must agree on where the corner is (within a tenth of a square, measured
+            // along the first marker's side): markers of another layout or board do not.
+            let h0 = homographies[near[0]].as_ref().unwrap();
+            let step = {
+                let (a, b) = (apply(h0, board[c]), apply(h0, [board[c][0] + self.square_length, board[c][1]]));
+                (a[0] - b[0]).hypot(a[1] - b[1])
+            };
+            if preds.iter().any(|q| (q[0] - p[0]).hypot(q[1] - p[1]) > 0.1 * step) {
+                continue;
             }
             // The refinement window stays clear of the neighbouring markers' corners.
             let clear = near
@@ -181,26 +188,21 @@ impl CharucoBoard {
         }
         v
     }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
 
     /// The board's grey level (30 dark, 220 light) at board point (x, y); light paper around it.
-    fn board_level(b: &CharucoBoard, x: f64, y: f64) -> f32 {
-        let s = b.square_length;
-        if x < 0.0 || y < 0.0 || x >= b.squares_x as f64 * s || y >= b.squares_y as f64 * s {
+    fn level(&self, x: f64, y: f64, squares: &[(usize, usize)]) -> f32 {
+        let s = self.square_length;
+        if x < 0.0 || y < 0.0 || x >= self.squares_x as f64 * s || y >= self.squares_y as f64 * s {
             return 220.0;
         }
         let (sx, sy) = ((x / s) as usize, (y / s) as usize);
-        if !b.has_marker(sx, sy) {
+        if !self.has_marker(sx, sy) {
             return 30.0;
         }
-        let k = b.marker_squares().iter().position(|&q| q == (sx, sy)).unwrap();
-        let c = b.marker_corners(k)[0];
-        let n = b.dictionary.size;
-        let cell = b.marker_length / (n + 2) as f64;
+        let Some(k) = squares.iter().position(|&q| q == (sx, sy)) else { return 220.0 };
+        let c = self.marker_corners(k)[0];
+        let n = self.dictionary.size;
+        let cell = self.marker_length / (n + 2) as f64;
         let (u, v) = ((x - c[0]) / cell, (y - c[1]) / cell);
         if u < 0.0 || v < 0.0 || u >= (n + 2) as f64 || v >= (n + 2) as f64 {
             return 220.0;
@@ -209,27 +211,37 @@ mod tests {
         if cu == 0 || cv == 0 || cu == n + 1 || cv == n + 1 {
             return 30.0;
         }
-        if b.dictionary.cells(b.ids[k])[(cv - 1) * n + cu - 1] { 220.0 } else { 30.0 }
+        let code = self.dictionary.codes[self.ids[k]];
+        let bit = n * n - 1 - ((cv - 1) * n + cu - 1);
+        if (code >> bit) & 1 == 1 { 220.0 } else { 30.0 }
     }
 
-    /// The board seen through the homography `h` (board → pixels), 4 × 4 samples per pixel.
-    fn render(b: &CharucoBoard, h: &nalgebra::Matrix3<f64>, w: usize, ht: usize) -> GrayImage {
-        let inv = h.try_inverse().unwrap();
-        let mut data = vec![0f32; w * ht];
-        for y in 0..ht {
-            for x in 0..w {
+    /// The board seen through the homography `board_to_image` (board units → pixels) on light
+    /// paper, `width` × `height` pixels of grey levels 30 (dark) to 220 (light), each pixel the
+    /// mean of 4 × 4 samples (OpenCV's `generateImage` for a tilted view; tests and examples).
+    pub fn render(&self, board_to_image: &nalgebra::Matrix3<f64>, width: usize, height: usize) -> GrayImage {
+        let inv = board_to_image.try_inverse().unwrap_or_else(nalgebra::Matrix3::zeros);
+        let squares = self.marker_squares();
+        let mut data = vec![0f32; width * height];
+        for y in 0..height {
+            for x in 0..width {
                 let mut acc = 0.0;
                 for i in 0..4 {
                     for j in 0..4 {
                         let p = apply(&inv, [x as f64 - 0.375 + 0.25 * j as f64, y as f64 - 0.375 + 0.25 * i as f64]);
-                        acc += board_level(b, p[0], p[1]);
+                        acc += self.level(p[0], p[1], &squares);
                     }
                 }
-                data[y * w + x] = acc / 16.0;
+                data[y * width + x] = acc / 16.0;
             }
         }
-        GrayImage { width: w, height: ht, data }
+        GrayImage { width, height, data }
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
 
     fn board(legacy: bool) -> CharucoBoard {
         board_with(legacy, 30.0)
@@ -275,7 +287,7 @@ mod tests {
         for (legacy, angle, tilt, marker, tol) in [(false, 0.1, 0.0004, 30.0, 0.25), (false, 1.7, -0.0003, 30.0, 0.25), (true, 3.3, 0.0002, 30.0, 0.25), (false, -1.2, 0.0, 20.0, 0.1), (false, 0.5, 0.0003, 20.0, 0.1)] {
             let b = board_with(legacy, marker);
             let h = view(angle, tilt);
-            let img = render(&b, &h, 640, 480);
+            let img = b.render(&h, 640, 480);
             let d = b.detect(&img, &ArucoSettings::default());
             // Every marker, with its own id, corners in OpenCV's order: the polygon's within 1.5 px, the
             // line fits (the seeds of the corner predictions; the threshold moves edges by up to
@@ -305,7 +317,7 @@ mod tests {
     fn a_covered_board_gives_the_corners_of_its_visible_markers() {
         let b = board(false);
         let h = view(0.3, 0.0002);
-        let mut img = render(&b, &h, 640, 480);
+        let mut img = b.render(&h, 640, 480);
         // A grey card over the image's left third.
         for y in 0..480 {
             for x in 0..230 {
