@@ -32,6 +32,8 @@ from ._lucent import Scene
 __version__ = _lucent.__version__
 
 __all__ = [
+    "detect_markers",
+    "CharucoBoard",
     "Result",
     "mie",
     "mie_sphere",
@@ -808,6 +810,103 @@ def find_chessboard_corners(image, pattern_size, corners=None, flags=CALIB_CB_AD
     return True, _np.asarray(c, dtype=_np.float32).reshape(-1, 1, 2)
 
 
+def _dictionary_name(dictionary):
+    """A predefined ArUco dictionary given by OpenCV's name (``"DICT_4X4_50"``) or enum value
+    (``cv2.aruco.DICT_4X4_50``, an int), as the name the extension takes."""
+    if isinstance(dictionary, str):
+        return dictionary
+    if isinstance(dictionary, (int, _np.integer)) and not isinstance(dictionary, bool):
+        return str(int(dictionary))
+    raise ValueError(f"dictionary: expected OpenCV's name (e.g. 'DICT_4X4_50') or its cv2.aruco.DICT_* value, got {dictionary!r}")
+
+
+def detect_markers(image, dictionary="DICT_4X4_50", refine=False):
+    """The ArUco markers of a predefined dictionary in a photograph, as
+    ``cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(d)).detectMarkers(image)`` finds
+    them with its default parameters (docs/scanning.md, "ChArUco boards").
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) uint8 array
+        Grey levels, or BGR as ``cv2.imread`` gives it.
+    dictionary : str or int
+        OpenCV's name (``"DICT_5X5_1000"``, ``"DICT_ARUCO_ORIGINAL"``, ``"DICT_APRILTAG_36h11"``)
+        or its ``cv2.aruco.DICT_*`` value.
+    refine : bool
+        Corners at the intersections of lines fitted to the marker's sides (sub-pixel) instead of
+        the polygon's vertices (OpenCV's default, ``CORNER_REFINE_NONE``).
+
+    Returns
+    -------
+    (corners, ids, rejected)
+        As OpenCV: ``corners`` a tuple of (1, 4, 2) float32 arrays (top-left, top-right,
+        bottom-right, bottom-left of each marker), ``ids`` an (N, 1) int32 array or None when no
+        marker is found, ``rejected`` an empty tuple (candidates are not reported).
+    """
+    grey, w, h = _grey_levels(image)
+    ids, flat = _lucent.detect_markers_flat(grey, w, h, _dictionary_name(dictionary), bool(refine))
+    if not ids:
+        return (), None, ()
+    c = _np.asarray(flat, dtype=_np.float32).reshape(-1, 1, 4, 2)
+    return tuple(c), _np.asarray(ids, dtype=_np.int32).reshape(-1, 1), ()
+
+
+class CharucoBoard:
+    """A ChArUco board, as ``cv2.aruco.CharucoBoard(size, square_length, marker_length,
+    dictionary)``: ``size`` = (squares per row, rows), the top-left square dark (OpenCV 4.6 and
+    later) or, with ``legacy=True`` (OpenCV's ``setLegacyPattern(True)``), light where the row
+    count is even. Board coordinates: x right, y down, z = 0, in the lengths' unit."""
+
+    def __init__(self, size, square_length, marker_length, dictionary, legacy=False):
+        self.size = _pair(size, "size", 2)
+        self.square_length = float(square_length)
+        self.marker_length = float(marker_length)
+        self.dictionary = _dictionary_name(dictionary)
+        self.legacy = bool(legacy)
+        corners, markers, ids = _lucent.charuco_board_flat(self.size, self.square_length, self.marker_length, self.dictionary, self.legacy)
+        self._corners = _np.asarray(corners, dtype=_np.float64).reshape(-1, 2)
+        self._markers = _np.asarray(markers, dtype=_np.float64).reshape(-1, 4, 2)
+        self._ids = _np.asarray(ids, dtype=_np.int32)
+
+    def getChessboardCorners(self):
+        """The chessboard corners (N, 3) float32, by id (OpenCV's name and layout)."""
+        return _np.column_stack([self._corners, _np.zeros(len(self._corners))]).astype(_np.float32)
+
+    def getObjPoints(self):
+        """Each marker's corners on the board, a tuple of (4, 3) float32 arrays in board order."""
+        return tuple(_np.column_stack([m, _np.zeros(4)]).astype(_np.float32) for m in self._markers)
+
+    def getIds(self):
+        """The markers' ids in board order, (N,) int32."""
+        return self._ids.copy()
+
+    def generateImage(self, out_size, margin_size=0):
+        """The board upright in an image of ``out_size`` = (width, height) pixels with at least
+        ``margin_size`` pixels of white around it (OpenCV's ``generateImage``): (H, W) uint8, dark
+        0 and light 255, each pixel the mean of 4 × 4 samples."""
+        w, h = _pair(out_size, "out_size", 8)
+        flat = _lucent.charuco_image_flat(self.size, self.square_length, self.marker_length, self.dictionary, self.legacy, w, h, int(margin_size))
+        return _np.frombuffer(bytes(flat), dtype=_np.uint8).reshape(h, w).copy()
+
+    def detect_board(self, image):
+        """The board's chessboard corners in a photograph, as ``cv2.aruco.CharucoDetector(board)
+        .detectBoard(image)``: ``(charuco_corners, charuco_ids, marker_corners, marker_ids)``,
+        the corners an (N, 1, 2) float32 array and their ids (N, 1) int32 (None when none is
+        found), the markers as :func:`detect_markers` gives them. A corner counts when both
+        neighbouring markers are found and agree on it; it is refined as ``cornerSubPix`` refines
+        it. The corners and ids go as they are into :func:`calibrate_camera` via
+        ``getChessboardCorners()[ids.ravel()]``."""
+        grey, w, h = _grey_levels(image)
+        cids, cflat, mids, mflat = _lucent.detect_charuco_flat(grey, w, h, self.size, self.square_length, self.marker_length, self.dictionary, self.legacy)
+        markers = tuple(_np.asarray(mflat, dtype=_np.float32).reshape(-1, 1, 4, 2)) if mids else ()
+        mid = _np.asarray(mids, dtype=_np.int32).reshape(-1, 1) if mids else None
+        if not cids:
+            return None, None, markers, mid
+        return _np.asarray(cflat, dtype=_np.float32).reshape(-1, 1, 2), _np.asarray(cids, dtype=_np.int32).reshape(-1, 1), markers, mid
+
+    detectBoard = detect_board
+
+
 #: The circle-grid layouts of :func:`find_circles_grid` (the values of ``cv2.CALIB_CB_*``), and
 #: OpenCV's clustering flag, accepted with either.
 CALIB_CB_SYMMETRIC_GRID = 1
@@ -951,11 +1050,30 @@ def _planar_target(object_points, image_points, name):
     if len(object_points) == 0:
         raise ValueError("object_points: no views")
     obj = [_np.asarray(o, dtype=float).reshape(-1, 3) for o in object_points]
-    if any(o.shape != obj[0].shape or not _np.array_equal(o, obj[0]) for o in obj):
-        raise ValueError("object_points: lucent calibrates from one planar target, the same points in every view")
-    if _np.any(obj[0][:, 2] != 0):
-        raise ValueError("object_points: the target must lie in the plane z = 0")
-    return obj[0][:, :2], [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
+    img = [_np.asarray(p, dtype=float).reshape(-1, 2) for p in image_points]
+    for k, (o, p) in enumerate(zip(obj, img)):
+        if _np.any(o[:, 2] != 0):
+            raise ValueError("object_points: the target must lie in the plane z = 0")
+        if len(o) != len(p):
+            raise ValueError(f"object_points and {name}: view {k} has {len(o)} and {len(p)} points")
+    if all(o.shape == obj[0].shape and _np.array_equal(o, obj[0]) for o in obj):
+        return obj[0][:, :2], img
+    # Views of different parts of one target (a ChArUco board's corners by id): the union of
+    # their points, each view's pixels NaN where it lacks a point (the fit leaves those out).
+    index = {}
+    for o in obj:
+        for q in map(tuple, o[:, :2]):
+            index.setdefault(q, len(index))
+    union = _np.array(list(index), dtype=float).reshape(-1, 2)
+    views = []
+    for k, (o, p) in enumerate(zip(obj, img)):
+        full = _np.full((len(union), 2), _np.nan)
+        at = [index[q] for q in map(tuple, o[:, :2])]
+        if len(set(at)) != len(at):
+            raise ValueError(f"object_points: view {k} repeats a point")
+        full[at] = p
+        views.append(full)
+    return union, views
 
 
 def _lens_flags(flags, guessed=False):

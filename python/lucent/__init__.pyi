@@ -93,6 +93,26 @@ def undistort_points(image_points: npt.ArrayLike, camera_matrix: npt.ArrayLike,
 def find_chessboard_corners(image: npt.ArrayLike, pattern_size: Tuple[int, int], corners: Optional[npt.NDArray[Any]] = None,
                             flags: int = ...) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) corners) of a chessboard in an 8-bit grey or BGR image (cv2.findChessboardCorners + cornerSubPix)."""
+def detect_markers(image: npt.ArrayLike, dictionary: Union[str, int] = "DICT_4X4_50", refine: bool = False
+                   ) -> Tuple[Tuple[npt.NDArray[np.float32], ...], Optional[npt.NDArray[np.int32]], Tuple[()]]:
+    """(corners, ids, rejected) of a predefined dictionary's ArUco markers (cv2.aruco.ArucoDetector.detectMarkers)."""
+class CharucoBoard:
+    """A ChArUco board (cv2.aruco.CharucoBoard; legacy=True is setLegacyPattern(True))."""
+    size: Tuple[int, int]
+    square_length: float
+    marker_length: float
+    dictionary: str
+    legacy: bool
+    def __init__(self, size: Tuple[int, int], square_length: float, marker_length: float, dictionary: Union[str, int],
+                 legacy: bool = False) -> None: ...
+    def getChessboardCorners(self) -> npt.NDArray[np.float32]: ...
+    def getObjPoints(self) -> Tuple[npt.NDArray[np.float32], ...]: ...
+    def getIds(self) -> npt.NDArray[np.int32]: ...
+    def generateImage(self, out_size: Tuple[int, int], margin_size: int = 0) -> npt.NDArray[np.uint8]: ...
+    def detect_board(self, image: npt.ArrayLike) -> Tuple[Optional[npt.NDArray[np.float32]], Optional[npt.NDArray[np.int32]],
+                                                         Tuple[npt.NDArray[np.float32], ...], Optional[npt.NDArray[np.int32]]]: ...
+    def detectBoard(self, image: npt.ArrayLike) -> Tuple[Optional[npt.NDArray[np.float32]], Optional[npt.NDArray[np.int32]],
+                                                        Tuple[npt.NDArray[np.float32], ...], Optional[npt.NDArray[np.int32]]]: ...
 def find_circles_grid(image: npt.ArrayLike, pattern_size: Tuple[int, int], centers: Union[None, int, npt.NDArray[Any]] = None,
                       flags: Optional[int] = None, blobDetector: None = None) -> Tuple[bool, Optional[npt.NDArray[np.float32]]]:
     """(found, (N, 1, 2) disc centres) of a symmetric or asymmetric circle grid in an 8-bit image (cv2.findCirclesGrid)."""

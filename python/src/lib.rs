@@ -7,6 +7,7 @@
 //! Errors: bad arguments raise `ValueError`, failures to read or write a file `OSError`, with the
 //! library's one-line message; nothing here panics on user input.
 
+mod aruco;
 mod calib;
 mod camera;
 mod compare;
@@ -38,6 +39,10 @@ fn _lucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(camera::project_points_flat, m)?)?;
     m.add_function(wrap_pyfunction!(camera::undistort_points_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::find_chessboard_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(aruco::detect_markers_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(aruco::charuco_board_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(aruco::detect_charuco_flat, m)?)?;
+    m.add_function(wrap_pyfunction!(aruco::charuco_image_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::find_circles_grid_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::stereo_calibrate_flat, m)?)?;
     m.add_function(wrap_pyfunction!(calib::undistort_flat, m)?)?;

@@ -1,0 +1,89 @@
+"""ArUco markers and ChArUco boards (lucent.detect_markers, lucent.CharucoBoard) against the
+boards' own geometry and, where OpenCV is installed, against cv2.aruco on the same images."""
+import numpy as np
+import pytest
+
+import lucent
+
+
+def _tilted(img, h):
+    """`img` (white paper) seen through the homography h (pixels → pixels), bilinear."""
+    H, W = img.shape
+    inv = np.linalg.inv(h)
+    ys, xs = np.mgrid[0:H, 0:W].astype(np.float64)
+    p = inv @ np.stack([xs.ravel(), ys.ravel(), np.ones(xs.size)])
+    u, v = p[0] / p[2], p[1] / p[2]
+    u0, v0 = np.floor(u).astype(int), np.floor(v).astype(int)
+    fu, fv = u - u0, v - v0
+    pad = np.pad(img.astype(np.float64), 1, constant_values=255.0)
+    def at(a, b):
+        return pad[np.clip(b + 1, 0, H + 1), np.clip(a + 1, 0, W + 1)]
+    out = (at(u0, v0) * (1 - fu) * (1 - fv) + at(u0 + 1, v0) * fu * (1 - fv) + at(u0, v0 + 1) * (1 - fu) * fv + at(u0 + 1, v0 + 1) * fu * fv)
+    return np.clip(np.round(out), 0, 255).astype(np.uint8).reshape(H, W)
+
+
+def test_board_layout_and_an_upright_image():
+    b = lucent.CharucoBoard((5, 7), 0.04, 0.02, "DICT_4X4_50")
+    # OpenCV's layout (cv2.aruco.CharucoBoard((5, 7), 0.04, 0.02, DICT_4X4_50).getObjPoints()[0]):
+    # marker 0 in square (1, 0), corners clockwise from its top left, y down.
+    np.testing.assert_allclose(b.getObjPoints()[0][:, :2], [[0.05, 0.01], [0.07, 0.01], [0.07, 0.03], [0.05, 0.03]], atol=1e-12)
+    np.testing.assert_allclose(b.getChessboardCorners()[:2], [[0.04, 0.04, 0], [0.08, 0.04, 0]], atol=1e-12)
+    assert len(b.getIds()) == 17 and len(b.getChessboardCorners()) == 24
+    img = b.generateImage((500, 700))
+    assert img.shape == (700, 500) and img[20, 20] == 0 and img[20, 120] == 255
+    corners, ids, markers, mids = b.detect_board(img)
+    assert len(mids) == 17 and sorted(mids.ravel()) == list(range(17))
+    # 100 px squares from the image's corner: corner k = (i, j) at (100 (i + 1) − 0.5, 100 (j + 1) − 0.5).
+    truth = (b.getChessboardCorners()[ids.ravel(), :2] / 0.04) * 100 - 0.5
+    assert len(ids) == 24
+    np.testing.assert_allclose(corners.reshape(-1, 2), truth, atol=0.05)
+
+
+def test_tilted_and_half_covered_board():
+    b = lucent.CharucoBoard((7, 5), 30.0, 18.0, "DICT_5X5_100", legacy=False)
+    flat = b.generateImage((700, 500), 0)
+    h = np.array([[0.8, 0.12, 60.0], [-0.1, 0.75, 80.0], [0.0002, -0.0001, 1.0]])
+    img = _tilted(flat, h)
+    corners, ids, _, mids = b.detect_board(img)
+    assert len(ids) == 24
+    scale = 100.0  # generateImage: 700 / 7 px per square
+    truth = b.getChessboardCorners()[ids.ravel(), :2] / 30.0 * scale - 0.5
+    t = np.column_stack([truth, np.ones(len(truth))]) @ h.T
+    np.testing.assert_allclose(corners.reshape(-1, 2), t[:, :2] / t[:, 2:], atol=0.15)
+    img[:, :300] = 128
+    c2, i2, _, m2 = b.detect_board(img)
+    assert 0 < len(i2) < 24 and set(i2.ravel()) <= set(ids.ravel())
+    assert (c2[:, 0, 0] > 300).all()
+    corners_m, ids_m, rejected = lucent.detect_markers(img, "DICT_5X5_100")
+    assert rejected == () and sorted(ids_m.ravel()) == sorted(m2.ravel())
+    with pytest.raises(ValueError, match="dictionary"):
+        lucent.detect_markers(img, "DICT_9X9_1")
+
+
+def test_against_opencv():
+    cv2 = pytest.importorskip("cv2")
+    A = cv2.aruco
+    d = A.getPredefinedDictionary(A.DICT_6X6_250)
+    cvb = A.CharucoBoard((8, 6), 0.03, 0.022, d)
+    lb = lucent.CharucoBoard((8, 6), 0.03, 0.022, A.DICT_6X6_250)
+    np.testing.assert_allclose(lb.getChessboardCorners(), cvb.getChessboardCorners(), atol=1e-7)
+    for a, o in zip(lb.getObjPoints(), cvb.getObjPoints()):
+        np.testing.assert_allclose(a, o, atol=1e-7)
+    # OpenCV's image of the board, tilted: the same markers and corners from both detectors.
+    img = _tilted(cvb.generateImage((800, 600), marginSize=20), np.array([[0.85, 0.1, 50.0], [-0.08, 0.8, 40.0], [0.00015, -0.0001, 1.0]]))
+    cc, ci, mc, mi = A.CharucoDetector(cvb).detectBoard(img)
+    lc, li, lmc, lmi = lb.detect_board(img)
+    assert sorted(lmi.ravel()) == sorted(mi.ravel())
+    cv_m = {int(i): c.reshape(4, 2) for c, i in zip(mc, mi.ravel())}
+    for c, i in zip(lmc, lmi.ravel()):
+        assert np.abs(c.reshape(4, 2) - cv_m[int(i)]).max() <= 1.0
+    assert set(li.ravel()) == set(ci.ravel())
+    cv_c = {int(i): p for i, p in zip(ci.ravel(), cc.reshape(-1, 2))}
+    dist = [np.hypot(*(p - cv_c[int(i)])) for i, p in zip(li.ravel(), lc.reshape(-1, 2))]
+    # Two estimates of the same corners (each finder's sub-pixel refinement): within 0.1 px at
+    # the median, 0.5 px everywhere.
+    assert np.median(dist) < 0.1 and max(dist) < 0.5, dist
+    # lucent's image, read by OpenCV.
+    limg = lb.generateImage((800, 600), 20)
+    cc2, ci2, _, mi2 = A.CharucoDetector(cvb).detectBoard(limg)
+    assert len(mi2) == len(lb.getIds()) and len(ci2) == len(lb.getChessboardCorners())
