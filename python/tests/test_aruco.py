@@ -87,3 +87,51 @@ def test_against_opencv():
     limg = lb.generateImage((800, 600), 20)
     cc2, ci2, _, mi2 = A.CharucoDetector(cvb).detectBoard(limg)
     assert len(mi2) == len(lb.getIds()) and len(ci2) == len(lb.getChessboardCorners())
+
+
+def _pose_homography(k, spin, tilt, dist, centre):
+    """Board units → pixels for a board turned by `spin` (deg) about its normal, tilted by `tilt`
+    (rad about x, y) and `dist` away, its point `centre` on the optical axis."""
+    def rot(axis, a):
+        c, s = np.cos(a), np.sin(a)
+        i, j = [(1, 2), (0, 2), (0, 1)][axis]
+        r = np.eye(3)
+        r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+        return r
+    r = rot(0, tilt[0]) @ rot(1, tilt[1]) @ rot(2, np.radians(spin))
+    t = np.array([0.0, 0.0, dist]) - r @ np.array([centre[0], centre[1], 0.0])
+    return k @ np.column_stack([r[:, 0], r[:, 1], t])
+
+
+def test_calibrate_camera_from_partial_charuco_views():
+    # Four views of a 9 × 6 board through a known distortion-free camera, two of them partly
+    # covered: lucent.calibrate_camera takes each view's own corners (the union of the board's
+    # points, NaN where a view lacks one) and recovers the camera.
+    b = lucent.CharucoBoard((9, 6), 20.0, 12.0, "DICT_4X4_250")
+    flat = b.generateImage((900, 600))  # 100 px per square: board units → image pixels
+    s = np.array([[5.0, 0, -0.5], [0, 5.0, -0.5], [0, 0, 1]])
+    k = np.array([[800.0, 0, 330.0], [0, 795.0, 245.0], [0, 0, 1]])
+    objs, imgs = [], []
+    for n, (spin, tilt) in enumerate([(5, (0.4, 0.0)), (95, (0.0, 0.45)), (185, (-0.4, 0.25)), (275, (0.3, -0.4)), (20, (-0.2, -0.3))]):
+        h = _pose_homography(k, spin, tilt, 320.0, (90.0, 60.0)) @ np.linalg.inv(s)
+        img = _tilted(flat, h)[:480, :640].copy()
+        if n in (1, 3):
+            img[:, :260] = 128
+        c, ids, _, _ = b.detect_board(img)
+        assert ids is not None and len(ids) >= 6
+        if n in (1, 3):
+            assert len(ids) < 40
+        objs.append(b.getChessboardCorners()[ids.ravel()])
+        imgs.append(c)
+    flags = lucent.CALIB_ZERO_TANGENT_DIST | lucent.CALIB_FIX_K3
+    rms, km, dist, rvecs, tvecs = lucent.calibrate_camera(objs, imgs, (640, 480), None, None, flags=flags)
+    assert rms < 0.2  # the bilinear warp of a 2× larger image aliases the edges
+    assert abs(km[0, 0] / 800 - 1) < 3e-3 and abs(km[1, 1] / 795 - 1) < 3e-3, km
+    assert abs(km[0, 2] - 330) < 1.5 and abs(km[1, 2] - 245) < 1.5, km
+    assert len(rvecs) == 5
+    try:
+        import cv2
+    except ImportError:
+        return
+    r2, k2, d2, _, _ = cv2.calibrateCamera([o.astype(np.float32) for o in objs], imgs, (640, 480), None, None, flags=flags)
+    assert abs(rms - r2) < 1e-3 and np.allclose(km, k2, rtol=1e-3), (rms, r2, km, k2)
