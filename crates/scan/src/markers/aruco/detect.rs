@@ -175,13 +175,19 @@ fn threshold(img: &GrayImage, integral: &[f64], win: usize, c: f32) -> Vec<bool>
     let (w, h) = (img.width, img.height);
     let r = win / 2;
     let mut out = vec![false; w * h];
+    let c = c as f64;
     for y in 0..h {
         let (y0, y1) = (y.saturating_sub(r), (y + r + 1).min(h));
+        let (top, bottom) = (&integral[y0 * (w + 1)..(y0 + 1) * (w + 1)], &integral[y1 * (w + 1)..(y1 + 1) * (w + 1)]);
+        let row = &img.data[y * w..(y + 1) * w];
+        let o = &mut out[y * w..(y + 1) * w];
+        let rows = (y1 - y0) as f64;
         for x in 0..w {
             let (x0, x1) = (x.saturating_sub(r), (x + r + 1).min(w));
-            let sum = integral[y1 * (w + 1) + x1] - integral[y0 * (w + 1) + x1] - integral[y1 * (w + 1) + x0] + integral[y0 * (w + 1) + x0];
-            let mean = sum / ((x1 - x0) * (y1 - y0)) as f64;
-            out[y * w + x] = (img.data[y * w + x] as f64) <= mean - c as f64;
+            let sum = bottom[x1] - top[x1] - bottom[x0] + top[x0];
+            // v ≤ sum/area − c, multiplied out: both sides are whole numbers for 8-bit images,
+            // so the test is exact.
+            o[x] = (row[x] as f64 + c) * ((x1 - x0) as f64 * rows) <= sum;
         }
     }
     out
@@ -194,35 +200,9 @@ const DIRS: [(i32, i32); 8] = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1
 fn quads_in(dark: &[bool], w: usize, h: usize, s: &ArucoSettings) -> Vec<Quad> {
     let big = w.max(h) as f64;
     let (min_len, max_len) = ((s.perimeter_rate.0 * big).max(4.0), s.perimeter_rate.1 * big);
-    let mut seen = vec![false; w * h];
     let mut out = Vec::new();
-    let mut stack = Vec::new();
-    for start in 0..w * h {
-        if !dark[start] || seen[start] {
-            continue;
-        }
-        // Mark the region (8-connected), keeping its bounding box.
-        let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);
-        seen[start] = true;
-        stack.push(start);
-        while let Some(i) = stack.pop() {
-            let (x, y) = (i % w, i / w);
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-            for (dx, dy) in DIRS {
-                let (nx, ny) = (x as i64 + dx as i64, y as i64 + dy as i64);
-                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                if dark[j] && !seen[j] {
-                    seen[j] = true;
-                    stack.push(j);
-                }
-            }
-        }
+    for region in regions(dark, w, h) {
+        let (start, (x0, x1, y0, y1)) = (region.start, region.bbox);
         // A quadrilateral's boundary is at least about twice its bounding box's diagonal… and at
         // most its box's perimeter plus the diagonal steps; skip regions that cannot qualify.
         let (bw, bh) = ((x1 - x0 + 1) as f64, (y1 - y0 + 1) as f64);
@@ -237,6 +217,83 @@ fn quads_in(dark: &[bool], w: usize, h: usize, s: &ArucoSettings) -> Vec<Quad> {
         }
         if let Some(q) = quad_of(&contour, w, h, s) {
             out.push(q);
+        }
+    }
+    out
+}
+
+/// An 8-connected region of dark pixels: its first pixel in raster order and its bounding box
+/// (x0, x1, y0, y1, inclusive).
+struct Region {
+    start: usize,
+    bbox: (usize, usize, usize, usize),
+}
+
+fn find_root(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        parent[i as usize] = parent[parent[i as usize] as usize];
+        i = parent[i as usize];
+    }
+    i
+}
+
+/// The 8-connected regions of dark pixels, from runs along the rows joined by union–find (a run
+/// joins those of the row above that overlap it or touch it diagonally), in the raster order of
+/// their first pixels.
+fn regions(dark: &[bool], w: usize, h: usize) -> Vec<Region> {
+    // Runs as (y, x0, x1 exclusive), row by row.
+    let mut runs: Vec<(u32, u32, u32)> = Vec::new();
+    let mut parent: Vec<u32> = Vec::new();
+    let mut prev = 0..0;
+    for y in 0..h {
+        let row = &dark[y * w..(y + 1) * w];
+        let first = runs.len();
+        let mut above = prev.start;
+        let mut x = 0;
+        while x < w {
+            if !row[x] {
+                x += 1;
+                continue;
+            }
+            let x0 = x;
+            while x < w && row[x] {
+                x += 1;
+            }
+            let id = runs.len() as u32;
+            runs.push((y as u32, x0 as u32, x as u32));
+            parent.push(id);
+            // Runs above with x1 > x0 − 1 and x0 < x + 1 touch this one (8-connectivity); both
+            // rows' runs are sorted, so those ending left of this one are passed for good.
+            while above < prev.end && (runs[above].2 as usize) + 1 <= x0 {
+                above += 1;
+            }
+            let mut k = above;
+            while k < prev.end && (runs[k].1 as usize) < x + 1 {
+                let (ra, rb) = (find_root(&mut parent, k as u32), find_root(&mut parent, id));
+                if ra != rb {
+                    // The smaller index (earlier in raster order) stays the root.
+                    let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                    parent[hi as usize] = lo;
+                }
+                k += 1;
+            }
+        }
+        prev = first..runs.len();
+    }
+    let mut slot = vec![u32::MAX; runs.len()];
+    let mut out: Vec<Region> = Vec::new();
+    for k in 0..runs.len() {
+        let r = find_root(&mut parent, k as u32) as usize;
+        let (y, x0, x1) = (runs[k].0 as usize, runs[k].1 as usize, runs[k].2 as usize - 1);
+        if slot[r] == u32::MAX {
+            // Roots are the earliest run of their region, so regions appear in raster order.
+            slot[r] = out.len() as u32;
+            out.push(Region { start: y * w + x0, bbox: (x0, x1, y, y) });
+        } else {
+            let b = &mut out[slot[r] as usize].bbox;
+            b.0 = b.0.min(x0);
+            b.1 = b.1.max(x1);
+            b.3 = b.3.max(y);
         }
     }
     out
@@ -518,4 +575,54 @@ fn refine_corners(q: &Quad) -> Option<[Point2; 4]> {
         out[k] = p;
     }
     Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The regions of a flood fill over the eight neighbours, in raster order of first pixels.
+    fn flood(dark: &[bool], w: usize, h: usize) -> Vec<(usize, (usize, usize, usize, usize))> {
+        let mut seen = vec![false; w * h];
+        let mut out = Vec::new();
+        for start in 0..w * h {
+            if !dark[start] || seen[start] {
+                continue;
+            }
+            let mut b = (start % w, start % w, start / w, start / w);
+            let mut stack = vec![start];
+            seen[start] = true;
+            while let Some(i) = stack.pop() {
+                let (x, y) = ((i % w) as i64, (i / w) as i64);
+                b = (b.0.min(x as usize), b.1.max(x as usize), b.2.min(y as usize), b.3.max(y as usize));
+                for (dx, dy) in DIRS {
+                    let (nx, ny) = (x + dx as i64, y + dy as i64);
+                    if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+                        let j = ny as usize * w + nx as usize;
+                        if dark[j] && !seen[j] {
+                            seen[j] = true;
+                            stack.push(j);
+                        }
+                    }
+                }
+            }
+            out.push((start, b));
+        }
+        out
+    }
+
+    #[test]
+    fn run_regions_equal_a_flood_fill() {
+        let mut state = 99u64;
+        for (w, h, density) in [(37, 23, 0.3), (64, 48, 0.5), (50, 50, 0.62), (1, 9, 0.5), (9, 1, 0.5)] {
+            let dark: Vec<bool> = (0..w * h)
+                .map(|_| {
+                    state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    ((state >> 33) as f64 / (1u64 << 31) as f64) < density
+                })
+                .collect();
+            let got: Vec<_> = regions(&dark, w, h).into_iter().map(|r| (r.start, r.bbox)).collect();
+            assert_eq!(got, flood(&dark, w, h), "{w}×{h} at {density}");
+        }
+    }
 }
