@@ -625,4 +625,29 @@ mod tests {
             assert_eq!(got, flood(&dark, w, h), "{w}×{h} at {density}");
         }
     }
+
+    #[test]
+    fn random_images_give_valid_markers_or_none() {
+        // Blocky random images of many sizes (the shapes a threshold turns into quadrilaterals,
+        // slivers and single pixels): no panic, and whatever is found is a valid marker.
+        let mut state = 7u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as usize
+        };
+        let dicts: Vec<Dictionary> = ["DICT_4X4_50", "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5"].iter().map(|n| Dictionary::predefined(n).unwrap()).collect();
+        for _ in 0..150 {
+            let (w, h) = (8 + next() % 90, 8 + next() % 90);
+            let block = 1 + next() % 9;
+            let data = (0..w * h).map(|i| if (next() ^ (i % w / block) ^ (i / w / block)) % 3 == 0 { 20.0 } else { 230.0 }).collect();
+            let img = GrayImage { width: w, height: h, data };
+            for d in &dicts {
+                for m in detect_markers(&img, d, &ArucoSettings { refine: next() % 2 == 0, ..Default::default() }) {
+                    assert!(m.id < d.codes.len());
+                    assert!(m.corners.iter().flatten().all(|v| v.is_finite()));
+                }
+            }
+        }
+        assert!(detect_markers(&GrayImage { width: 4, height: 100, data: vec![0.0; 400] }, &dicts[0], &ArucoSettings::default()).is_empty());
+    }
 }
