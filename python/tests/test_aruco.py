@@ -111,23 +111,31 @@ def test_calibrate_camera_from_partial_charuco_views():
     flat = b.generateImage((900, 600))  # 100 px per square: board units → image pixels
     s = np.array([[5.0, 0, -0.5], [0, 5.0, -0.5], [0, 0, 1]])
     k = np.array([[800.0, 0, 330.0], [0, 795.0, 245.0], [0, 0, 1]])
-    objs, imgs = [], []
+    objs, imgs, errors = [], [], []
     for n, (spin, tilt) in enumerate([(5, (0.4, 0.0)), (95, (0.0, 0.45)), (185, (-0.4, 0.25)), (275, (0.3, -0.4)), (20, (-0.2, -0.3))]):
-        h = _pose_homography(k, spin, tilt, 320.0, (90.0, 60.0)) @ np.linalg.inv(s)
-        img = _tilted(flat, h)[:480, :640].copy()
+        board_to_px = _pose_homography(k, spin, tilt, 320.0, (90.0, 60.0))
+        img = _tilted(flat, board_to_px @ np.linalg.inv(s))[:480, :640].copy()
         if n in (1, 3):
             img[:, :260] = 128
         c, ids, _, _ = b.detect_board(img)
         assert ids is not None and len(ids) >= 6
         if n in (1, 3):
             assert len(ids) < 40
-        objs.append(b.getChessboardCorners()[ids.ravel()])
+        o = b.getChessboardCorners()[ids.ravel()]
+        t = np.column_stack([o[:, :2], np.ones(len(o))]) @ board_to_px.T
+        errors.extend(np.hypot(*(c.reshape(-1, 2) - t[:, :2] / t[:, 2:]).T))
+        objs.append(o)
         imgs.append(c)
+    # The corners against the truth. The photographs are bilinear resamplings of a board drawn
+    # at twice their scale, which alias its edges: on them OpenCV 5.1.0's CharucoDetector
+    # gives a median of 0.078 px and a maximum of 0.68 px (lucent 0.039 and 0.29).
+    assert np.median(errors) < 0.06 and max(errors) < 0.35, (np.median(errors), max(errors))
     flags = lucent.CALIB_ZERO_TANGENT_DIST | lucent.CALIB_FIX_K3
     rms, km, dist, rvecs, tvecs = lucent.calibrate_camera(objs, imgs, (640, 480), None, None, flags=flags)
-    assert rms < 0.2  # the bilinear warp of a 2× larger image aliases the edges
+    assert rms < 0.15
     assert abs(km[0, 0] / 800 - 1) < 3e-3 and abs(km[1, 1] / 795 - 1) < 3e-3, km
-    assert abs(km[0, 2] - 330) < 1.5 and abs(km[1, 2] - 245) < 1.5, km
+    # The principal point within 2 px (OpenCV's corners of these photographs give 1.8 px off).
+    assert abs(km[0, 2] - 330) < 2 and abs(km[1, 2] - 245) < 2, km
     assert len(rvecs) == 5
     try:
         import cv2

@@ -570,13 +570,20 @@ pub fn corner_subpix(img: &GrayImage, corners: &mut [Point2], half: usize, itera
 /// corner (the markers of a ChArUco board with small squares), the blur would carry them into
 /// the window.
 pub fn corner_subpix_blurred(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, sigma: f64) {
+    corner_subpix_masked(img, corners, half, iterations, eps, sigma, &|_, _| true);
+}
+
+/// [`corner_subpix_blurred`] reading only the window's samples at which `keep(x, y)` (image
+/// pixels) holds: other edges near the corner (a ChArUco board's markers) are left out of the
+/// window instead of shrinking it.
+pub fn corner_subpix_masked(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, sigma: f64, keep: &dyn Fn(f64, f64) -> bool) {
     let smooth = |g: &GrayImage| if sigma > 0.0 { g.blur(sigma) } else { g.clone() };
     // Reads reach 2·half (the iterate) + half (the window) + 1 (bilinear) + 1 (central difference)
     // + 3 (the blur's support) + 1 (rounding of the crop's centre) from a corner's start.
     let margin = 3 * half + 3 + 3 * (sigma.ceil() as usize).max(1);
     let side = 2 * margin + 1;
     if corners.len() * side * side >= img.width * img.height {
-        corner_subpix_inner(&smooth(img), corners, half, iterations, eps);
+        corner_subpix_inner(&smooth(img), corners, half, iterations, eps, keep);
         return;
     }
     for c in corners.iter_mut() {
@@ -586,12 +593,13 @@ pub fn corner_subpix_blurred(img: &GrayImage, corners: &mut [Point2], half: usiz
         let (x0, y0) = (c[0].round() as isize - margin as isize, c[1].round() as isize - margin as isize);
         let crop = img.crop_clamped(x0, y0, side, side);
         let mut local = [[c[0] - x0 as f64, c[1] - y0 as f64]];
-        corner_subpix_inner(&smooth(&crop), &mut local, half, iterations, eps);
+        let (ox, oy) = (x0 as f64, y0 as f64);
+        corner_subpix_inner(&smooth(&crop), &mut local, half, iterations, eps, &|x, y| keep(x + ox, y + oy));
         *c = [local[0][0] + x0 as f64, local[0][1] + y0 as f64];
     }
 }
 
-fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64) {
+fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, keep: &dyn Fn(f64, f64) -> bool) {
     let (w, h) = (img.width, img.height);
     let mut gx = GrayImage { width: w, height: h, data: vec![0.0; w * h] };
     let mut gy = gx.clone();
@@ -642,7 +650,10 @@ fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, ite
                             let (p00, p10, p01, p11) = (g[i] as f64, g[i + 1] as f64, g[i + w] as f64, g[i + w + 1] as f64);
                             (p00 * (1.0 - ax) + p10 * ax) * (1.0 - ay) + (p01 * (1.0 - ax) + p11 * ax) * ay
                         };
-                        acc(weights[k], q[0] + dx as f64, q[1] + dy as f64, bil(&gx.data), bil(&gy.data));
+                        let (px, py) = (q[0] + dx as f64, q[1] + dy as f64);
+                        if keep(px, py) {
+                            acc(weights[k], px, py, bil(&gx.data), bil(&gy.data));
+                        }
                         k += 1;
                     }
                 }
@@ -651,7 +662,9 @@ fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, ite
                 for dy in -hw..=hw {
                     for dx in -hw..=hw {
                         let (px, py) = (q[0] + dx as f64, q[1] + dy as f64);
-                        acc(weights[k], px, py, gx.bilinear(px, py), gy.bilinear(px, py));
+                        if keep(px, py) {
+                            acc(weights[k], px, py, gx.bilinear(px, py), gy.bilinear(px, py));
+                        }
                         k += 1;
                     }
                 }

@@ -138,7 +138,7 @@ pub fn detect_markers(img: &GrayImage, dict: &Dictionary, s: &ArucoSettings) -> 
             }
             // The cells read were the upright marker turned `turn` quarter turns clockwise, so
             // the marker's top left is the read square's corner `turn` steps on.
-            let mut line_corners = refine_corners(q);
+            let mut line_corners = refine_corners(img, q);
             if let Some(c) = line_corners.as_mut() {
                 c.rotate_left(turn);
             }
@@ -526,10 +526,118 @@ pub fn otsu(v: &[f64]) -> f64 {
     level as f64 + 0.5
 }
 
+/// Total-least-squares line through `pts`: (unit normal pointing away from `centre`, offset),
+/// the line being n·p = offset.
+fn fit_line(pts: &[Point2], centre: Point2) -> Option<(f64, f64, f64)> {
+    if pts.len() < 3 {
+        return None;
+    }
+    let k_n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p[0]).sum::<f64>() / k_n;
+    let my = pts.iter().map(|p| p[1]).sum::<f64>() / k_n;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in pts {
+        let (dx, dy) = (p[0] - mx, p[1] - my);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    // The normal is the eigenvector of the smaller eigenvalue of the scatter matrix.
+    let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let (mut nx, mut ny) = (-theta.sin(), theta.cos());
+    if (mx - centre[0]) * nx + (my - centre[1]) * ny < 0.0 {
+        nx = -nx;
+        ny = -ny;
+    }
+    Some((nx, ny, nx * mx + ny * my))
+}
+
+/// The four corners where consecutive lines meet (vertex k joins line k − 1 and line k); None
+/// where two are parallel or a corner lies more than 3 px from `near`.
+fn intersections(lines: &[(f64, f64, f64); 4], near: &[Point2; 4]) -> Option<[Point2; 4]> {
+    let mut out = [[0.0; 2]; 4];
+    for k in 0..4 {
+        let (a, b) = (lines[(k + 3) % 4], lines[k]);
+        let det = a.0 * b.1 - a.1 * b.0;
+        if det.abs() < 1e-9 {
+            return None;
+        }
+        let p = [(a.2 * b.1 - a.1 * b.2) / det, (a.0 * b.2 - a.2 * b.0) / det];
+        if d2(p, near[k]) > 9.0 {
+            return None;
+        }
+        out[k] = p;
+    }
+    Some(out)
+}
+
+/// Sub-pixel corners: the lines of [`contour_corners`], then each side's edge located along its
+/// normal in the image (where the grey level crosses halfway between the dark and light ends of
+/// its profile across the edge, within ±2.5 px) at every pixel of the
+/// side's middle 70 %, those edge points fitted by a line again, and the lines intersected.
+fn refine_corners(img: &GrayImage, q: &Quad) -> Option<[Point2; 4]> {
+    let first = contour_corners(q)?;
+    let centre = [first.iter().map(|c| c[0]).sum::<f64>() / 4.0, first.iter().map(|c| c[1]).sum::<f64>() / 4.0];
+    let mut lines = [(0.0, 0.0, 0.0); 4];
+    for k in 0..4 {
+        let (a, b) = (first[k], first[(k + 1) % 4]);
+        let len = d2(a, b).sqrt();
+        let (tx, ty) = ((b[0] - a[0]) / len, (b[1] - a[1]) / len);
+        // Outward normal: the side runs clockwise in the image, so outwards is to its left.
+        let (mut nx, mut ny) = (ty, -tx);
+        let mid = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];
+        if (mid[0] - centre[0]) * nx + (mid[1] - centre[1]) * ny < 0.0 {
+            nx = -nx;
+            ny = -ny;
+        }
+        let steps = len.floor() as usize;
+        let mut pts = Vec::with_capacity(steps);
+        const H: f64 = 0.25;
+        const N: usize = 21; // samples from −2.5 to +2.5 px
+        for i in 0..=steps {
+            let t = i as f64 / steps.max(1) as f64;
+            if !(0.15..=0.85).contains(&t) {
+                continue;
+            }
+            let p = [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
+            let level: Vec<f64> = (0..N).map(|j| {
+                let s = (j as f64 - (N / 2) as f64) * H;
+                bilinear(img, p[0] + nx * s, p[1] + ny * s)
+            }).collect();
+            // Light outside, dark inside: the level rises along the outward normal. The edge is
+            // where it crosses halfway between the profile's dark and light ends, next to its
+            // steepest rise: a pixel whose centre lies on a straight edge is half covered at any
+            // angle, so the crossing is unbiased where a derivative's peak is not (bilinear
+            // interpolation makes it lopsided for oblique edges).
+            let grad: Vec<f64> = (1..N - 1).map(|j| level[j + 1] - level[j - 1]).collect();
+            let Some((jg, &g)) = grad.iter().enumerate().max_by(|x, y| x.1.total_cmp(y.1)) else { continue };
+            let j = jg + 1;
+            if !(g > 0.0) {
+                continue;
+            }
+            let dark = level[..j].iter().copied().fold(f64::INFINITY, f64::min);
+            let light = level[j..].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mid = 0.5 * (dark + light);
+            // The crossing nearest the steepest rise.
+            let Some(c) = (0..N - 1)
+                .filter(|&c| level[c] < mid && level[c + 1] >= mid)
+                .min_by_key(|&c| (c as i64 - j as i64).abs())
+            else {
+                continue;
+            };
+            let f = (mid - level[c]) / (level[c + 1] - level[c]);
+            let s = (c as f64 + f - (N / 2) as f64) * H;
+            pts.push([p[0] + nx * s, p[1] + ny * s]);
+        }
+        lines[k] = fit_line(&pts, centre)?;
+    }
+    intersections(&lines, &first)
+}
+
 /// Corners at the intersections of lines fitted (total least squares) to the boundary points of
 /// each side, leaving out the points near the vertices; the boundary points are the centres of
 /// the dark region's edge pixels, so each line is moved half a pixel outwards.
-fn refine_corners(q: &Quad) -> Option<[Point2; 4]> {
+fn contour_corners(q: &Quad) -> Option<[Point2; 4]> {
     let mut lines = [(0.0, 0.0, 0.0); 4];
     let centre = [q.corners.iter().map(|c| c[0]).sum::<f64>() / 4.0, q.corners.iter().map(|c| c[1]).sum::<f64>() / 4.0];
     for k in 0..4 {
@@ -539,42 +647,10 @@ fn refine_corners(q: &Quad) -> Option<[Point2; 4]> {
         if m < 2 * cut + 3 {
             return None;
         }
-        let inner = &pts[cut..m - cut];
-        let k_n = inner.len() as f64;
-        let mx = inner.iter().map(|p| p[0]).sum::<f64>() / k_n;
-        let my = inner.iter().map(|p| p[1]).sum::<f64>() / k_n;
-        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-        for p in inner {
-            let (dx, dy) = (p[0] - mx, p[1] - my);
-            sxx += dx * dx;
-            sxy += dx * dy;
-            syy += dy * dy;
-        }
-        // The normal is the eigenvector of the smaller eigenvalue of the scatter matrix.
-        let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        let (mut nx, mut ny) = (-theta.sin(), theta.cos());
-        // Outward normal (away from the centre).
-        if (mx - centre[0]) * nx + (my - centre[1]) * ny < 0.0 {
-            nx = -nx;
-            ny = -ny;
-        }
-        lines[k] = (nx, ny, nx * mx + ny * my + 0.5);
+        let (nx, ny, c) = fit_line(&pts[cut..m - cut], centre)?;
+        lines[k] = (nx, ny, c + 0.5);
     }
-    let mut out = [[0.0; 2]; 4];
-    for k in 0..4 {
-        // Vertex k joins side k − 1 and side k.
-        let (a, b) = (lines[(k + 3) % 4], lines[k]);
-        let det = a.0 * b.1 - a.1 * b.0;
-        if det.abs() < 1e-9 {
-            return None;
-        }
-        let p = [(a.2 * b.1 - a.1 * b.2) / det, (a.0 * b.2 - a.2 * b.0) / det];
-        if d2(p, q.corners[k]) > 9.0 {
-            return None;
-        }
-        out[k] = p;
-    }
-    Some(out)
+    intersections(&lines, &q.corners)
 }
 
 #[cfg(test)]
