@@ -22,7 +22,7 @@
 //! edge, and the masked window's corners fit a camera with a quarter less reprojection error
 //! (docs/scanning.md, "ChArUco boards").
 
-use super::detect::{detect_markers, ArucoMarker, ArucoSettings};
+use super::detect::{detect_markers, intersections, ArucoMarker, ArucoSettings};
 use super::dictionary::Dictionary;
 use crate::calib::chessboard::{corner_subpix_masked, GrayImage};
 use crate::calib::homography::{apply, fit_homography, Point2};
@@ -48,12 +48,12 @@ pub struct CharucoDetection {
     pub markers: Vec<ArucoMarker>,
 }
 
-/// A convex quadrilateral (clockwise in the image) grown outwards by `d` pixels along its
-/// sides' normals.
+/// A convex quadrilateral grown outwards by `d` pixels along its sides' normals (itself where
+/// that fails: parallel sides).
 fn grow(q: &[Point2; 4], d: f64) -> [Point2; 4] {
     let c = [q.iter().map(|p| p[0]).sum::<f64>() / 4.0, q.iter().map(|p| p[1]).sum::<f64>() / 4.0];
-    // Each side's line moved out by d; the corners where consecutive ones meet.
-    let line = |a: Point2, b: Point2| {
+    let lines: [(f64, f64, f64); 4] = std::array::from_fn(|k| {
+        let (a, b) = (q[k], q[(k + 1) % 4]);
         let (tx, ty) = (b[0] - a[0], b[1] - a[1]);
         let l = tx.hypot(ty).max(1e-12);
         let (mut nx, mut ny) = (ty / l, -tx / l);
@@ -62,17 +62,8 @@ fn grow(q: &[Point2; 4], d: f64) -> [Point2; 4] {
             ny = -ny;
         }
         (nx, ny, nx * a[0] + ny * a[1] + d)
-    };
-    let lines: Vec<(f64, f64, f64)> = (0..4).map(|k| line(q[k], q[(k + 1) % 4])).collect();
-    let mut out = *q;
-    for k in 0..4 {
-        let (a, b) = (lines[(k + 3) % 4], lines[k]);
-        let det = a.0 * b.1 - a.1 * b.0;
-        if det.abs() > 1e-12 {
-            out[k] = [(a.2 * b.1 - a.1 * b.2) / det, (a.0 * b.2 - a.2 * b.0) / det];
-        }
-    }
-    out
+    });
+    intersections(&lines, q, f64::INFINITY).unwrap_or(*q)
 }
 
 /// Whether `p` lies inside the convex quadrilateral `q` (either orientation).
@@ -137,6 +128,11 @@ impl CharucoBoard {
     /// Marker k's corners on the board (top left, top right, bottom right, bottom left).
     pub fn marker_corners(&self, k: usize) -> [Point2; 4] {
         let (x, y) = self.marker_squares()[k];
+        self.marker_corners_in(x, y)
+    }
+
+    /// The corners of the marker in square (x, y).
+    fn marker_corners_in(&self, x: usize, y: usize) -> [Point2; 4] {
         let m = (self.square_length - self.marker_length) / 2.0;
         let (x0, y0) = (x as f64 * self.square_length + m, y as f64 * self.square_length + m);
         let l = self.marker_length;
@@ -183,8 +179,9 @@ impl CharucoBoard {
             at[k] = Some(markers.len());
             markers.push(m.clone());
         }
+        let squares = self.marker_squares();
         let homographies: Vec<Option<_>> = (0..self.ids.len())
-            .map(|k| at[k].and_then(|i| fit_homography(&self.marker_corners(k), &markers[i].line_corners.unwrap_or(markers[i].corners))))
+            .map(|k| at[k].and_then(|i| fit_homography(&self.marker_corners_in(squares[k].0, squares[k].1), &markers[i].line_corners.unwrap_or(markers[i].corners))))
             .collect();
         let board = self.chessboard_corners();
         let mut corners = Vec::new();
@@ -251,7 +248,7 @@ impl CharucoBoard {
             return 30.0;
         }
         let Some(k) = squares.iter().position(|&q| q == (sx, sy)) else { return 220.0 };
-        let c = self.marker_corners(k)[0];
+        let c = self.marker_corners_in(sx, sy)[0];
         let n = self.dictionary.size;
         let cell = self.marker_length / (n + 2) as f64;
         let (u, v) = ((x - c[0]) / cell, (y - c[1]) / cell);

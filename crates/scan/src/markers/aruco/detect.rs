@@ -433,18 +433,6 @@ fn mean_corner_distance(a: &[Point2; 4], b: &[Point2; 4]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Bilinear grey level at (x, y) (clamped to the image).
-fn bilinear(img: &GrayImage, x: f64, y: f64) -> f64 {
-    let (w, h) = (img.width, img.height);
-    let x = x.clamp(0.0, (w - 1) as f64);
-    let y = y.clamp(0.0, (h - 1) as f64);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = (x - x0 as f64, y - y0 as f64);
-    let v = |x: usize, y: usize| img.data[y * w + x] as f64;
-    (v(x0, y0) * (1.0 - fx) + v(x1, y0) * fx) * (1.0 - fy) + (v(x0, y1) * (1.0 - fx) + v(x1, y1) * fx) * fy
-}
-
 /// Samples per cell side when reading the bits (OpenCV's `perspectiveRemovePixelPerCell`).
 const SAMPLES: usize = 4;
 
@@ -463,7 +451,7 @@ fn read_bits(img: &GrayImage, corners: &[Point2; 4], size: usize, s: &ArucoSetti
                     let u = col as f64 + s.cell_margin + span * (j as f64 + 0.5) / SAMPLES as f64;
                     let v = r as f64 + s.cell_margin + span * (i as f64 + 0.5) / SAMPLES as f64;
                     let p = apply(&hm, [u, v]);
-                    samples[((r * cells + col) * SAMPLES + i) * SAMPLES + j] = bilinear(img, p[0], p[1]);
+                    samples[((r * cells + col) * SAMPLES + i) * SAMPLES + j] = img.bilinear(p[0], p[1]);
                 }
             }
         }
@@ -552,9 +540,9 @@ fn fit_line(pts: &[Point2], centre: Point2) -> Option<(f64, f64, f64)> {
     Some((nx, ny, nx * mx + ny * my))
 }
 
-/// The four corners where consecutive lines meet (vertex k joins line k − 1 and line k); None
-/// where two are parallel or a corner lies more than 3 px from `near`.
-fn intersections(lines: &[(f64, f64, f64); 4], near: &[Point2; 4]) -> Option<[Point2; 4]> {
+/// The four corners where consecutive lines n·p = c meet (vertex k joins line k − 1 and line k);
+/// None where two are parallel or a corner lies more than `max_px` from `near`'s.
+pub(super) fn intersections(lines: &[(f64, f64, f64); 4], near: &[Point2; 4], max_px: f64) -> Option<[Point2; 4]> {
     let mut out = [[0.0; 2]; 4];
     for k in 0..4 {
         let (a, b) = (lines[(k + 3) % 4], lines[k]);
@@ -563,7 +551,7 @@ fn intersections(lines: &[(f64, f64, f64); 4], near: &[Point2; 4]) -> Option<[Po
             return None;
         }
         let p = [(a.2 * b.1 - a.1 * b.2) / det, (a.0 * b.2 - a.2 * b.0) / det];
-        if d2(p, near[k]) > 9.0 {
+        if d2(p, near[k]) > max_px * max_px {
             return None;
         }
         out[k] = p;
@@ -602,7 +590,7 @@ fn refine_corners(img: &GrayImage, q: &Quad) -> Option<[Point2; 4]> {
             let p = [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
             let level: Vec<f64> = (0..N).map(|j| {
                 let s = (j as f64 - (N / 2) as f64) * H;
-                bilinear(img, p[0] + nx * s, p[1] + ny * s)
+                img.bilinear(p[0] + nx * s, p[1] + ny * s)
             }).collect();
             // Light outside, dark inside: the level rises along the outward normal. The edge is
             // where it crosses halfway between the profile's dark and light ends, next to its
@@ -631,7 +619,7 @@ fn refine_corners(img: &GrayImage, q: &Quad) -> Option<[Point2; 4]> {
         }
         lines[k] = fit_line(&pts, centre)?;
     }
-    intersections(&lines, &first)
+    intersections(&lines, &first, 3.0)
 }
 
 /// Corners at the intersections of lines fitted (total least squares) to the boundary points of
@@ -650,7 +638,7 @@ fn contour_corners(q: &Quad) -> Option<[Point2; 4]> {
         let (nx, ny, c) = fit_line(&pts[cut..m - cut], centre)?;
         lines[k] = (nx, ny, c + 0.5);
     }
-    intersections(&lines, &q.corners)
+    intersections(&lines, &q.corners, 3.0)
 }
 
 #[cfg(test)]
