@@ -576,7 +576,7 @@ pub fn corner_subpix_blurred(img: &GrayImage, corners: &mut [Point2], half: usiz
 /// [`corner_subpix_blurred`] reading only the window's samples at which `keep(x, y)` (image
 /// pixels) holds: other edges near the corner (a ChArUco board's markers) are left out of the
 /// window instead of shrinking it.
-pub fn corner_subpix_masked(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, sigma: f64, keep: &dyn Fn(f64, f64) -> bool) {
+pub fn corner_subpix_masked<F: Fn(f64, f64) -> bool>(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, sigma: f64, keep: &F) {
     let smooth = |g: &GrayImage| if sigma > 0.0 { g.blur(sigma) } else { g.clone() };
     // Reads reach 2·half (the iterate) + half (the window) + 1 (bilinear) + 1 (central difference)
     // + 3 (the blur's support) + 1 (rounding of the crop's centre) from a corner's start.
@@ -599,7 +599,7 @@ pub fn corner_subpix_masked(img: &GrayImage, corners: &mut [Point2], half: usize
     }
 }
 
-fn corner_subpix_inner(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, keep: &dyn Fn(f64, f64) -> bool) {
+fn corner_subpix_inner<F: Fn(f64, f64) -> bool>(img: &GrayImage, corners: &mut [Point2], half: usize, iterations: usize, eps: f64, keep: &F) {
     let (w, h) = (img.width, img.height);
     let mut gx = GrayImage { width: w, height: h, data: vec![0.0; w * h] };
     let mut gy = gx.clone();
