@@ -103,15 +103,17 @@ pub fn detect_markers(img: &GrayImage, dict: &Dictionary, s: &ArucoSettings) -> 
         return vec![];
     }
     let integral = integral_image(img);
-    let mut quads = Vec::new();
     let (lo, hi, step) = s.thresh_win;
+    let mut windows = Vec::new();
     let mut win = lo.max(3) | 1;
     while win <= hi.max(lo) {
-        let dark = threshold(img, &integral, win, s.thresh_constant);
-        quads.extend(quads_in(&dark, w, h, s));
+        windows.push(win);
         win += step.max(1);
         win |= 1;
     }
+    // The thresholds are independent: in parallel, their candidates kept in window order.
+    use rayon::prelude::*;
+    let mut quads: Vec<Quad> = windows.par_iter().map(|&win| quads_in(&threshold(img, &integral, win, s.thresh_constant), w, h, s)).collect::<Vec<_>>().into_iter().flatten().collect();
     // One candidate per marker: groups of candidates with close corners, largest first.
     quads.sort_by(|a, b| b.perimeter.cmp(&a.perimeter));
     let mut groups: Vec<Vec<usize>> = Vec::new();
