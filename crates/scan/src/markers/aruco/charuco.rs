@@ -125,6 +125,15 @@ impl CharucoBoard {
         v
     }
 
+    /// For each square (row-major), the board-order index of its marker, if it has one.
+    fn marker_grid(&self) -> Vec<Option<usize>> {
+        let mut grid = vec![None; self.squares_x * self.squares_y];
+        for (k, (x, y)) in self.marker_squares().into_iter().enumerate() {
+            grid[y * self.squares_x + x] = Some(k);
+        }
+        grid
+    }
+
     /// Marker k's corners on the board (top left, top right, bottom right, bottom left).
     pub fn marker_corners(&self, k: usize) -> [Point2; 4] {
         let (x, y) = self.marker_squares()[k];
@@ -154,8 +163,8 @@ impl CharucoBoard {
     /// For each chessboard corner, the indices (board order) of the markers in the squares that
     /// touch it.
     pub fn corner_markers(&self) -> Vec<Vec<usize>> {
-        let squares = self.marker_squares();
-        let index = |x: usize, y: usize| squares.iter().position(|&q| q == (x, y));
+        let grid = self.marker_grid();
+        let index = |x: usize, y: usize| grid[y * self.squares_x + x];
         let mut v = Vec::new();
         for j in 0..self.squares_y - 1 {
             for i in 0..self.squares_x - 1 {
@@ -238,7 +247,7 @@ impl CharucoBoard {
     }
 
     /// The board's grey level (30 dark, 220 light) at board point (x, y); light paper around it.
-    fn level(&self, x: f64, y: f64, squares: &[(usize, usize)]) -> f32 {
+    fn level(&self, x: f64, y: f64, grid: &[Option<usize>]) -> f32 {
         let s = self.square_length;
         if x < 0.0 || y < 0.0 || x >= self.squares_x as f64 * s || y >= self.squares_y as f64 * s {
             return 220.0;
@@ -247,7 +256,7 @@ impl CharucoBoard {
         if !self.has_marker(sx, sy) {
             return 30.0;
         }
-        let Some(k) = squares.iter().position(|&q| q == (sx, sy)) else { return 220.0 };
+        let Some(k) = grid[sy * self.squares_x + sx] else { return 220.0 };
         let c = self.marker_corners_in(sx, sy)[0];
         let n = self.dictionary.size;
         let cell = self.marker_length / (n + 2) as f64;
@@ -269,7 +278,7 @@ impl CharucoBoard {
     /// mean of 4 × 4 samples (OpenCV's `generateImage` for a tilted view; tests and examples).
     pub fn render(&self, board_to_image: &nalgebra::Matrix3<f64>, width: usize, height: usize) -> GrayImage {
         let inv = board_to_image.try_inverse().unwrap_or_else(nalgebra::Matrix3::zeros);
-        let squares = self.marker_squares();
+        let grid = self.marker_grid();
         let mut data = vec![0f32; width * height];
         for y in 0..height {
             for x in 0..width {
@@ -277,7 +286,7 @@ impl CharucoBoard {
                 for i in 0..4 {
                     for j in 0..4 {
                         let p = apply(&inv, [x as f64 - 0.375 + 0.25 * j as f64, y as f64 - 0.375 + 0.25 * i as f64]);
-                        acc += self.level(p[0], p[1], &squares);
+                        acc += self.level(p[0], p[1], &grid);
                     }
                 }
                 data[y * width + x] = acc / 16.0;
